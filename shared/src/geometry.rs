@@ -1,0 +1,258 @@
+//! Convex polyhedra built from scene shapes: the one description of a block that both nodes use.
+//!
+//! parry3d-f64 computes the hull (with coplanar triangles merged into polygonal faces, which DDA's
+//! vertex–face and edge–edge contacts need) and the mass properties. Vertices are stored in the
+//! block's local frame with the centroid at the origin, so a pose (centroid, rotation) places them.
+
+use crate::math::{Matrix, Point, Real, Vector};
+use crate::scene::{Axis, ShapeSpec};
+use parry3d_f64::mass_properties::MassProperties;
+use parry3d_f64::shape::ConvexPolyhedron;
+
+/// A planar face of a polyhedron, in the local frame.
+#[derive(Debug, Clone)]
+pub struct Face {
+    /// Vertex indices, counter-clockwise seen from outside.
+    pub vertices: Vec<u32>,
+    /// Outward unit normal.
+    pub normal: Vector,
+    /// Plane offset: n·x = offset on the face; n·x < offset inside.
+    pub offset: Real,
+}
+
+/// A convex block shape with its mass properties (per unit density).
+#[derive(Debug, Clone)]
+pub struct Polyhedron {
+    /// Corners in the local frame (centroid at the origin).
+    pub vertices: Vec<Point>,
+    pub faces: Vec<Face>,
+    /// Each edge once, as a pair of vertex indices.
+    pub edges: Vec<[u32; 2]>,
+    /// Centroid in the scene's (world) frame at t = 0.
+    pub centroid: Point,
+    pub volume: Real,
+    /// Inertia tensor about the centroid for unit density [m⁵]; multiply by density.
+    pub unit_inertia: Matrix,
+    /// Largest distance from the centroid to a corner: the radius of the bounding sphere.
+    pub radius: Real,
+}
+
+/// Why a shape cannot be a block: what is wrong and what to do.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{problem}; fix: {fix}")]
+pub struct GeometryError {
+    pub problem: String,
+    pub fix: String,
+}
+
+fn err(problem: impl Into<String>, fix: impl Into<String>) -> GeometryError {
+    GeometryError { problem: problem.into(), fix: fix.into() }
+}
+
+/// The corner points of a scene shape, in world coordinates.
+pub fn shape_points(shape: &ShapeSpec) -> Result<Vec<Point>, GeometryError> {
+    match shape {
+        ShapeSpec::Box { min, max } => {
+            if (0..3).any(|k| !(max[k] > min[k])) {
+                return Err(err(
+                    format!("box max {max:?} is not above min {min:?} on every axis"),
+                    "make max[k] > min[k] for x, y and z",
+                ));
+            }
+            let mut p = Vec::with_capacity(8);
+            for &x in &[min[0], max[0]] {
+                for &y in &[min[1], max[1]] {
+                    for &z in &[min[2], max[2]] {
+                        p.push(Point::new(x, y, z));
+                    }
+                }
+            }
+            Ok(p)
+        }
+        ShapeSpec::Prism { axis, profile, extent } => {
+            if profile.len() < 3 {
+                return Err(err(
+                    format!("a prism profile needs at least 3 points, got {}", profile.len()),
+                    "give the cross-section as 3 or more [a, b] points",
+                ));
+            }
+            if !(extent[1] > extent[0]) {
+                return Err(err(format!("prism extent {extent:?} is empty"), "give extent = [from, to] with to > from"));
+            }
+            let place = |a: f64, b: f64, c: f64| match axis {
+                Axis::X => Point::new(c, a, b),
+                Axis::Y => Point::new(a, c, b),
+                Axis::Z => Point::new(a, b, c),
+            };
+            Ok(extent.iter().flat_map(|&c| profile.iter().map(move |q| place(q[0], q[1], c))).collect())
+        }
+        ShapeSpec::Convex { vertices } => Ok(vertices.iter().map(|v| Point::from(*v)).collect()),
+    }
+}
+
+impl Polyhedron {
+    /// Builds the polyhedron of a scene shape, rejecting non-convex or degenerate input.
+    pub fn from_shape(shape: &ShapeSpec) -> Result<Polyhedron, GeometryError> {
+        Polyhedron::from_points(&shape_points(shape)?)
+    }
+
+    /// Builds the convex polyhedron whose corners are exactly `points` (world frame).
+    pub fn from_points(points: &[Point]) -> Result<Polyhedron, GeometryError> {
+        if points.len() < 4 {
+            return Err(err(format!("{} vertices cannot enclose a volume", points.len()), "give at least 4 corners"));
+        }
+        if let Some(p) = points.iter().find(|p| !p.coords.iter().all(|x| x.is_finite())) {
+            return Err(err(format!("vertex {p} is not finite"), "give finite coordinates"));
+        }
+        let (lo, hi) = aabb(points);
+        let scale = (hi - lo).norm();
+        let tol = 1e-9 * scale;
+        for (i, a) in points.iter().enumerate() {
+            if let Some(j) = points[..i].iter().position(|b| (a - b).norm() <= tol) {
+                return Err(err(format!("vertices {j} and {i} coincide at {a}"), "remove the duplicate vertex"));
+            }
+        }
+        let hull = ConvexPolyhedron::from_convex_hull(points).ok_or_else(|| {
+            err("the vertices are degenerate (coplanar or collinear): they enclose no volume", "give corners that span 3D")
+        })?;
+        // Every given vertex must be a corner of the hull: a vertex inside the hull (or on a face)
+        // means the shape the user meant is not convex.
+        for (i, p) in points.iter().enumerate() {
+            if !hull.points().iter().any(|q| (p - q).norm() <= tol * 10.0) {
+                return Err(err(
+                    format!("vertex {i} at {p} is not a corner of the convex hull: the shape is not convex"),
+                    "blocks are convex polyhedra; split a concave shape into convex blocks",
+                ));
+            }
+        }
+
+        let (tri_points, tris) = hull.to_trimesh();
+        let mp = MassProperties::from_convex_polyhedron(1.0, &tri_points, &tris);
+        let volume = mp.mass();
+        if !(volume > 1e-12 * scale.powi(3)) {
+            return Err(err(format!("the shape has no volume ({volume:e} m³)"), "give corners that span 3D"));
+        }
+        let centroid = mp.local_com;
+        let vertices: Vec<Point> = hull.points().iter().map(|p| Point::from(p - centroid)).collect();
+
+        let adj = hull.vertices_adj_to_face();
+        let faces: Vec<Face> = hull
+            .faces()
+            .iter()
+            .map(|f| {
+                let first = f.first_vertex_or_edge as usize;
+                let ids: Vec<u32> = adj[first..first + f.num_vertices_or_edges as usize].to_vec();
+                let normal = f.normal.into_inner();
+                let offset = normal.dot(&vertices[ids[0] as usize].coords);
+                Face { vertices: ids, normal, offset }
+            })
+            .collect();
+        // Edges from the merged polygonal faces (parry keeps the diagonals of merged triangles
+        // in its edge list, marked deleted; DDA edge–edge contacts must not see them).
+        let mut edges: Vec<[u32; 2]> = Vec::new();
+        for f in &faces {
+            let n = f.vertices.len();
+            for k in 0..n {
+                let (a, b) = (f.vertices[k], f.vertices[(k + 1) % n]);
+                let e = [a.min(b), a.max(b)];
+                if !edges.contains(&e) {
+                    edges.push(e);
+                }
+            }
+        }
+        let radius = vertices.iter().map(|v| v.coords.norm()).fold(0.0, Real::max);
+        Ok(Polyhedron {
+            vertices,
+            faces,
+            edges,
+            centroid,
+            volume,
+            unit_inertia: mp.reconstruct_inertia_matrix(),
+            radius,
+        })
+    }
+
+    /// Axis-aligned bounds at the scene (t = 0) pose.
+    pub fn world_aabb(&self) -> (Point, Point) {
+        let world: Vec<Point> = self.vertices.iter().map(|v| v + self.centroid.coords).collect();
+        aabb(&world)
+    }
+
+    /// Largest plane distance max_f (n_f·p − offset_f) of a local point: negative inside (minus
+    /// the depth to the nearest face), positive outside (a lower bound of the true distance,
+    /// exact in front of a face).
+    pub fn plane_distance(&self, local: &Point) -> (Real, usize) {
+        let mut best = (Real::NEG_INFINITY, 0);
+        for (i, f) in self.faces.iter().enumerate() {
+            let d = f.normal.dot(&local.coords) - f.offset;
+            if d > best.0 {
+                best = (d, i);
+            }
+        }
+        best
+    }
+}
+
+fn aabb(points: &[Point]) -> (Point, Point) {
+    let mut lo = Point::from([Real::INFINITY; 3]);
+    let mut hi = Point::from([Real::NEG_INFINITY; 3]);
+    for p in points {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn box_mass_properties() {
+        let b = Polyhedron::from_shape(&ShapeSpec::Box { min: [0.0, 0.0, 0.0], max: [2.0, 1.0, 0.5] }).unwrap();
+        assert!((b.volume - 1.0).abs() < 1e-12);
+        assert!((b.centroid - Point::new(1.0, 0.5, 0.25)).norm() < 1e-12);
+        // I_xx = m (b² + c²)/12 for a box of sides a, b, c.
+        let i = b.unit_inertia;
+        assert!((i[(0, 0)] - (1.0 + 0.25) / 12.0).abs() < 1e-12);
+        assert!((i[(1, 1)] - (4.0 + 0.25) / 12.0).abs() < 1e-12);
+        assert!((i[(2, 2)] - (4.0 + 1.0) / 12.0).abs() < 1e-12);
+        assert!(i[(0, 1)].abs() < 1e-12);
+        assert_eq!(b.faces.len(), 6);
+        assert_eq!(b.edges.len(), 12);
+        assert!(b.faces.iter().all(|f| f.vertices.len() == 4 && f.offset > 0.0));
+    }
+
+    #[test]
+    fn wedge_prism() {
+        let shape = ShapeSpec::Prism { axis: Axis::Y, profile: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], extent: [0.0, 2.0] };
+        let w = Polyhedron::from_shape(&shape).unwrap();
+        assert!((w.volume - 1.0).abs() < 1e-12);
+        assert!((w.centroid - Point::new(1.0 / 3.0, 1.0, 1.0 / 3.0)).norm() < 1e-12);
+        assert_eq!(w.faces.len(), 5);
+        assert_eq!(w.edges.len(), 9);
+    }
+
+    #[test]
+    fn rejects_non_convex_and_degenerate() {
+        let mut v: Vec<[f64; 3]> = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]];
+        v.push([0.1, 0.1, 0.1]); // inside the tetrahedron
+        let e = Polyhedron::from_shape(&ShapeSpec::Convex { vertices: v }).unwrap_err();
+        assert!(e.problem.contains("not convex"), "{e}");
+        let flat = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]];
+        let e = Polyhedron::from_shape(&ShapeSpec::Convex { vertices: flat }).unwrap_err();
+        assert!(e.problem.contains("degenerate") || e.problem.contains("volume"), "{e}");
+        let e = Polyhedron::from_shape(&ShapeSpec::Box { min: [0.0; 3], max: [1.0, 0.0, 1.0] }).unwrap_err();
+        assert!(e.problem.contains("not above"), "{e}");
+    }
+
+    #[test]
+    fn plane_distance_signs() {
+        let b = Polyhedron::from_shape(&ShapeSpec::Box { min: [-1.0; 3], max: [1.0; 3] }).unwrap();
+        let (d, _) = b.plane_distance(&Point::new(0.0, 0.0, 0.5));
+        assert!((d + 0.5).abs() < 1e-12);
+        let (d, f) = b.plane_distance(&Point::new(0.0, 0.0, 1.25));
+        assert!((d - 0.25).abs() < 1e-12);
+        assert!((b.faces[f].normal - Vector::z()).norm() < 1e-12);
+    }
+}

@@ -1,0 +1,17 @@
+//! rockwave's solver SDK.
+//!
+//! - [`math`]: the scalar and vector types used everywhere.
+//! - [`scene`]: the scene schema (TOML), its validation and the embedded default scene.
+//! - [`geometry`]: convex polyhedra built from scene shapes (faces, edges, mass properties).
+//! - [`protocol`]: the versioned wire types exchanged over shared memory each step.
+//! - [`solver`]: the coupling interface a solver implements (preCICE style: read, write, advance).
+//! - [`transport`]: the iceoryx2 services of one run, under a unique prefix.
+//! - [`runtime`]: the node runtime that does all the talking for a solver.
+
+pub mod geometry;
+pub mod math;
+pub mod protocol;
+pub mod scene;
+pub mod solver;
+pub mod transport;
+pub mod runtime;

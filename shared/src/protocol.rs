@@ -1,0 +1,243 @@
+//! The wire protocol: `#[repr(C)]` types sent through iceoryx2 shared memory without copying.
+//!
+//! Hot-path messages (geometry, loads, commands, status) are fixed-layout types and slices of
+//! them; the scene itself travels once, at start-up, as bincode bytes. Any change to a layout
+//! here must bump [`PROTOCOL_VERSION`]: the handshake refuses a node that speaks another one.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// Version of every layout in this module. Checked at the handshake.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+/// Which side of the coupling a node plays.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Role {
+    Fluid = 1,
+    Solid = 2,
+}
+
+impl Role {
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Fluid => "fluid",
+            Role::Solid => "solid",
+        }
+    }
+    pub fn from_u32(v: u32) -> Option<Role> {
+        match v {
+            1 => Some(Role::Fluid),
+            2 => Some(Role::Solid),
+            _ => None,
+        }
+    }
+}
+
+/// Fixed-capacity UTF-8 text for names and messages inside `#[repr(C)]` messages.
+#[repr(C)]
+#[derive(Clone, Copy, ZeroCopySend)]
+pub struct Text<const N: usize> {
+    len: u32,
+    bytes: [u8; N],
+}
+
+impl<const N: usize> Text<N> {
+    /// Stores `s`, cut at a character boundary if it does not fit.
+    pub fn new(s: &str) -> Self {
+        let mut end = s.len().min(N);
+        while !s.is_char_boundary(end) {
+            end -= 1;
+        }
+        let mut bytes = [0u8; N];
+        bytes[..end].copy_from_slice(&s.as_bytes()[..end]);
+        Self { len: end as u32, bytes }
+    }
+    pub fn as_str(&self) -> &str {
+        let n = (self.len as usize).min(N);
+        std::str::from_utf8(&self.bytes[..n]).unwrap_or("<invalid utf-8>")
+    }
+}
+
+impl<const N: usize> Default for Text<N> {
+    fn default() -> Self {
+        Self::new("")
+    }
+}
+
+impl<const N: usize> std::fmt::Debug for Text<N> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:?}", self.as_str())
+    }
+}
+
+/// Node → coupler, once: who I am and which protocol I speak.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+pub struct Hello {
+    pub protocol_version: u32,
+    /// [`Role`] as u32.
+    pub role: u32,
+    pub pid: u32,
+    pub solver: Text<64>,
+}
+
+/// Header of the coupler → node start message; the payload is the bincode-encoded [`Setup`].
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+pub struct SetupHeader {
+    pub protocol_version: u32,
+    pub payload_len: u32,
+}
+
+/// What a node needs to start, sent once after the handshake (bincode, variable size).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct Setup {
+    pub scene: crate::scene::Scene,
+    /// Directory the node writes its output files into.
+    pub run_dir: std::path::PathBuf,
+    pub scheme: crate::scene::Scheme,
+    /// Whether the other solver runs (a dry scene has no fluid node, a scene without moving
+    /// blocks no solid node).
+    pub fluid_present: bool,
+    pub solid_present: bool,
+}
+
+/// What the coupler asks of a node.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CommandKind {
+    /// Advance by `dt` from `time`.
+    Advance = 1,
+    /// Finish (flush outputs) and exit.
+    Stop = 2,
+}
+
+/// Coupler → node, every step.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+pub struct Command {
+    /// [`CommandKind`] as u32.
+    pub kind: u32,
+    /// Write an output frame after this step: the frame number, or -1 for none.
+    pub output_frame: i32,
+    pub step: u64,
+    /// Time at the start of the step.
+    pub time: f64,
+    /// The one step both nodes take.
+    pub dt: f64,
+}
+
+/// How a node's step ended.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StatusCode {
+    /// Initialised (answer to the setup), or a step done.
+    Ok = 0,
+    /// Step done, with a warning in `message` (e.g. too much compression).
+    Warning = 1,
+    /// The method went unstable; `message` names the limit exceeded. The run must stop.
+    Unstable = 2,
+    /// Any other failure (bad setup, I/O). The run must stop.
+    Failed = 3,
+    /// Answer to [`CommandKind::Stop`]: outputs flushed, exiting.
+    Stopped = 4,
+}
+
+impl StatusCode {
+    pub fn from_u32(v: u32) -> StatusCode {
+        match v {
+            0 => StatusCode::Ok,
+            1 => StatusCode::Warning,
+            2 => StatusCode::Unstable,
+            4 => StatusCode::Stopped,
+            _ => StatusCode::Failed,
+        }
+    }
+}
+
+/// Node → coupler after each command.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+pub struct Status {
+    pub role: u32,
+    /// [`StatusCode`] as u32.
+    pub code: u32,
+    pub step: u64,
+    /// Time reached.
+    pub time: f64,
+    /// Stable step proposed for the next advance.
+    pub dt_proposal: f64,
+    /// Seconds of wall time this node spent computing (not waiting) in the step.
+    pub compute_seconds: f64,
+    pub message: Text<512>,
+}
+
+/// Header of a geometry message (solid → fluid): when it is valid.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+pub struct GeometryHeader {
+    pub step: u64,
+    pub time: f64,
+    pub vertex_count: u32,
+    pub _reserved: u32,
+}
+
+/// Pose and velocity of one moving block (payload of a geometry message, one per block in
+/// [`crate::scene::Scene::moving_blocks`] order).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+pub struct BlockState {
+    /// Index of the block in the scene's `[[block]]` list.
+    pub block: u32,
+    /// Range of this block's corners in the vertex message.
+    pub first_vertex: u32,
+    pub vertex_count: u32,
+    pub _reserved: u32,
+    /// Centroid position [m].
+    pub centroid: [f64; 3],
+    /// Unit quaternion, in nalgebra's coordinate order [i, j, k, w].
+    pub orientation: [f64; 4],
+    /// Centroid velocity [m/s].
+    pub velocity: [f64; 3],
+    /// Angular velocity [rad/s].
+    pub angular_velocity: [f64; 3],
+}
+
+impl BlockState {
+    pub fn centroid(&self) -> crate::math::Point {
+        crate::math::Point::from(self.centroid)
+    }
+    pub fn rotation(&self) -> crate::math::Rotation {
+        let [i, j, k, w] = self.orientation;
+        crate::math::Rotation::new_normalize(nalgebra::Quaternion::new(w, i, j, k))
+    }
+    pub fn velocity(&self) -> crate::math::Vector {
+        crate::math::Vector::from(self.velocity)
+    }
+    pub fn angular_velocity(&self) -> crate::math::Vector {
+        crate::math::Vector::from(self.angular_velocity)
+    }
+    /// Velocity of the material point of the block at world position `p` (v + ω × r).
+    pub fn point_velocity(&self, p: &crate::math::Point) -> crate::math::Vector {
+        self.velocity() + self.angular_velocity().cross(&(p - self.centroid()))
+    }
+}
+
+/// Header of a loads message (fluid → solid).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+pub struct LoadsHeader {
+    pub step: u64,
+    pub time: f64,
+}
+
+/// Force and torque (about the centroid) the water exerts on one moving block: the opposite of
+/// the paper's Eq. 22 forces on the particles, summed.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+pub struct BlockLoad {
+    pub block: u32,
+    pub _reserved: u32,
+    pub force: [f64; 3],
+    pub torque: [f64; 3],
+}

@@ -1,0 +1,130 @@
+//! Scenes: the TOML schema ([`schema`]), validation that names the field, the bad value and the
+//! fix ([`validate`]), and the line a field sits on ([`span`]).
+
+mod motion;
+pub mod schema;
+mod span;
+mod validate;
+
+pub use schema::*;
+pub use validate::FieldError;
+
+use std::path::Path;
+
+/// The paper's Example 2 (a rigid wedge sliding down a 25° plane into water): the scene that runs
+/// when none is given.
+pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/sliding_wedge.toml");
+/// Where [`DEFAULT_SCENE`] lives in the repository, for messages.
+pub const DEFAULT_SCENE_ORIGIN: &str = "scenes/sliding_wedge.toml (embedded default)";
+
+/// Why a scene could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("cannot read scene file '{path}': {source}")]
+    Read {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The TOML parser or the schema rejected the text; the message carries line and column.
+    #[error("scene '{origin}' is not a valid scene file:\n{message}")]
+    Syntax { origin: String, message: String },
+    /// The text parsed but some values are impossible.
+    #[error("scene '{origin}' has {} invalid field(s):\n{}", errors.len(), render(errors))]
+    Invalid { origin: String, errors: Vec<FieldError> },
+}
+
+fn render(errors: &[FieldError]) -> String {
+    errors.iter().map(|e| format!("  {e}")).collect::<Vec<_>>().join("\n")
+}
+
+impl Scene {
+    /// Reads and validates a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| SceneError::Read { path: path.display().to_string(), source })?;
+        Scene::parse(&text, &path.display().to_string())
+    }
+
+    /// The embedded default scene.
+    pub fn default_scene() -> Scene {
+        Scene::parse(DEFAULT_SCENE, DEFAULT_SCENE_ORIGIN).expect("the embedded default scene is valid")
+    }
+
+    /// Parses and validates scene text; `origin` names it in messages.
+    pub fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
+        let scene: Scene = toml::from_str(text)
+            .map_err(|e| SceneError::Syntax { origin: origin.into(), message: e.to_string() })?;
+        let mut errors = scene.validate();
+        if errors.is_empty() {
+            return Ok(scene);
+        }
+        span::locate(text, &mut errors);
+        Err(SceneError::Invalid { origin: origin.into(), errors })
+    }
+
+    /// Checks every value; returns all problems found (empty when the scene is usable).
+    pub fn validate(&self) -> Vec<FieldError> {
+        validate::validate(self)
+    }
+
+    /// True when the scene has water, i.e. a fluid node must run.
+    pub fn has_fluid(&self) -> bool {
+        self.fluid.as_ref().is_some_and(|f| !f.water.is_empty())
+    }
+
+    /// True when some block moves (kinematic or free), i.e. a solid node must run.
+    pub fn has_moving_blocks(&self) -> bool {
+        self.blocks.iter().any(|b| b.kind != BlockKind::Fixed)
+    }
+
+    /// Indices (into `blocks`) of the blocks whose geometry changes: the ones exchanged each step.
+    pub fn moving_blocks(&self) -> Vec<usize> {
+        (0..self.blocks.len()).filter(|&i| self.blocks[i].kind != BlockKind::Fixed).collect()
+    }
+
+    /// Overrides the particle spacing (the `--dx` of quick runs).
+    pub fn set_dx(&mut self, dx: f64) {
+        if let Some(f) = self.fluid.as_mut() {
+            f.dx = dx;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_scene_is_valid() {
+        let s = Scene::default_scene();
+        assert!(s.has_fluid());
+        assert!(s.has_moving_blocks());
+    }
+
+    #[test]
+    fn syntax_error_names_line() {
+        let err = Scene::parse("name = \"x\"\n[time]\nend = \n", "t.toml").unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("line 3"), "{msg}");
+    }
+
+    #[test]
+    fn unknown_field_is_named() {
+        let text = DEFAULT_SCENE.replace("[time]", "[time]\nendd = 3.0");
+        let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();
+        assert!(msg.contains("endd"), "{msg}");
+    }
+
+    #[test]
+    fn bad_value_names_field_line_and_fix() {
+        let text = DEFAULT_SCENE.replacen("density = 2500.0", "density = -3.0", 1);
+        let err = Scene::parse(&text, "t.toml").unwrap_err();
+        let SceneError::Invalid { errors, .. } = &err else { panic!("{err}") };
+        let e = &errors[0];
+        assert!(e.path.ends_with(".density"), "{e}");
+        let line = e.line.expect("line located");
+        assert!(text.lines().nth(line - 1).unwrap().contains("-3.0"), "{e}");
+        assert!(!e.fix.is_empty());
+    }
+}

@@ -1,0 +1,425 @@
+//! The scene file, field by field. Units are SI throughout (m, s, kg, Pa, N); angles in degrees.
+//!
+//! A scene is a TOML document. Every table rejects unknown keys, so a misspelt field is an error
+//! that names the field rather than a silently ignored line.
+
+use serde::{Deserialize, Serialize};
+
+/// A whole scene: what is simulated, for how long, and what is recorded.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Short name, used for the run directory and in messages.
+    pub name: String,
+    /// Free text: where the dimensions come from, what the scene reproduces.
+    #[serde(default)]
+    pub description: String,
+    /// Gravity vector [m/s²]; z is up.
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// Simulated time span and step limits.
+    pub time: TimeSpec,
+    /// The box everything must stay in. A particle or free block leaving it is an instability.
+    pub domain: DomainSpec,
+    /// Water. A scene without a `[fluid]` table runs no fluid node.
+    #[serde(default)]
+    pub fluid: Option<FluidSpec>,
+    /// Rock-block solver settings. Used only when the scene has kinematic or free blocks.
+    #[serde(default)]
+    pub solid: SolidSpec,
+    /// How the two solvers exchange forces (paper Eq. 22).
+    #[serde(default)]
+    pub coupling: CouplingSpec,
+    /// What is written to the run directory.
+    #[serde(default)]
+    pub output: OutputSpec,
+    /// `[[block]]` entries: walls, slopes, pistons and rock blocks, all convex polyhedra.
+    #[serde(default, rename = "block")]
+    pub blocks: Vec<BlockSpec>,
+    /// `[[gauge]]` entries: free-surface elevation recorded at (x, y).
+    #[serde(default, rename = "gauge")]
+    pub gauges: Vec<GaugeSpec>,
+    /// `[[probe]]` entries: pressure recorded at a point.
+    #[serde(default, rename = "probe")]
+    pub probes: Vec<ProbeSpec>,
+}
+
+fn default_gravity() -> [f64; 3] {
+    [0.0, 0.0, -crate::math::STANDARD_GRAVITY]
+}
+
+/// `[time]`: how long to simulate and how the shared step is bounded.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSpec {
+    /// Simulated end time [s].
+    pub end: f64,
+    /// Largest step the coupler will ever grant [s], whatever the nodes propose.
+    #[serde(default = "default_dt_max")]
+    pub dt_max: f64,
+    /// A proposal below this [s] means a solver has collapsed: the run stops and names it.
+    #[serde(default = "default_dt_min")]
+    pub dt_min: f64,
+}
+
+fn default_dt_max() -> f64 {
+    1e-3
+}
+fn default_dt_min() -> f64 {
+    1e-9
+}
+
+/// `[domain]`: an axis-aligned box [m].
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DomainSpec {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+/// `[fluid]`: the water and the SPH solver settings.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FluidSpec {
+    /// Solver used when the command line names none: `muller` (the paper's) or `wcsph`.
+    #[serde(default = "default_fluid_solver")]
+    pub solver: String,
+    /// Rest density ρ0 [kg/m³].
+    #[serde(default = "default_water_density")]
+    pub density: f64,
+    /// Particle spacing [m]; particle mass is ρ0·dx³. `--dx` overrides it.
+    pub dx: f64,
+    /// Kinematic viscosity ν [m²/s] (water: 1e-6).
+    #[serde(default = "default_kinematic_viscosity")]
+    pub kinematic_viscosity: f64,
+    /// Density ratio ρ/ρ0 outside [1/bound, bound] is an instability.
+    #[serde(default = "default_density_ratio_bound")]
+    pub density_ratio_bound: f64,
+    /// `[[fluid.water]]`: volumes filled with particles on a lattice of spacing dx (minus blocks).
+    #[serde(default)]
+    pub water: Vec<WaterSpec>,
+    /// `[fluid.muller]`: the paper's scheme (Müller et al. 2003; paper Eqs. 11–21).
+    #[serde(default)]
+    pub muller: MullerSpec,
+    /// `[fluid.wcsph]`: weakly compressible SPH (Tait, Wendland C2, δ-SPH).
+    #[serde(default)]
+    pub wcsph: WcsphSpec,
+}
+
+fn default_fluid_solver() -> String {
+    "wcsph".into()
+}
+fn default_water_density() -> f64 {
+    1000.0
+}
+fn default_kinematic_viscosity() -> f64 {
+    1e-6
+}
+fn default_density_ratio_bound() -> f64 {
+    1.3
+}
+
+/// One water volume.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WaterSpec {
+    pub shape: ShapeSpec,
+    /// Start from hydrostatic pressure (density from the Tait/linear EOS) instead of ρ0 everywhere.
+    #[serde(default = "yes")]
+    pub hydrostatic: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// `[fluid.muller]`: parameters of the paper's SPH. Unset values are derived from the scene.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MullerSpec {
+    /// Gas constant k in p = k(ρ − ρ0) (paper Eq. 17) [m²/s²]; default c²  with c = 10·sqrt(2 g H).
+    pub stiffness: Option<f64>,
+    /// Dynamic viscosity μ in paper Eq. 18 [Pa·s]; default ρ0·ν, raised to what the resolution needs.
+    pub viscosity: Option<f64>,
+    /// Kernel support h over dx (poly6 / spiky / viscosity kernels vanish at r = h); default 2.
+    pub support_ratio: Option<f64>,
+    /// Step limit factor on the CFL, force and viscous limits; default 0.25.
+    pub cfl: Option<f64>,
+}
+
+/// `[fluid.wcsph]`: parameters of the weakly compressible solver. Unset values are derived.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WcsphSpec {
+    /// Numerical speed of sound c0 [m/s]; default 10·sqrt(2 g H) for the deepest water H.
+    pub sound_speed: Option<f64>,
+    /// Tait exponent γ; default 7.
+    pub gamma: Option<f64>,
+    /// Artificial viscosity α (Monaghan 1992); default 0.01.
+    pub alpha: Option<f64>,
+    /// δ-SPH density diffusion coefficient (Molteni & Colagrossi 2009); default 0.1, 0 disables.
+    pub delta: Option<f64>,
+    /// Smoothing length h over dx (Wendland C2 support is 2h); default 1.3.
+    pub smoothing_ratio: Option<f64>,
+    /// `symplectic` (default) or `verlet`.
+    pub integrator: Option<String>,
+    /// CFL number; default 0.2.
+    pub cfl: Option<f64>,
+}
+
+/// `[solid]`: the rock-block solver.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SolidSpec {
+    /// Solver used when the command line names none: `explicit` (the paper's) or `implicit` (Shi's).
+    #[serde(default = "default_solid_solver")]
+    pub solver: String,
+    /// Contact springs and joint strength between blocks.
+    #[serde(default)]
+    pub contact: ContactSpec,
+    /// Fraction of the explicit limit 2/ω_max used as the step (paper Eq. 8); default 0.5.
+    #[serde(default = "default_safety")]
+    pub safety_factor: f64,
+    /// Largest displacement per step over the block size before the implicit solver cuts dt.
+    #[serde(default = "default_displacement_limit")]
+    pub displacement_limit: f64,
+    /// Open–close iterations before the implicit solver cuts dt (Shi: 6).
+    #[serde(default = "default_open_close")]
+    pub max_open_close: u32,
+}
+
+impl Default for SolidSpec {
+    fn default() -> Self {
+        Self {
+            solver: default_solid_solver(),
+            contact: ContactSpec::default(),
+            safety_factor: default_safety(),
+            displacement_limit: default_displacement_limit(),
+            max_open_close: default_open_close(),
+        }
+    }
+}
+
+fn default_solid_solver() -> String {
+    "explicit".into()
+}
+fn default_safety() -> f64 {
+    0.5
+}
+fn default_displacement_limit() -> f64 {
+    0.01
+}
+fn default_open_close() -> u32 {
+    6
+}
+
+/// `[solid.contact]`: block–block contact (penalty springs, Mohr–Coulomb).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// Normal penalty spring [N/m]; default derived from the lightest free block (ω·dt target).
+    pub normal_stiffness: Option<f64>,
+    /// Shear spring over normal spring; default 0.4.
+    #[serde(default = "default_shear_ratio")]
+    pub shear_ratio: f64,
+    /// Joint friction angle φ [deg].
+    #[serde(default = "default_friction")]
+    pub friction_angle: f64,
+    /// Joint cohesion c [Pa] over the contact area.
+    #[serde(default)]
+    pub cohesion: f64,
+    /// Viscous contact damping as a fraction of critical; 0 keeps bounces elastic.
+    #[serde(default)]
+    pub damping_ratio: f64,
+}
+
+impl Default for ContactSpec {
+    fn default() -> Self {
+        Self {
+            normal_stiffness: None,
+            shear_ratio: default_shear_ratio(),
+            friction_angle: default_friction(),
+            cohesion: 0.0,
+            damping_ratio: 0.0,
+        }
+    }
+}
+
+fn default_shear_ratio() -> f64 {
+    0.4
+}
+fn default_friction() -> f64 {
+    30.0
+}
+
+/// `[coupling]`: the exchange between fluid and solid.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingSpec {
+    /// `parallel` (the paper's: both sides use data from t_n) or `serial` (solid first).
+    #[serde(default)]
+    pub scheme: Scheme,
+    /// K_S of paper Eq. 22 [N/m] per particle; default derived from particle mass and dt.
+    pub penalty_stiffness: Option<f64>,
+    /// K_D of paper Eq. 22 [N·s/m] per particle; default critical damping of the K_S spring.
+    pub penalty_damping: Option<f64>,
+    /// Distance from a block face [m] within which Eq. 22 acts; default dx/2.
+    pub margin: Option<f64>,
+}
+
+/// Coupling scheme.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Scheme {
+    /// Both solvers advance from data at t_n (the paper's scheme).
+    #[default]
+    Parallel,
+    /// Gauss–Seidel: the solid advances first, the fluid sees its new geometry.
+    Serial,
+}
+
+impl std::str::FromStr for Scheme {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "parallel" => Ok(Scheme::Parallel),
+            "serial" => Ok(Scheme::Serial),
+            other => Err(format!("unknown coupling scheme '{other}': use parallel or serial")),
+        }
+    }
+}
+
+impl std::fmt::Display for Scheme {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Scheme::Parallel => "parallel",
+            Scheme::Serial => "serial",
+        })
+    }
+}
+
+/// `[output]`: what the run directory receives.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Simulated time between frames [s]; the coupler lands a step exactly on each.
+    #[serde(default = "default_output_interval")]
+    pub interval: f64,
+    /// Write VTK frames (particles and blocks) with a .pvd series for ParaView.
+    #[serde(default = "yes")]
+    pub vtk: bool,
+    /// Also write POV-Ray scene files per frame (the paper rendered with POV-Ray).
+    #[serde(default)]
+    pub povray: bool,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self { interval: default_output_interval(), vtk: true, povray: false }
+    }
+}
+
+fn default_output_interval() -> f64 {
+    0.05
+}
+
+/// One `[[block]]`: a convex polyhedron with a kind.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BlockSpec {
+    /// Unique name, used in outputs and messages.
+    pub name: String,
+    /// `fixed` (geometry only), `kinematic` (prescribed motion) or `free` (6-DOF rigid block).
+    #[serde(default)]
+    pub kind: BlockKind,
+    pub shape: ShapeSpec,
+    /// Rock density [kg/m³]; used by free blocks.
+    #[serde(default = "default_rock_density")]
+    pub density: f64,
+    /// Initial velocity of the centroid [m/s].
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    /// Initial angular velocity [rad/s].
+    #[serde(default)]
+    pub angular_velocity: [f64; 3],
+    /// Prescribed motion of a kinematic block.
+    #[serde(default)]
+    pub motion: Option<MotionSpec>,
+    /// Joint friction angle for contacts of this block [deg]; a pair uses the smaller of the two.
+    #[serde(default)]
+    pub friction_angle: Option<f64>,
+    /// Joint cohesion for contacts of this block [Pa]; a pair uses the smaller of the two.
+    #[serde(default)]
+    pub cohesion: Option<f64>,
+}
+
+fn default_rock_density() -> f64 {
+    2500.0
+}
+
+/// Block kinds. Fixed blocks carry no unknowns and are never checked against each other.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq, Hash)]
+#[serde(rename_all = "lowercase")]
+pub enum BlockKind {
+    Fixed,
+    Kinematic,
+    #[default]
+    Free,
+}
+
+/// A convex shape.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum ShapeSpec {
+    /// Axis-aligned box.
+    Box { min: [f64; 3], max: [f64; 3] },
+    /// A convex polygon `profile` in the plane normal to `axis`, extruded over `extent` along it.
+    /// For axis `y` the profile points are (x, z); for `x` they are (y, z); for `z`, (x, y).
+    /// A wedge is a prism with a triangular profile.
+    Prism { axis: Axis, profile: Vec<[f64; 2]>, extent: [f64; 2] },
+    /// The convex hull of `vertices`; every vertex must be a corner of the hull.
+    Convex { vertices: Vec<[f64; 3]> },
+}
+
+/// A coordinate axis.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+/// Prescribed motion of a kinematic block.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum MotionSpec {
+    /// Translation d(t) = A·(sin(2πt/T + φ) − sin φ), ramped in smoothly over `ramp` seconds.
+    Sine {
+        amplitude: [f64; 3],
+        period: f64,
+        #[serde(default)]
+        phase: f64,
+        #[serde(default)]
+        ramp: f64,
+    },
+    /// Constant velocity [m/s].
+    Linear { velocity: [f64; 3] },
+}
+
+/// One `[[gauge]]`: a wave gauge recording the free-surface elevation at (x, y).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct GaugeSpec {
+    pub name: String,
+    pub x: f64,
+    pub y: f64,
+}
+
+/// One `[[probe]]`: a pressure probe at a point.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSpec {
+    pub name: String,
+    pub position: [f64; 3],
+}

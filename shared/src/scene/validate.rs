@@ -1,0 +1,292 @@
+//! Scene validation: every impossible value is reported with its field, the value, the problem
+//! and the fix. All problems are collected, not just the first.
+
+use super::schema::*;
+use crate::geometry::Polyhedron;
+
+/// One step of a field path: a table key or an array index.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Seg {
+    Key(String),
+    Index(usize),
+}
+
+/// One invalid field.
+#[derive(Debug, Clone)]
+pub struct FieldError {
+    /// Dotted path as written in the TOML, e.g. `block[2].density`.
+    pub path: String,
+    pub(crate) segments: Vec<Seg>,
+    /// The offending value as written.
+    pub value: String,
+    /// What is wrong with it.
+    pub problem: String,
+    /// What to write instead.
+    pub fix: String,
+    /// 1-based line in the scene text, where it could be found.
+    pub line: Option<usize>,
+}
+
+impl std::fmt::Display for FieldError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.line {
+            Some(l) => write!(f, "line {l}: ")?,
+            None => {}
+        }
+        write!(f, "{} = {}: {}; fix: {}", self.path, self.value, self.problem, self.fix)
+    }
+}
+
+/// Collects errors while walking the scene.
+struct Checker {
+    path: Vec<Seg>,
+    errors: Vec<FieldError>,
+}
+
+impl Checker {
+    fn at<R>(&mut self, seg: Seg, f: impl FnOnce(&mut Self) -> R) -> R {
+        self.path.push(seg);
+        let r = f(self);
+        self.path.pop();
+        r
+    }
+
+    fn key<R>(&mut self, k: &str, f: impl FnOnce(&mut Self) -> R) -> R {
+        self.at(Seg::Key(k.into()), f)
+    }
+
+    fn fail(&mut self, field: &str, value: impl std::fmt::Debug, problem: &str, fix: &str) {
+        let mut segments = self.path.clone();
+        if !field.is_empty() {
+            segments.push(Seg::Key(field.into()));
+        }
+        let mut path = String::new();
+        for s in &segments {
+            match s {
+                Seg::Key(k) if path.is_empty() => path.push_str(k),
+                Seg::Key(k) => {
+                    path.push('.');
+                    path.push_str(k)
+                }
+                Seg::Index(i) => path.push_str(&format!("[{i}]")),
+            }
+        }
+        self.errors.push(FieldError {
+            path,
+            segments,
+            value: format!("{value:?}"),
+            problem: problem.into(),
+            fix: fix.into(),
+            line: None,
+        });
+    }
+
+    fn positive(&mut self, field: &str, v: f64, fix: &str) {
+        if !(v.is_finite() && v > 0.0) {
+            self.fail(field, v, "must be a positive finite number", fix);
+        }
+    }
+
+    fn finite3(&mut self, field: &str, v: [f64; 3]) {
+        if v.iter().any(|x| !x.is_finite()) {
+            self.fail(field, v, "must be finite", "give three finite numbers");
+        }
+    }
+
+    fn shape(&mut self, shape: &ShapeSpec, domain: &DomainSpec, must_be_inside: bool) {
+        self.key("shape", |c| match Polyhedron::from_shape(shape) {
+            Err(e) => c.fail("", shape_summary(shape), &e.problem, &e.fix),
+            Ok(p) if must_be_inside => {
+                let (lo, hi) = p.world_aabb();
+                let inside = (0..3).all(|k| lo[k] >= domain.min[k] && hi[k] <= domain.max[k]);
+                if !inside {
+                    c.fail(
+                        "",
+                        shape_summary(shape),
+                        &format!("reaches outside the domain (spans {lo:?} to {hi:?})"),
+                        "move the shape inside [domain] or enlarge [domain]",
+                    );
+                }
+            }
+            Ok(_) => {}
+        });
+    }
+}
+
+fn shape_summary(shape: &ShapeSpec) -> String {
+    match shape {
+        ShapeSpec::Box { min, max } => format!("box {min:?}..{max:?}"),
+        ShapeSpec::Prism { axis, profile, extent } => {
+            format!("prism along {axis:?}, {} profile points, extent {extent:?}", profile.len())
+        }
+        ShapeSpec::Convex { vertices } => format!("convex set of {} vertices", vertices.len()),
+    }
+}
+
+pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
+    let mut c = Checker { path: Vec::new(), errors: Vec::new() };
+    if s.name.trim().is_empty() {
+        c.fail("name", &s.name, "is empty", "give the scene a short name, e.g. name = \"wedge\"");
+    }
+    c.finite3("gravity", s.gravity);
+
+    c.key("time", |c| {
+        c.positive("end", s.time.end, "give the simulated end time in seconds, e.g. end = 3.0");
+        c.positive("dt_max", s.time.dt_max, "give the largest step in seconds, e.g. dt_max = 1e-3");
+        c.positive("dt_min", s.time.dt_min, "give the smallest acceptable step, e.g. dt_min = 1e-9");
+        if s.time.dt_min >= s.time.dt_max {
+            c.fail("dt_min", s.time.dt_min, "is not below dt_max", "make dt_min much smaller than dt_max");
+        }
+    });
+
+    let d = &s.domain;
+    c.key("domain", |c| {
+        c.finite3("min", d.min);
+        c.finite3("max", d.max);
+        if (0..3).any(|k| d.max[k] <= d.min[k]) {
+            c.fail("max", d.max, "is not above domain.min on every axis", "make max[k] > min[k] for x, y and z");
+        }
+    });
+
+    c.key("output", |c| {
+        c.positive("interval", s.output.interval, "give the time between frames, e.g. interval = 0.05");
+    });
+
+    if let Some(f) = &s.fluid {
+        c.key("fluid", |c| {
+            c.positive("density", f.density, "water is density = 1000.0");
+            c.positive("dx", f.dx, "give the particle spacing in metres, e.g. dx = 0.02");
+            let smallest = (0..3).map(|k| d.max[k] - d.min[k]).fold(f64::INFINITY, f64::min);
+            if f.dx.is_finite() && f.dx > 0.0 && f.dx * 4.0 > smallest {
+                c.fail("dx", f.dx, "is too coarse for the domain (fewer than 4 particles across)", "use a smaller dx");
+            }
+            if !(f.kinematic_viscosity.is_finite() && f.kinematic_viscosity >= 0.0) {
+                c.fail("kinematic_viscosity", f.kinematic_viscosity, "must be >= 0", "water is 1e-6 m²/s");
+            }
+            if !(f.density_ratio_bound.is_finite() && f.density_ratio_bound > 1.0) {
+                c.fail("density_ratio_bound", f.density_ratio_bound, "must be > 1", "e.g. density_ratio_bound = 1.3");
+            }
+            for (i, w) in f.water.iter().enumerate() {
+                c.key("water", |c| c.at(Seg::Index(i), |c| c.shape(&w.shape, d, true)));
+            }
+            if let Some(integrator) = &f.wcsph.integrator
+                && integrator != "symplectic"
+                && integrator != "verlet"
+            {
+                c.key("wcsph", |c| {
+                    c.fail("integrator", integrator, "is not a known integrator", "use \"symplectic\" or \"verlet\"")
+                });
+            }
+        });
+    }
+
+    c.key("solid", |c| {
+        if !(s.solid.safety_factor > 0.0 && s.solid.safety_factor <= 10.0) {
+            c.fail("safety_factor", s.solid.safety_factor, "must be in (0, 10]", "0.5 is safe; > 1 exceeds 2/ω_max");
+        }
+        c.positive("displacement_limit", s.solid.displacement_limit, "e.g. displacement_limit = 0.01");
+        c.key("contact", |c| {
+            let k = &s.solid.contact;
+            if let Some(kn) = k.normal_stiffness {
+                c.positive("normal_stiffness", kn, "give a spring in N/m, or leave it out to derive one");
+            }
+            if !(k.shear_ratio >= 0.0 && k.shear_ratio.is_finite()) {
+                c.fail("shear_ratio", k.shear_ratio, "must be >= 0", "e.g. shear_ratio = 0.4");
+            }
+            if !(0.0..90.0).contains(&k.friction_angle) {
+                c.fail("friction_angle", k.friction_angle, "must be in [0, 90) degrees", "e.g. friction_angle = 30.0");
+            }
+            if !(k.cohesion >= 0.0 && k.cohesion.is_finite()) {
+                c.fail("cohesion", k.cohesion, "must be >= 0", "give cohesion in Pa, 0 for a clean joint");
+            }
+            if !(0.0..=1.0).contains(&k.damping_ratio) {
+                c.fail("damping_ratio", k.damping_ratio, "must be in [0, 1]", "0 keeps bounces elastic");
+            }
+        });
+    });
+
+    c.key("coupling", |c| {
+        let k = &s.coupling;
+        if let Some(v) = k.penalty_stiffness {
+            c.positive("penalty_stiffness", v, "give K_S in N/m, or leave it out to derive one");
+        }
+        if let Some(v) = k.penalty_damping
+            && !(v >= 0.0 && v.is_finite())
+        {
+            c.fail("penalty_damping", v, "must be >= 0", "give K_D in N·s/m, or leave it out");
+        }
+        if let Some(v) = k.margin {
+            c.positive("margin", v, "give the Eq. 22 contact margin in metres, e.g. dx/2");
+        }
+    });
+
+    let mut names = std::collections::HashSet::new();
+    for (i, b) in s.blocks.iter().enumerate() {
+        c.key("block", |c| {
+            c.at(Seg::Index(i), |c| {
+                if !names.insert(b.name.as_str()) {
+                    c.fail("name", &b.name, "is used by an earlier block", "give every block a unique name");
+                }
+                c.shape(&b.shape, d, b.kind != BlockKind::Fixed);
+                if b.kind == BlockKind::Free {
+                    c.positive("density", b.density, "give the rock density in kg/m³, e.g. density = 2500.0");
+                }
+                c.finite3("velocity", b.velocity);
+                c.finite3("angular_velocity", b.angular_velocity);
+                match (&b.kind, &b.motion) {
+                    (BlockKind::Kinematic, None) => c.fail(
+                        "motion",
+                        "nothing",
+                        "a kinematic block needs a prescribed motion",
+                        "add motion = { type = \"sine\", amplitude = [0.1, 0, 0], period = 2.0 }",
+                    ),
+                    (BlockKind::Kinematic, Some(MotionSpec::Sine { period, ramp, .. })) => c.key("motion", |c| {
+                        c.positive("period", *period, "give the period in seconds");
+                        if !(*ramp >= 0.0) {
+                            c.fail("ramp", *ramp, "must be >= 0", "give the ramp-in time in seconds, or 0");
+                        }
+                    }),
+                    (BlockKind::Fixed | BlockKind::Free, Some(_)) => c.fail(
+                        "motion",
+                        format!("{:?}", b.kind).to_lowercase(),
+                        "only kinematic blocks follow a prescribed motion",
+                        "set kind = \"kinematic\" or remove motion",
+                    ),
+                    _ => {}
+                }
+                if let Some(phi) = b.friction_angle
+                    && !(0.0..90.0).contains(&phi)
+                {
+                    c.fail("friction_angle", phi, "must be in [0, 90) degrees", "e.g. friction_angle = 30.0");
+                }
+                if let Some(coh) = b.cohesion
+                    && !(coh >= 0.0)
+                {
+                    c.fail("cohesion", coh, "must be >= 0", "give cohesion in Pa");
+                }
+            })
+        });
+    }
+
+    let inside_xy = |x: f64, y: f64| x >= d.min[0] && x <= d.max[0] && y >= d.min[1] && y <= d.max[1];
+    for (i, g) in s.gauges.iter().enumerate() {
+        if !inside_xy(g.x, g.y) {
+            c.key("gauge", |c| {
+                c.at(Seg::Index(i), |c| {
+                    c.fail("x", (g.x, g.y), "lies outside the domain", "put the gauge inside [domain] in x and y")
+                })
+            });
+        }
+    }
+    for (i, p) in s.probes.iter().enumerate() {
+        let q = p.position;
+        if (0..3).any(|k| q[k] < d.min[k] || q[k] > d.max[k]) {
+            c.key("probe", |c| {
+                c.at(Seg::Index(i), |c| {
+                    c.fail("position", q, "lies outside the domain", "put the probe inside [domain]")
+                })
+            });
+        }
+    }
+    c.errors
+}

@@ -1,0 +1,1 @@
+//! iceoryx2 services of one run (placeholder, filled in next).
