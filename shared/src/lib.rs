@@ -14,4 +14,5 @@ pub mod protocol;
 pub mod scene;
 pub mod solver;
 pub mod transport;
+pub mod vtk;
 pub mod runtime;
