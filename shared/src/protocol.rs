@@ -100,6 +100,24 @@ pub struct Setup {
     /// blocks no solid node).
     pub fluid_present: bool,
     pub solid_present: bool,
+    /// Solver each node must build (the coupler resolved command line and scene).
+    pub fluid_solver: String,
+    pub solid_solver: String,
+    /// Process id of the coupler: a node whose coupler died stops at once.
+    pub coupler_pid: u32,
+}
+
+impl Setup {
+    /// Encodes for the setup message (bincode, standard configuration).
+    pub fn encode(&self) -> Vec<u8> {
+        bincode::serde::encode_to_vec(self, bincode::config::standard()).expect("a setup always encodes")
+    }
+    /// Decodes a setup message.
+    pub fn decode(bytes: &[u8]) -> Result<Setup, String> {
+        bincode::serde::decode_from_slice(bytes, bincode::config::standard())
+            .map(|(s, _)| s)
+            .map_err(|e| format!("undecodable setup message: {e}"))
+    }
 }
 
 /// What the coupler asks of a node.
