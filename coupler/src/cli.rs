@@ -1,0 +1,174 @@
+//! `coupler run`: the command a user types.
+
+use crate::launch::NodeCommand;
+use crate::output::{RunDir, Summary};
+use crate::session::{RunOptions, Session};
+use clap::Args;
+use shared::protocol::Role;
+use shared::scene::{Scene, Scheme};
+use shared::transport::RunId;
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Scene file (TOML). Without one, the embedded default scene runs: the paper's sliding
+    /// wedge (scenes/sliding_wedge.toml).
+    pub scene: Option<PathBuf>,
+    /// Fluid solver (overrides the scene): muller or wcsph.
+    #[arg(long)]
+    pub fluid_solver: Option<String>,
+    /// Solid solver (overrides the scene): explicit or implicit.
+    #[arg(long)]
+    pub solid_solver: Option<String>,
+    /// Coupling scheme (overrides the scene).
+    #[arg(long)]
+    pub scheme: Option<Scheme>,
+    /// Particle spacing [m] (overrides the scene's fluid.dx), for quick coarse runs.
+    #[arg(long)]
+    pub dx: Option<f64>,
+    /// Simulated end time [s] (overrides the scene's time.end).
+    #[arg(long)]
+    pub end: Option<f64>,
+    /// Run directory (default: runs/<scene>-<run id>). Must not exist or be empty.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Executable to run as the fluid node instead of the fluid-node beside the coupler; it
+    /// must speak the rockwave protocol. Extra words are passed as arguments.
+    #[arg(long)]
+    pub fluid_cmd: Option<String>,
+    /// Executable to run as the solid node instead of the solid-node beside the coupler.
+    #[arg(long)]
+    pub solid_cmd: Option<String>,
+    /// Do not start the nodes: wait for nodes started by hand with `--prefix <run id>`.
+    #[arg(long)]
+    pub attach: bool,
+    /// Run id (the iceoryx2 service prefix); default: a fresh unique one.
+    #[arg(long)]
+    pub run_id: Option<String>,
+    /// Seconds to wait for the nodes to start and say hello.
+    #[arg(long, default_value_t = 30.0)]
+    pub connect_timeout: f64,
+    /// Seconds a node may stay silent within one step before it is declared hung.
+    #[arg(long, default_value_t = 60.0)]
+    pub step_timeout: f64,
+    /// Multiply every granted step by this factor (stability experiments).
+    #[arg(long, default_value_t = 1.0)]
+    pub dt_factor: f64,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Runs `coupler run`; returns the process exit code.
+pub fn run(args: RunArgs) -> u8 {
+    match run_inner(args) {
+        Ok(code) => code,
+        Err(msg) => {
+            eprintln!("coupler: error: {msg}");
+            1
+        }
+    }
+}
+
+fn run_inner(args: RunArgs) -> Result<u8, String> {
+    let (mut scene, origin) = match &args.scene {
+        Some(path) => (Scene::load(path).map_err(|e| e.to_string())?, path.display().to_string()),
+        None => (Scene::default_scene(), shared::scene::DEFAULT_SCENE_ORIGIN.to_string()),
+    };
+    if let Some(dx) = args.dx {
+        if !(dx.is_finite() && dx > 0.0) {
+            return Err(format!("--dx {dx}: must be a positive length in metres"));
+        }
+        scene.set_dx(dx);
+    }
+    if let Some(end) = args.end {
+        scene.time.end = end;
+    }
+    // Overrides must leave a valid scene too.
+    let problems = scene.validate();
+    if !problems.is_empty() {
+        let list: Vec<String> = problems.iter().map(|e| format!("  {e}")).collect();
+        return Err(format!("scene '{origin}' after command-line overrides:\n{}", list.join("\n")));
+    }
+    if !(args.dt_factor.is_finite() && args.dt_factor > 0.0) {
+        return Err(format!("--dt-factor {}: must be a positive number", args.dt_factor));
+    }
+    let run_id = match &args.run_id {
+        Some(s) => RunId::parse(s).map_err(|e| format!("--run-id: {e}"))?,
+        None => RunId::fresh(),
+    };
+    let fluid_cmd = match &args.fluid_cmd {
+        Some(c) => NodeCommand::given(Role::Fluid, c),
+        None => NodeCommand::beside_me(Role::Fluid)?,
+    };
+    let solid_cmd = match &args.solid_cmd {
+        Some(c) => NodeCommand::given(Role::Solid, c),
+        None => NodeCommand::beside_me(Role::Solid)?,
+    };
+    // A missing node binary is reported before anything is written.
+    let roles = Session::roles(&scene);
+    if !args.attach {
+        for role in &roles {
+            let cmd = if *role == Role::Fluid { &fluid_cmd } else { &solid_cmd };
+            cmd.check()?;
+        }
+    }
+    let out = args.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", scene.name, run_id)));
+    let mut dir = RunDir::create(&out, &scene)?;
+
+    // Cheap housekeeping: files of runs whose processes were all killed long ago.
+    let stale = shared::transport::remove_stale_runs(Duration::from_secs(60));
+    if !stale.is_empty() {
+        eprintln!("coupler: removed shared memory left by {} dead run(s)", stale.len());
+    }
+
+    let scheme = args.scheme.unwrap_or(scene.coupling.scheme);
+    let fluid_solver = roles.contains(&Role::Fluid).then(|| {
+        args.fluid_solver.clone().unwrap_or_else(|| scene.fluid.as_ref().map(|f| f.solver.clone()).unwrap_or_default())
+    });
+    let solid_solver = roles.contains(&Role::Solid).then(|| args.solid_solver.clone().unwrap_or_else(|| scene.solid.solver.clone()));
+    eprintln!(
+        "coupler: scene '{}' ({origin}); run {run_id}; fluid: {}; solid: {}; scheme {scheme}; output in {}",
+        scene.name,
+        fluid_solver.as_deref().unwrap_or("none (no water)"),
+        solid_solver.as_deref().unwrap_or("none (no moving blocks)"),
+        out.display()
+    );
+    let opts = RunOptions {
+        scene: scene.clone(),
+        fluid_solver: args.fluid_solver.clone(),
+        solid_solver: args.solid_solver.clone(),
+        scheme: args.scheme,
+        fluid_cmd,
+        solid_cmd,
+        attach: args.attach,
+        run_id: run_id.clone(),
+        connect_timeout: Duration::from_secs_f64(args.connect_timeout),
+        step_timeout: Duration::from_secs_f64(args.step_timeout),
+        dt_factor: args.dt_factor,
+        progress: !args.quiet,
+    };
+    let (stats, outcome) = Session::execute(opts, &mut dir);
+    let summary = Summary::gather(&dir, &scene, run_id.as_str(), &stats, &outcome, (fluid_solver, solid_solver), scheme.to_string());
+    if let Err(e) = dir.write_summary(&summary) {
+        eprintln!("coupler: cannot write summary.json: {e}");
+    }
+    match outcome {
+        Ok(()) => {
+            eprintln!(
+                "coupler: done: {} steps to t = {:.4} s in {:.1} s wall; results in {}",
+                stats.steps,
+                stats.time,
+                stats.wall_seconds,
+                out.display()
+            );
+            Ok(0)
+        }
+        Err(e) => {
+            eprintln!("coupler: error: {e}");
+            eprintln!("coupler: results written so far are in {}", out.display());
+            Ok(e.exit_code())
+        }
+    }
+}

@@ -1,0 +1,158 @@
+//! Finding and starting the node processes, and ending them whatever happens.
+
+use shared::protocol::Role;
+use shared::transport::RunId;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus};
+use std::time::{Duration, Instant};
+
+/// How to start one node.
+#[derive(Debug, Clone)]
+pub struct NodeCommand {
+    pub role: Role,
+    pub program: PathBuf,
+    /// Extra arguments given before the runtime's own (`--prefix`).
+    pub args: Vec<String>,
+}
+
+impl NodeCommand {
+    /// The node binary installed beside the coupler's own executable (`fluid-node`, `solid-node`).
+    pub fn beside_me(role: Role) -> Result<NodeCommand, String> {
+        let me = std::env::current_exe().map_err(|e| format!("cannot locate the coupler executable: {e}"))?;
+        let dir = me.parent().unwrap_or(Path::new("."));
+        let program = dir.join(format!("{}-node", role.name()));
+        Ok(NodeCommand { role, program, args: Vec::new() })
+    }
+
+    /// A user-given executable; a bare name is looked up on PATH.
+    pub fn given(role: Role, cmd: &str) -> NodeCommand {
+        let mut words = cmd.split_whitespace().map(String::from);
+        let program = PathBuf::from(words.next().unwrap_or_default());
+        NodeCommand { role, program, args: words.collect() }
+    }
+
+    /// Resolves the program to an existing executable, or says what to do.
+    pub fn check(&self) -> Result<PathBuf, String> {
+        let found = if self.program.components().count() > 1 || self.program.is_absolute() {
+            Some(self.program.clone()).filter(|p| p.is_file())
+        } else {
+            std::env::var_os("PATH")
+                .and_then(|paths| std::env::split_paths(&paths).map(|d| d.join(&self.program)).find(|p| p.is_file()))
+        };
+        let role = self.role.name();
+        let Some(path) = found else {
+            return Err(format!(
+                "the {role} node binary '{}' does not exist. Fix: build it with `cargo build --release` \
+                 (the coupler looks for {role}-node beside its own executable), or name another executable \
+                 with --{role}-cmd PATH",
+                self.program.display()
+            ));
+        };
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&path).map(|m| m.permissions().mode()).unwrap_or(0);
+        if mode & 0o111 == 0 {
+            return Err(format!(
+                "the {role} node binary '{}' is not executable. Fix: chmod +x it",
+                path.display()
+            ));
+        }
+        Ok(path)
+    }
+}
+
+/// A running node process. Dropping it terminates the process (SIGTERM, then SIGKILL), so an
+/// error anywhere in the coupler never leaves an orphan behind.
+pub struct NodeProcess {
+    pub role: Role,
+    pub program: PathBuf,
+    child: Child,
+    status: Option<ExitStatus>,
+}
+
+impl NodeProcess {
+    /// Starts `cmd` joining run `id`; the node inherits stdout and stderr, so its own messages
+    /// reach the user.
+    pub fn spawn(cmd: &NodeCommand, id: &RunId) -> Result<NodeProcess, String> {
+        let program = cmd.check()?;
+        let child = Command::new(&program)
+            .args(&cmd.args)
+            .arg("--prefix")
+            .arg(id.as_str())
+            .stdin(std::process::Stdio::null())
+            .spawn()
+            .map_err(|e| format!("cannot start the {} node '{}': {e}", cmd.role.name(), program.display()))?;
+        Ok(NodeProcess { role: cmd.role, program, child, status: None })
+    }
+
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// The exit status if the process has ended (never blocks).
+    pub fn exited(&mut self) -> Option<ExitStatus> {
+        if self.status.is_none() {
+            self.status = self.child.try_wait().ok().flatten();
+        }
+        self.status
+    }
+
+    /// Waits up to `timeout` for the process to end by itself.
+    pub fn wait_exit(&mut self, timeout: Duration) -> Option<ExitStatus> {
+        let start = Instant::now();
+        loop {
+            if let Some(s) = self.exited() {
+                return Some(s);
+            }
+            if start.elapsed() >= timeout {
+                return None;
+            }
+            // Process exit has no iceoryx2 event; a short sleep while a child shuts down is
+            // the simplest blocking wait std offers.
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
+    /// Asks the process to end (SIGTERM), waits `grace`, then kills it.
+    pub fn terminate(&mut self, grace: Duration) -> Option<ExitStatus> {
+        if self.exited().is_some() {
+            return self.status;
+        }
+        // SAFETY: kill(2) on the pid of our own child, which has not been reaped yet.
+        unsafe {
+            libc::kill(self.child.id() as libc::pid_t, libc::SIGTERM);
+        }
+        if let Some(s) = self.wait_exit(grace) {
+            return Some(s);
+        }
+        let _ = self.child.kill();
+        self.status = self.child.wait().ok();
+        self.status
+    }
+}
+
+impl Drop for NodeProcess {
+    fn drop(&mut self) {
+        self.terminate(Duration::from_secs(2));
+    }
+}
+
+/// Describes how a process ended, for messages.
+pub fn describe_exit(status: ExitStatus) -> String {
+    use std::os::unix::process::ExitStatusExt;
+    match (status.code(), status.signal()) {
+        (Some(code), _) => format!("exited with code {code}"),
+        (None, Some(sig)) => format!("was killed by signal {sig}{}", signal_name(sig)),
+        _ => "ended".into(),
+    }
+}
+
+fn signal_name(sig: i32) -> &'static str {
+    match sig {
+        libc::SIGKILL => " (SIGKILL)",
+        libc::SIGTERM => " (SIGTERM)",
+        libc::SIGINT => " (SIGINT)",
+        libc::SIGSEGV => " (SIGSEGV)",
+        libc::SIGABRT => " (SIGABRT)",
+        _ => "",
+    }
+}

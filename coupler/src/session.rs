@@ -1,0 +1,471 @@
+//! One coupled run: handshake, the shared timestep, and an orderly end whatever happens.
+//!
+//! Each step: dt = min(node proposals, dt_max) (times `dt_factor` in stability experiments),
+//! cut to land exactly on the next output time and the end time; the command goes to both
+//! nodes at once; the nodes exchange geometry and loads directly with each other (see
+//! `shared::runtime`) and each answers with a status and its next proposal.
+
+use crate::launch::{NodeCommand, NodeProcess, describe_exit};
+use crate::output::RunDir;
+use shared::protocol::*;
+use shared::scene::{Scene, Scheme};
+use shared::transport::{self, Ipc, Party, Pub, Run, RunId, Sub};
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use std::time::{Duration, Instant};
+
+/// One slice of blocking wait between liveness checks.
+const SLICE: Duration = Duration::from_millis(50);
+
+/// Everything a run needs besides the scene.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    pub scene: Scene,
+    /// Overrides of the scene's solver choices and scheme.
+    pub fluid_solver: Option<String>,
+    pub solid_solver: Option<String>,
+    pub scheme: Option<Scheme>,
+    pub fluid_cmd: NodeCommand,
+    pub solid_cmd: NodeCommand,
+    /// Nodes are started by hand (or by another tool) with `--prefix <run id>`.
+    pub attach: bool,
+    pub run_id: RunId,
+    /// How long to wait for the nodes' hello.
+    pub connect_timeout: Duration,
+    /// How long one step may take before a silent node is declared hung.
+    pub step_timeout: Duration,
+    /// Multiplies the granted step (stability experiments; 1 in normal runs).
+    pub dt_factor: f64,
+    /// Draw a progress bar on stderr.
+    pub progress: bool,
+}
+
+/// How a run ended, when it did not complete.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("{0}")]
+    Input(String),
+    #[error("{node} went unstable at step {step}, t = {time:.6} s: {cause}")]
+    Unstable { node: String, step: u64, time: f64, cause: String },
+    #[error("{node} failed at step {step}, t = {time:.6} s: {cause}")]
+    Failed { node: String, step: u64, time: f64, cause: String },
+    #[error("{node} died at step {step}, t = {time:.6} s: the process {how}")]
+    Died { node: String, step: u64, time: f64, how: String },
+    #[error("{node} hung at step {step}, t = {time:.6} s: no answer within {waited:.1} s")]
+    Hung { node: String, step: u64, time: f64, waited: f64 },
+    #[error("start-up failed: {0}")]
+    Handshake(String),
+    #[error("step collapsed at step {step}, t = {time:.6} s: {node} proposed dt = {dt:e} s, below dt_min = {dt_min:e} s")]
+    Collapsed { node: String, step: u64, time: f64, dt: f64, dt_min: f64 },
+    #[error("interrupted at step {step}, t = {time:.6} s")]
+    Interrupted { step: u64, time: f64 },
+    #[error("transport: {0}")]
+    Transport(String),
+}
+
+impl RunError {
+    /// The process exit code for this outcome.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            RunError::Input(_) => 1,
+            RunError::Unstable { .. } | RunError::Failed { .. } | RunError::Collapsed { .. } => 2,
+            RunError::Died { .. } | RunError::Hung { .. } | RunError::Handshake(_) | RunError::Transport(_) => 3,
+            RunError::Interrupted { .. } => 130,
+        }
+    }
+}
+
+fn iox<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> RunError {
+    move |e| RunError::Transport(format!("{what}: {e:?}"))
+}
+
+impl From<transport::TransportError> for RunError {
+    fn from(e: transport::TransportError) -> Self {
+        RunError::Transport(e.to_string())
+    }
+}
+
+/// What a run did, completed or not.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct RunStats {
+    pub steps: u64,
+    /// Simulated time reached [s].
+    pub time: f64,
+    pub wall_seconds: f64,
+    /// Seconds each node spent computing (solver work plus writing or reading coupling data).
+    pub fluid_compute_seconds: f64,
+    pub solid_compute_seconds: f64,
+    /// Smallest and largest step granted [s].
+    pub dt_min: f64,
+    pub dt_max: f64,
+    pub warnings: u64,
+    pub last_warning: Option<String>,
+    /// Output frames written (including frame 0).
+    pub frames: u32,
+}
+
+/// One node as the coupler sees it.
+struct Peer {
+    role: Role,
+    solver: String,
+    pid: u32,
+    process: Option<NodeProcess>,
+    proposal: f64,
+    answered: bool,
+}
+
+impl Peer {
+    fn label(&self) -> String {
+        format!("{} node ({}, pid {})", self.role.name(), self.solver, self.pid)
+    }
+}
+
+/// The coupler's side of a run.
+pub struct Session {
+    opts: RunOptions,
+    run: Run,
+    hello_in: Sub<Hello>,
+    status_in: Sub<Status>,
+    setup_out: Pub<[u8], SetupHeader>,
+    command_out: Pub<Command>,
+    listener: Listener<Ipc>,
+    fluid_bell: Notifier<Ipc>,
+    solid_bell: Notifier<Ipc>,
+    peers: Vec<Peer>,
+    stats: RunStats,
+    step: u64,
+    time: f64,
+}
+
+impl Session {
+    /// Opens the run's services. Nodes are started by [`Session::start`].
+    pub fn open(opts: RunOptions) -> Result<Session, RunError> {
+        let run = Run::join(&opts.run_id, "coupler")?;
+        let hello_in = run.hello()?.subscriber_builder().create().map_err(iox("hello subscriber"))?;
+        let status_in = run.status()?.subscriber_builder().create().map_err(iox("status subscriber"))?;
+        let setup_out = run.setup()?.publisher_builder().initial_max_slice_len(1 << 16).allocation_strategy(iceoryx2::prelude::AllocationStrategy::PowerOfTwo).create().map_err(iox("setup publisher"))?;
+        let command_out = run.command()?.publisher_builder().create().map_err(iox("command publisher"))?;
+        let listener = run.listener(Party::Coupler)?;
+        let fluid_bell = run.notifier(Party::Fluid)?;
+        let solid_bell = run.notifier(Party::Solid)?;
+        Ok(Session {
+            opts,
+            run,
+            hello_in,
+            status_in,
+            setup_out,
+            command_out,
+            listener,
+            fluid_bell,
+            solid_bell,
+            peers: Vec::new(),
+            stats: RunStats::default(),
+            step: 0,
+            time: 0.0,
+        })
+    }
+
+    fn scheme(&self) -> Scheme {
+        self.opts.scheme.unwrap_or(self.opts.scene.coupling.scheme)
+    }
+
+    fn fluid_solver(&self) -> String {
+        self.opts.fluid_solver.clone().or_else(|| self.opts.scene.fluid.as_ref().map(|f| f.solver.clone())).unwrap_or_default()
+    }
+
+    fn solid_solver(&self) -> String {
+        self.opts.solid_solver.clone().unwrap_or_else(|| self.opts.scene.solid.solver.clone())
+    }
+
+    /// The roles this scene needs: no water, no fluid node; nothing moving, no solid node.
+    pub fn roles(scene: &Scene) -> Vec<Role> {
+        let mut roles = Vec::new();
+        if scene.has_fluid() {
+            roles.push(Role::Fluid);
+        }
+        if scene.has_moving_blocks() {
+            roles.push(Role::Solid);
+        }
+        roles
+    }
+
+    /// Runs the whole thing: start, step to the end, stop. The run directory receives what was
+    /// written whatever the outcome; `stats` tells how far it got.
+    pub fn execute(opts: RunOptions, dir: &mut RunDir) -> (RunStats, Result<(), RunError>) {
+        let id = opts.run_id.clone();
+        let started = Instant::now();
+        let (mut stats, result) = match Session::open(opts) {
+            Ok(mut session) => {
+                let result = session.start(dir).and_then(|_| session.advance_to_end(dir));
+                let result = session.stop(result);
+                (session.stats.clone(), result)
+            }
+            Err(e) => (RunStats::default(), Err(e)),
+        };
+        stats.wall_seconds = started.elapsed().as_secs_f64();
+        // Every process of the run is gone now (the session dropped its children): remove
+        // whatever iceoryx2 left in /dev/shm and /tmp/iceoryx2, e.g. after a SIGKILL.
+        transport::remove_run_files(&id);
+        (stats, result)
+    }
+
+    /// Starts (or awaits) the nodes, checks their protocol, sends the setup and waits for every
+    /// node to report ready.
+    pub fn start(&mut self, dir: &mut RunDir) -> Result<(), RunError> {
+        let roles = Session::roles(&self.opts.scene);
+        if roles.is_empty() {
+            return Err(RunError::Input("the scene has neither water nor moving blocks: nothing to simulate".into()));
+        }
+        let mut processes = Vec::new();
+        if !self.opts.attach {
+            for &role in &roles {
+                let cmd = if role == Role::Fluid { &self.opts.fluid_cmd } else { &self.opts.solid_cmd };
+                processes.push(NodeProcess::spawn(cmd, &self.opts.run_id).map_err(RunError::Input)?);
+            }
+        } else {
+            eprintln!("coupler: waiting for nodes of run {id}; start them with:", id = self.opts.run_id);
+            for &role in &roles {
+                eprintln!("  {}-node --prefix {}", role.name(), self.opts.run_id);
+            }
+        }
+        self.handshake(&roles, processes)?;
+
+        let setup = Setup {
+            scene: self.opts.scene.clone(),
+            run_dir: dir.path().to_path_buf(),
+            scheme: self.scheme(),
+            fluid_present: roles.contains(&Role::Fluid),
+            solid_present: roles.contains(&Role::Solid),
+            fluid_solver: self.fluid_solver(),
+            solid_solver: self.solid_solver(),
+            coupler_pid: std::process::id(),
+        };
+        let bytes = setup.encode();
+        let mut sample = self.setup_out.loan_slice_uninit(bytes.len()).map_err(iox("loan setup"))?;
+        *sample.user_header_mut() = SetupHeader { protocol_version: PROTOCOL_VERSION, payload_len: bytes.len() as u32 };
+        let sample = sample.write_from_slice(&bytes);
+        sample.send().map_err(iox("send setup"))?;
+        self.ring();
+        self.collect_statuses(0, self.opts.connect_timeout)?;
+        if self.opts.scene.output.vtk {
+            dir.add_frame(0, 0.0, &self.peers.iter().map(|p| p.role).collect::<Vec<_>>())
+                .map_err(|e| RunError::Input(format!("cannot write to the run directory: {e}")))?;
+            self.stats.frames = 1;
+        }
+        Ok(())
+    }
+
+    fn ring(&self) {
+        let _ = self.fluid_bell.notify();
+        let _ = self.solid_bell.notify();
+    }
+
+    /// Waits for a hello from each role; checks protocol versions.
+    fn handshake(&mut self, roles: &[Role], mut processes: Vec<NodeProcess>) -> Result<(), RunError> {
+        let started = Instant::now();
+        while self.peers.len() < roles.len() {
+            while let Some(sample) = self.hello_in.receive().map_err(iox("receive hello"))? {
+                let hello = *sample.payload();
+                let Some(role) = Role::from_u32(hello.role).filter(|r| roles.contains(r)) else {
+                    return Err(RunError::Handshake(format!("a node with unknown role {} said hello", hello.role)));
+                };
+                if self.peers.iter().any(|p| p.role == role) {
+                    continue; // a repeated hello
+                }
+                let process = processes.iter().position(|p| p.role == role).map(|i| processes.swap_remove(i));
+                let program = process.as_ref().map(|p| p.program.display().to_string()).unwrap_or_else(|| format!("pid {}", hello.pid));
+                if hello.protocol_version != PROTOCOL_VERSION {
+                    return Err(RunError::Handshake(format!(
+                        "the {} node '{program}' speaks protocol version {}, this coupler version {PROTOCOL_VERSION}. \
+                         Fix: rebuild both from the same source (`cargo build --release`)",
+                        role.name(),
+                        hello.protocol_version
+                    )));
+                }
+                let solver = if role == Role::Fluid { self.fluid_solver() } else { self.solid_solver() };
+                self.peers.push(Peer { role, solver, pid: hello.pid, process, proposal: f64::INFINITY, answered: false });
+            }
+            if self.peers.len() == roles.len() {
+                break;
+            }
+            for p in processes.iter_mut() {
+                if let Some(status) = p.exited() {
+                    return Err(RunError::Handshake(format!(
+                        "the {} node '{}' {} before saying hello",
+                        p.role.name(),
+                        p.program.display(),
+                        describe_exit(status)
+                    )));
+                }
+            }
+            if self.run.termination_requested() {
+                return Err(RunError::Interrupted { step: 0, time: 0.0 });
+            }
+            if started.elapsed() > self.opts.connect_timeout {
+                let missing: Vec<&str> =
+                    roles.iter().filter(|r| !self.peers.iter().any(|p| p.role == **r)).map(|r| r.name()).collect();
+                return Err(RunError::Handshake(format!(
+                    "no hello from the {} node(s) within {:.0} s",
+                    missing.join(" and "),
+                    self.opts.connect_timeout.as_secs_f64()
+                )));
+            }
+            transport::wait(&self.listener, SLICE)?;
+        }
+        Ok(())
+    }
+
+    /// Waits until every node answered `step`; records proposals; turns failures into errors.
+    fn collect_statuses(&mut self, step: u64, timeout: Duration) -> Result<(), RunError> {
+        for p in self.peers.iter_mut() {
+            p.answered = false;
+        }
+        let sent = Instant::now();
+        loop {
+            while let Some(sample) = self.status_in.receive().map_err(iox("receive status"))? {
+                let s = *sample.payload();
+                let Some(peer) = self.peers.iter_mut().find(|p| p.role as u32 == s.role) else { continue };
+                let node = peer.label();
+                match StatusCode::from_u32(s.code) {
+                    StatusCode::Ok | StatusCode::Warning | StatusCode::Stopped => {
+                        if s.step != step {
+                            continue; // stale answer to an earlier command
+                        }
+                        peer.answered = true;
+                        peer.proposal = s.dt_proposal;
+                        match peer.role {
+                            Role::Fluid => self.stats.fluid_compute_seconds += s.compute_seconds,
+                            Role::Solid => self.stats.solid_compute_seconds += s.compute_seconds,
+                        }
+                        if StatusCode::from_u32(s.code) == StatusCode::Warning {
+                            self.stats.warnings += 1;
+                            let msg = format!("{node}: warning at step {step}, t = {:.6} s: {}", s.time, s.message.as_str());
+                            if self.stats.warnings == 1 || self.stats.warnings.is_power_of_two() {
+                                eprintln!("coupler: {msg} (warning #{})", self.stats.warnings);
+                            }
+                            self.stats.last_warning = Some(msg);
+                        }
+                    }
+                    StatusCode::Unstable => {
+                        return Err(RunError::Unstable { node, step: s.step, time: s.time, cause: s.message.as_str().into() });
+                    }
+                    StatusCode::Failed => {
+                        return Err(RunError::Failed { node, step: s.step, time: s.time, cause: s.message.as_str().into() });
+                    }
+                }
+            }
+            if self.peers.iter().all(|p| p.answered) {
+                return Ok(());
+            }
+            self.check_peers(step)?;
+            if self.run.termination_requested() {
+                return Err(RunError::Interrupted { step, time: self.time });
+            }
+            if sent.elapsed() > timeout {
+                let p = self.peers.iter().find(|p| !p.answered).expect("someone has not answered");
+                return Err(RunError::Hung { node: p.label(), step, time: self.time, waited: sent.elapsed().as_secs_f64() });
+            }
+            transport::wait(&self.listener, SLICE)?;
+        }
+    }
+
+    /// A node whose process ended (or, for attached nodes, whose pid vanished) ends the run.
+    fn check_peers(&mut self, step: u64) -> Result<(), RunError> {
+        for p in self.peers.iter_mut() {
+            let how = match p.process.as_mut() {
+                Some(proc_) => proc_.exited().map(describe_exit),
+                None => (!transport::process_alive(p.pid)).then(|| "is no longer running".to_string()),
+            };
+            if let Some(how) = how {
+                return Err(RunError::Died { node: p.label(), step, time: self.time, how });
+            }
+        }
+        Ok(())
+    }
+
+    /// Steps until the scene's end time.
+    fn advance_to_end(&mut self, dir: &mut RunDir) -> Result<(), RunError> {
+        let scene = &self.opts.scene;
+        let end = scene.time.end;
+        let interval = scene.output.interval;
+        let (dt_max, dt_min) = (scene.time.dt_max, scene.time.dt_min);
+        let mut frame: u32 = 1;
+        let mut next_output = interval.min(end);
+        let roles: Vec<Role> = self.peers.iter().map(|p| p.role).collect();
+        let progress = crate::progress::Progress::new(self.opts.progress, end);
+        self.stats.dt_min = f64::INFINITY;
+        let tol = 1e-12 * end.max(1.0);
+
+        while self.time < end - tol {
+            // The shared step: the most restrictive proposal, never past dt_max.
+            let (limiting, proposal) = self
+                .peers
+                .iter()
+                .map(|p| (p.label(), p.proposal))
+                .fold((String::from("dt_max"), dt_max), |a, b| if b.1 < a.1 { b } else { a });
+            if !(proposal >= dt_min) {
+                return Err(RunError::Collapsed { node: limiting, step: self.step, time: self.time, dt: proposal, dt_min });
+            }
+            let mut dt = proposal * self.opts.dt_factor;
+            // Land exactly on the next output time; split the last two steps evenly rather
+            // than leave a sliver.
+            let target = next_output.min(end);
+            let remaining = target - self.time;
+            let lands = if remaining <= dt * (1.0 + 1e-9) {
+                dt = remaining;
+                true
+            } else {
+                if remaining < 2.0 * dt {
+                    dt = 0.5 * remaining;
+                }
+                false
+            };
+            let output_frame = if lands && self.opts.scene.output.vtk && (next_output <= end + tol) { frame as i32 } else { -1 };
+            let cmd = Command { kind: CommandKind::Advance as u32, output_frame, step: self.step, time: self.time, dt };
+            self.command_out.send_copy(cmd).map_err(iox("send command"))?;
+            self.ring();
+            self.collect_statuses(self.step, self.opts.step_timeout)?;
+
+            self.stats.dt_min = self.stats.dt_min.min(dt);
+            self.stats.dt_max = self.stats.dt_max.max(dt);
+            self.step += 1;
+            self.time = if lands { target } else { self.time + dt };
+            self.stats.steps = self.step;
+            self.stats.time = self.time;
+            if lands {
+                if output_frame >= 0 {
+                    dir.add_frame(frame, self.time, &roles)
+                        .map_err(|e| RunError::Input(format!("cannot write to the run directory: {e}")))?;
+                    self.stats.frames = frame + 1;
+                    frame += 1;
+                }
+                next_output += interval;
+            }
+            progress.update(self.time, self.step);
+        }
+        progress.finish();
+        Ok(())
+    }
+
+    /// Ends the run: asks the nodes to stop (they flush their files), then makes sure every
+    /// process is gone. Returns the run's outcome.
+    fn stop(&mut self, outcome: Result<(), RunError>) -> Result<(), RunError> {
+        let cmd = Command { kind: CommandKind::Stop as u32, output_frame: -1, step: self.step, time: self.time, dt: 0.0 };
+        let _ = self.command_out.send_copy(cmd);
+        self.ring();
+        let stopped = if outcome.is_ok() {
+            // A clean end: wait for the nodes to confirm they flushed their outputs.
+            self.collect_statuses(self.step, Duration::from_secs(30))
+        } else {
+            Ok(())
+        };
+        for p in self.peers.iter_mut() {
+            if let Some(proc_) = p.process.as_mut() {
+                if proc_.wait_exit(Duration::from_secs(1)).is_none() {
+                    proc_.terminate(Duration::from_secs(1));
+                }
+            }
+        }
+        outcome.and(stopped)
+    }
+}
