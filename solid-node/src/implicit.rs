@@ -1,0 +1,483 @@
+//! `--solver implicit`: Shi's original DDA time integration (Shi 1993; paper Eqs. 2–4): Newmark
+//! with β = ½, γ = 1, so the acceleration of the step's end is held over the whole step:
+//!
+//! ```text
+//! (2/Δt² M + 2/Δt C + K) D = F + (2/Δt M + C) V_n        (Eq. 4)
+//! V_{n+1} = 2 D/Δt − V_n
+//! ```
+//!
+//! D holds each free block's translation and small rotation over the step (6 unknowns per
+//! rigid block); K the contact springs, linearised about the start of the step as in DDA
+//! (the gap of a contact changes by n·(d_P + θ_P × r_P − d_Q − θ_Q × r_Q)). The orientation is
+//! then turned by the exact rotation exp(θ) ([`crate::rotation`]), not by DDA's linear
+//! displacement field, so blocks keep their size.
+//!
+//! Open–close iterations (Shi 1993): each contact starts the step in its last state (open,
+//! locked, sliding); after each solve the states are re-derived from the new gaps and the
+//! Mohr–Coulomb limit, and the solve repeats until no state changes. If that takes more than
+//! `[solid].max_open_close` solves, or a block moves more than `[solid].displacement_limit` of
+//! its size, the step is cut by 3 and retried (Shi's rule). Cuts happen inside one
+//! `advance(dt)`: it takes as many sub-steps as needed and still ends exactly at t + dt.
+//!
+//! The scheme is unconditionally stable but damps contact oscillations: a penalty bounce
+//! keeps e ≈ exp(−πΩ/4) of its speed (Ω = ω·Δt), the price DDA pays for its large steps.
+
+use crate::block::Block;
+use crate::contact::{Contact, ContactState};
+use crate::energy::EnergyMonitor;
+use crate::friction::Joint;
+use crate::integrator::Integrator;
+use crate::linear_system::{BlockSystem, Mat6, SolveError, Vec6};
+use crate::penalty::PenaltyModel;
+use crate::stability;
+use crate::world::World;
+use nalgebra::Matrix6;
+use shared::math::{Matrix, Real, Vector};
+use shared::scene::SolidSpec;
+use shared::solver::{SolverError, StepReport};
+
+/// Relative residual of the conjugate gradient solve.
+const SOLVE_TOLERANCE: Real = 1e-11;
+
+/// The per-iteration state of one contact.
+#[derive(Debug, Clone, Copy, Default)]
+struct Trial {
+    state: ContactState,
+    /// Normal force of the last solve [N] (the sliding friction of the next solve uses it).
+    normal_force: Real,
+    /// Shear spring elongation after the last solve.
+    shear: Vector,
+    gap: Real,
+}
+
+/// Why a sub-step must be cut.
+#[derive(Debug)]
+enum Cut {
+    OpenClose { changing: usize },
+    Displacement { block: usize, ratio: Real },
+    Solve(SolveError),
+}
+
+pub struct Newmark {
+    max_open_close: u32,
+    displacement_limit: Real,
+    system: BlockSystem,
+    /// Row of each block in the system, usize::MAX for fixed and kinematic blocks.
+    row: Vec<usize>,
+    /// Prescribed step displacement of fixed and kinematic blocks.
+    known: Vec<Vec6>,
+    solution: Vec<Vec6>,
+    trials: Vec<Trial>,
+    /// Sub-step that last succeeded when the step had to be cut.
+    substep_hint: Option<Real>,
+    /// Statistics of the last advance.
+    pub last_substeps: usize,
+    pub last_iterations: usize,
+    scratch: Vec<Matrix6<Real>>,
+}
+
+/// Generalised direction [e; r × e] of a unit force e at lever arm r.
+#[inline]
+fn direction(r: &Vector, e: &Vector) -> Vec6 {
+    let t = r.cross(e);
+    Vec6::new(e.x, e.y, e.z, t.x, t.y, t.z)
+}
+
+/// Displacement of the material point at lever arm r under D = [d; θ].
+#[inline]
+fn point_displacement(d: &Vec6, r: &Vector) -> Vector {
+    Vector::new(d[0], d[1], d[2]) + Vector::new(d[3], d[4], d[5]).cross(r)
+}
+
+fn tangents(n: &Vector) -> (Vector, Vector) {
+    let t1 = n.cross(&if n.x.abs() < 0.9 { Vector::x() } else { Vector::y() }).normalize();
+    (t1, n.cross(&t1))
+}
+
+fn mass_matrix(b: &Block) -> Mat6 {
+    let mut m = Mat6::zeros();
+    m.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Matrix::identity() * b.mass));
+    m.fixed_view_mut::<3, 3>(3, 3).copy_from(&b.world_inertia());
+    m
+}
+
+impl Newmark {
+    pub fn new(spec: &SolidSpec) -> Newmark {
+        Newmark {
+            max_open_close: spec.max_open_close.max(1),
+            displacement_limit: spec.displacement_limit,
+            system: BlockSystem::default(),
+            row: Vec::new(),
+            known: Vec::new(),
+            solution: Vec::new(),
+            trials: Vec::new(),
+            substep_hint: None,
+            last_substeps: 0,
+            last_iterations: 0,
+            scratch: Vec::new(),
+        }
+    }
+
+    /// Adds a spring of stiffness `k` along `e` between the contact's blocks to the system,
+    /// with the generalised force `f0` (acting on P along e, the opposite on Q) that does not
+    /// depend on the unknowns. Known displacements of fixed/kinematic sides go into `f0`.
+    #[allow(clippy::too_many_arguments)]
+    fn add_spring(&mut self, c: &Contact, rp: &Vector, rq: &Vector, e: &Vector, k: Real, f0: Real, world: &World) {
+        let (p, q) = (c.p as usize, c.q as usize);
+        let (gp, gq) = (direction(rp, e), direction(rq, e));
+        let (ip, iq) = (self.row[p], self.row[q]);
+        // Relative displacement along e already fixed by the prescribed sides.
+        let mut u_known = 0.0;
+        if ip == usize::MAX {
+            u_known += gp.dot(&self.known[p]);
+        }
+        if iq == usize::MAX {
+            u_known -= gq.dot(&self.known[q]);
+        }
+        let f = f0 - k * u_known;
+        if ip != usize::MAX {
+            self.system.diag[ip] += gp * gp.transpose() * k;
+            self.system.rhs[ip] += gp * f;
+        }
+        if iq != usize::MAX {
+            self.system.diag[iq] += gq * gq.transpose() * k;
+            self.system.rhs[iq] -= gq * f;
+        }
+        if ip != usize::MAX && iq != usize::MAX {
+            self.system.add_off(ip, iq, &(gp * gq.transpose() * -k));
+        }
+        let _ = world;
+    }
+
+    /// Assembles Eq. 4 for a step `h` with the contacts in the states of `self.trials`.
+    fn assemble(&mut self, world: &World, h: Real) {
+        let n = world.free.len();
+        self.system.reset(n);
+        for (r, &i) in world.free.iter().enumerate() {
+            let b = &world.blocks[i];
+            let m = mass_matrix(b);
+            self.system.diag[r] = m * (2.0 / (h * h));
+            let v = Vec6::new(
+                b.velocity.x,
+                b.velocity.y,
+                b.velocity.z,
+                b.angular_velocity.x,
+                b.angular_velocity.y,
+                b.angular_velocity.z,
+            );
+            let f = b.mass * world.gravity + world.load_force[i];
+            let t = world.load_torque[i];
+            self.system.rhs[r] = Vec6::new(f.x, f.y, f.z, t.x, t.y, t.z) + m * v * (2.0 / h);
+        }
+        let pen = &world.penalty;
+        for (ci, c) in world.contacts.iter().enumerate() {
+            let tr = self.trials[ci];
+            if tr.state == ContactState::Open {
+                continue;
+            }
+            let (bp, bq) = (&world.blocks[c.p as usize], &world.blocks[c.q as usize]);
+            let (rp, rq) = (c.point - bp.position, c.point - bq.position);
+            let mred = PenaltyModel::reduced_mass(bp, bq);
+            let dv = bp.point_velocity(&c.point) - bq.point_velocity(&c.point);
+            let n = c.normal;
+            // Normal spring with its dashpot: F = −k (g0 + u) − c (2u/h − v_n,old).
+            let cn = pen.dashpot(pen.normal, mred);
+            self.add_spring(c, &rp, &rq, &n, pen.normal + 2.0 * cn / h, -pen.normal * c.gap + cn * n.dot(&dv), world);
+            let (t1, t2) = tangents(&n);
+            match tr.state {
+                ContactState::Locked => {
+                    let cs = pen.dashpot(pen.shear, mred);
+                    for t in [t1, t2] {
+                        self.add_spring(c, &rp, &rq, &t, pen.shear + 2.0 * cs / h, -pen.shear * c.shear.dot(&t) + cs * t.dot(&dv), world);
+                    }
+                }
+                ContactState::Sliding => {
+                    // Friction as a load along the slip of the last iteration (Shi 1993).
+                    let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, tr.normal_force);
+                    let s = tr.shear;
+                    let dir = if s.norm() > 0.0 { s.normalize() } else { Vector::zeros() };
+                    for (t, sign) in [(t1, 1.0), (t2, 1.0)] {
+                        let f = -limit * dir.dot(&t) * sign;
+                        self.add_spring(c, &rp, &rq, &t, 0.0, f, world);
+                    }
+                }
+                ContactState::Open => {}
+            }
+        }
+    }
+
+    /// Re-derives each contact's state from the solution; returns how many changed between
+    /// open/closed or locked/sliding, and whether sliding friction used a stale normal force.
+    fn classify(&mut self, world: &World) -> (usize, bool) {
+        let pen = &world.penalty;
+        let mut changed = 0;
+        let mut stale = false;
+        for (ci, c) in world.contacts.iter().enumerate() {
+            let (p, q) = (c.p as usize, c.q as usize);
+            let dp = self.step_of(p);
+            let dq = self.step_of(q);
+            let delta = point_displacement(&dp, &(c.point - world.blocks[p].position))
+                - point_displacement(&dq, &(c.point - world.blocks[q].position));
+            let n = c.normal;
+            let gap = c.gap + n.dot(&delta);
+            let tr = &mut self.trials[ci];
+            let (state, normal_force, shear) = if gap >= 0.0 {
+                (ContactState::Open, 0.0, Vector::zeros())
+            } else {
+                let nf = -pen.normal * gap;
+                let shear = c.shear + (delta - n * n.dot(&delta));
+                let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, nf);
+                let state = if pen.shear * shear.norm() > limit { ContactState::Sliding } else { ContactState::Locked };
+                (state, nf, shear)
+            };
+            if state != tr.state {
+                changed += 1;
+            } else if state == ContactState::Sliding
+                && (normal_force - tr.normal_force).abs() > 1e-3 * normal_force.max(tr.normal_force)
+            {
+                stale = true;
+            }
+            *tr = Trial { state, normal_force, shear, gap };
+        }
+        (changed, stale)
+    }
+
+    fn step_of(&self, block: usize) -> Vec6 {
+        match self.row[block] {
+            usize::MAX => self.known[block],
+            r => self.solution[r],
+        }
+    }
+
+    /// One sub-step of length h from the world's current state, without changing it.
+    fn attempt(&mut self, world: &World, h: Real) -> Result<usize, Cut> {
+        for (i, b) in world.blocks.iter().enumerate() {
+            self.known[i] = match (&b.motion, b.kind) {
+                (Some(m), shared::scene::BlockKind::Kinematic) => {
+                    let d = m.displacement(world.time + h) - m.displacement(world.time);
+                    Vec6::new(d.x, d.y, d.z, 0.0, 0.0, 0.0)
+                }
+                _ => Vec6::zeros(),
+            };
+        }
+        self.trials.clear();
+        self.trials.extend(world.contacts.iter().map(|c| Trial {
+            // A contact already interpenetrating at the start is closed; others keep their state.
+            state: if c.state == ContactState::Open && c.gap < 0.0 { ContactState::Locked } else { c.state },
+            normal_force: c.normal_force,
+            shear: c.shear,
+            gap: c.gap,
+        }));
+        self.solution.clear();
+        for &i in &world.free {
+            let b = &world.blocks[i];
+            let (d, w) = (b.velocity * h, b.angular_velocity * h);
+            self.solution.push(Vec6::new(d.x, d.y, d.z, w.x, w.y, w.z));
+        }
+        let max_cg = 50 + 20 * world.free.len();
+        let mut iterations = 0;
+        let mut converged = false;
+        let mut changing = 0;
+        for _ in 0..self.max_open_close {
+            self.assemble(world, h);
+            let mut x = std::mem::take(&mut self.solution);
+            let r = self.system.solve(&mut x, SOLVE_TOLERANCE, max_cg);
+            self.solution = x;
+            r.map_err(Cut::Solve)?;
+            iterations += 1;
+            let (changed, stale) = self.classify(world);
+            changing = changed;
+            if changed == 0 {
+                converged = true;
+                if !stale {
+                    break;
+                }
+            } else {
+                converged = false;
+            }
+        }
+        if !converged {
+            return Err(Cut::OpenClose { changing });
+        }
+        for (r, &i) in world.free.iter().enumerate() {
+            let b = &world.blocks[i];
+            let d = &self.solution[r];
+            let moved = Vector::new(d[0], d[1], d[2]).norm() + Vector::new(d[3], d[4], d[5]).norm() * b.shape.radius;
+            let ratio = moved / b.size();
+            if ratio > self.displacement_limit {
+                return Err(Cut::Displacement { block: i, ratio });
+            }
+        }
+        Ok(iterations)
+    }
+
+    /// Applies the converged sub-step: poses, velocities (V = 2D/h − V_n) and contact states.
+    fn commit(&mut self, world: &mut World, h: Real) -> Real {
+        let mut work = 0.0;
+        for (r, &i) in world.free.iter().enumerate() {
+            let d = self.solution[r];
+            let (dx, th) = (Vector::new(d[0], d[1], d[2]), Vector::new(d[3], d[4], d[5]));
+            work += world.load_force[i].dot(&dx) + world.load_torque[i].dot(&th);
+            let b = &mut world.blocks[i];
+            b.remember_pose();
+            b.velocity = dx * (2.0 / h) - b.velocity;
+            b.angular_velocity = th * (2.0 / h) - b.angular_velocity;
+            b.displace(&dx, &th);
+            b.update_world_geometry();
+        }
+        let pen = world.penalty.clone();
+        for (c, tr) in world.contacts.iter_mut().zip(&self.trials) {
+            c.state = tr.state;
+            c.gap = tr.gap;
+            c.normal_force = tr.normal_force;
+            match tr.state {
+                ContactState::Open => {
+                    c.shear = Vector::zeros();
+                    c.force = Vector::zeros();
+                }
+                ContactState::Locked => {
+                    c.shear = tr.shear;
+                    c.force = c.normal * tr.normal_force - tr.shear * pen.shear;
+                }
+                ContactState::Sliding => {
+                    let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, tr.normal_force);
+                    let len = tr.shear.norm();
+                    c.shear = if len > 0.0 { tr.shear * (limit / (pen.shear * len)) } else { Vector::zeros() };
+                    c.force = c.normal * tr.normal_force - c.shear * pen.shear;
+                }
+            }
+        }
+        world.sum_contact_forces();
+        let t1 = world.time + h;
+        for &i in &world.moving {
+            let b = &mut world.blocks[i];
+            if b.is_free() {
+                continue;
+            }
+            b.remember_pose();
+            b.set_kinematic_pose(t1);
+            work -= world.contact_force[i].dot(&(b.position - b.prev_position));
+            b.update_world_geometry();
+        }
+        world.time = t1;
+        work
+    }
+
+    /// Contact search distance for a sub-step h: the margin plus twice the largest distance a
+    /// block point can travel in h, so every contact that may close within the step is found.
+    fn search_margin(world: &World, h: Real) -> Real {
+        let mut travel: Real = 0.0;
+        for &i in &world.free {
+            let b = &world.blocks[i];
+            let a = world.gravity.norm() + world.load_force[i].norm() / b.mass;
+            travel = travel.max((b.velocity.norm() + b.angular_velocity.norm() * b.shape.radius) * h + a * h * h);
+        }
+        world.penalty.margin + 2.0 * travel
+    }
+}
+
+impl Integrator for Newmark {
+    fn name(&self) -> &'static str {
+        "implicit"
+    }
+
+    fn init(&mut self, world: &mut World) {
+        let mut r = 0;
+        self.row = world
+            .blocks
+            .iter()
+            .map(|b| {
+                if b.is_free() {
+                    r += 1;
+                    r - 1
+                } else {
+                    usize::MAX
+                }
+            })
+            .collect();
+        self.known = vec![Vec6::zeros(); world.blocks.len()];
+    }
+
+    fn advance(&mut self, world: &mut World, dt: Real, energy: &mut EnergyMonitor) -> Result<StepReport, SolverError> {
+        let t_end = world.time + dt;
+        let mut remaining = dt;
+        let mut h = self.substep_hint.map_or(dt, |s| (3.0 * s).min(dt));
+        let mut cuts = 0usize;
+        self.last_substeps = 0;
+        self.last_iterations = 0;
+        let mut work = 0.0;
+        while remaining > 0.0 {
+            h = h.min(remaining);
+            if remaining - h <= 1e-9 * dt {
+                h = remaining;
+            }
+            world.detect(Self::search_margin(world, h));
+            loop {
+                match self.attempt(world, h) {
+                    Ok(iterations) => {
+                        self.last_iterations += iterations;
+                        break;
+                    }
+                    Err(cut) => {
+                        cuts += 1;
+                        h /= 3.0;
+                        if h < world.dt_min {
+                            let why = match cut {
+                                Cut::OpenClose { changing } => format!(
+                                    "open–close iterations did not converge ({changing} contact(s) still changing state after {} solves)",
+                                    self.max_open_close
+                                ),
+                                Cut::Displacement { block, ratio } => format!(
+                                    "block '{}' moves {ratio:.3e} of its size per step, above displacement_limit {}",
+                                    world.blocks[block].name, self.displacement_limit
+                                ),
+                                Cut::Solve(e) => format!("the global equations could not be solved ({e:?})"),
+                            };
+                            return Err(SolverError::Unstable(format!(
+                                "implicit solver: {why}, even with the step cut {cuts} times to {h:.3e} s (below dt_min) at t = {:.6} s",
+                                world.time
+                            )));
+                        }
+                    }
+                }
+            }
+            work += self.commit(world, h);
+            self.last_substeps += 1;
+            remaining = t_end - world.time;
+            if remaining <= 1e-9 * dt {
+                world.time = t_end;
+                remaining = 0.0;
+            }
+            if cuts > 0 {
+                h *= 3.0;
+            }
+        }
+        self.substep_hint = (cuts > 0).then_some(h / 3.0);
+        energy.add_work(work);
+        world.check_state(self.name())?;
+        let scratch = &mut self.scratch;
+        energy.check(
+            world,
+            "implicit",
+            || stability::current(world, scratch).sqrt() * dt,
+            "Shi's β = ½, γ = 1 Newmark is unconditionally stable: growth means a wrong contact state",
+        )?;
+        let warning = (cuts > 0).then(|| format!("implicit: step cut {cuts} time(s), {} sub-steps", self.last_substeps));
+        Ok(StepReport { warning })
+    }
+
+    fn dt_proposal(&self, world: &World) -> Real {
+        let mut dt = world.dt_max;
+        for &i in &world.free {
+            let b = &world.blocks[i];
+            let speed = b.velocity.norm() + b.angular_velocity.norm() * b.shape.radius;
+            if speed > 0.0 {
+                dt = dt.min(self.displacement_limit * b.size() / speed);
+            }
+        }
+        match self.substep_hint {
+            Some(h) => dt.min(h),
+            None => dt,
+        }
+    }
+}

@@ -1,0 +1,332 @@
+//! Narrow phase: the vertex–face and edge–edge contacts of two convex blocks (3D-DDA's contact
+//! types, Shi 2001; Doolin & Sitar 2004 list the same for their 3D code).
+//!
+//! Why our own and not parry's contact manifolds: DDA puts one normal and one shear penalty
+//! spring on each *feature pair* (a vertex against a face, two crossing edges) and keeps that
+//! spring from step to step, because the shear spring's elongation is the history Mohr–Coulomb
+//! friction needs. parry's manifolds are rebuilt from clipped polygons whose points are not
+//! tied to features of the blocks, so the shear history could not follow them. Both blocks
+//! being convex, the feature tests below are exact and cheap (plane distances, segment
+//! clipping).
+
+use crate::block::Block;
+use crate::contact::{self, Contact, ContactKey, Feature};
+use crate::friction::Joint;
+use shared::math::{Point, Real, Vector};
+
+/// How the narrow phase treats history.
+#[derive(Debug, Clone, Copy)]
+pub struct NarrowParams {
+    /// Feature pairs closer than this [m] are contacts (open when the gap is positive).
+    pub margin: Real,
+}
+
+/// Faces whose normal is within this angle of the contact normal share their area with the
+/// contact (cohesion acts on face–face contacts only): cos 10°.
+const FACE_ALIGNMENT: Real = 0.984_807_753;
+
+/// Edges closer to parallel than this (sine of the angle) have no edge–edge contact: their
+/// touching is carried by vertex–face contacts.
+const PARALLEL_SINE: Real = 1e-3;
+
+/// Appends the contacts of blocks `a` < `b` to `out` in key order, inheriting state from `old`
+/// (the previous step's contacts of this pair, sorted by key).
+pub fn collide(
+    a: u32,
+    b: u32,
+    ba: &Block,
+    bb: &Block,
+    joint: Joint,
+    params: NarrowParams,
+    old: &[Contact],
+    out: &mut Vec<Contact>,
+) {
+    vertex_face(a, b, ba, bb, Feature::VertexOfA, joint, params, old, out);
+    vertex_face(a, b, bb, ba, Feature::VertexOfB, joint, params, old, out);
+    edge_edge(a, b, ba, bb, joint, params, old, out);
+}
+
+fn inflated_contains(blk: &Block, p: &Point, margin: Real) -> bool {
+    (0..3).all(|k| p[k] >= blk.aabb_min[k] - margin && p[k] <= blk.aabb_max[k] + margin)
+}
+
+/// Vertices of `pb` (the vertex owner, P) against faces of `qb` (Q).
+#[allow(clippy::too_many_arguments)]
+fn vertex_face(
+    a: u32,
+    b: u32,
+    pb: &Block,
+    qb: &Block,
+    feature: Feature,
+    joint: Joint,
+    params: NarrowParams,
+    old: &[Contact],
+    out: &mut Vec<Contact>,
+) {
+    let (p, q) = if feature == Feature::VertexOfA { (a, b) } else { (b, a) };
+    for (vi, v) in pb.world_vertices.iter().enumerate() {
+        if !inflated_contains(qb, v, params.margin) {
+            continue;
+        }
+        let (mut d, mut f) = qb.plane_distance(v);
+        if d > params.margin {
+            continue;
+        }
+        let key = ContactKey { a, b, feature, i: vi as u32, j: 0 };
+        let prev = contact::find(old, &key);
+        // DDA's reference face: keep the face of the previous step while the vertex is about
+        // as close to it as to the nearest one, so the normal does not flip between the two
+        // faces at an edge when the vertex sits near it.
+        if let Some(o) = prev
+            && (o.face as usize) < qb.world_normals.len()
+            && o.face as usize != f
+        {
+            let fo = o.face as usize;
+            let dold = qb.world_normals[fo].dot(&v.coords) - qb.world_offsets[fo];
+            if dold >= d - params.margin {
+                d = dold;
+                f = fo;
+            }
+        }
+        let normal = qb.world_normals[f];
+        // Tributary area: the faces of P at this vertex lying flat on Q's face share their
+        // area among their corners.
+        let mut area = 0.0;
+        for &pf in &pb.vertex_faces[vi] {
+            if -pb.world_normals[pf as usize].dot(&normal) >= FACE_ALIGNMENT {
+                area += pb.face_area[pf as usize] / pb.shape.faces[pf as usize].vertices.len() as Real;
+            }
+        }
+        let mut c = Contact::new(key, p, q);
+        c.face = f as u32;
+        c.point = *v;
+        c.normal = normal;
+        c.gap = d;
+        c.area = area;
+        c.tan_phi = joint.tan_phi;
+        c.cohesion = joint.cohesion;
+        if let Some(o) = prev {
+            c.inherit(o);
+        }
+        out.push(c);
+    }
+}
+
+/// Parameter range [t0, t1] ⊂ [0, 1] of segment p0 + t (p1 − p0) inside `blk` inflated by
+/// `margin` (Cyrus–Beck clipping against the face planes), if any.
+fn clip_segment(blk: &Block, p0: &Point, p1: &Point, margin: Real) -> Option<(Real, Real)> {
+    let d = p1 - p0;
+    let (mut t0, mut t1) = (0.0, 1.0);
+    for (n, o) in blk.world_normals.iter().zip(&blk.world_offsets) {
+        let num = o + margin - n.dot(&p0.coords);
+        let den = n.dot(&d);
+        if den.abs() < 1e-300 {
+            if num < 0.0 {
+                return None;
+            }
+        } else if den > 0.0 {
+            t1 = Real::min(t1, num / den);
+        } else {
+            t0 = Real::max(t0, num / den);
+        }
+        if t0 > t1 {
+            return None;
+        }
+    }
+    Some((t0, t1))
+}
+
+/// Closest points of segments p0 + s·u and q0 + t·w (non-parallel): the parameters.
+fn closest_parameters(p0: &Point, u: &Vector, q0: &Point, w: &Vector) -> (Real, Real) {
+    let r = p0 - q0;
+    let (a, b, c) = (u.dot(u), u.dot(w), w.dot(w));
+    let (d, e) = (u.dot(&r), w.dot(&r));
+    let den = a * c - b * b;
+    let s = (b * e - c * d) / den;
+    let t = (a * e - b * d) / den;
+    (s, t)
+}
+
+/// True when unit `n` (normal to the edge) lies in the wedge spanned by the edge's face
+/// normals `n1`, `n2`: the edge's normal cone, where it can touch.
+#[inline]
+fn in_normal_cone(n: &Vector, n1: &Vector, n2: &Vector) -> bool {
+    let c12 = n1.dot(n2) - 1e-6;
+    n.dot(n1) >= c12 && n.dot(n2) >= c12
+}
+
+#[allow(clippy::too_many_arguments)]
+fn edge_edge(
+    a: u32,
+    b: u32,
+    ba: &Block,
+    bb: &Block,
+    joint: Joint,
+    params: NarrowParams,
+    old: &[Contact],
+    out: &mut Vec<Contact>,
+) {
+    let m = params.margin;
+    for (ia, ea) in ba.shape.edges.iter().enumerate() {
+        let (a0, a1) = (ba.world_vertices[ea[0] as usize], ba.world_vertices[ea[1] as usize]);
+        if clip_segment(bb, &a0, &a1, m).is_none() {
+            continue;
+        }
+        let u = a1 - a0;
+        let [fa1, fa2] = ba.edge_faces[ia];
+        let (na1, na2) = (ba.world_normals[fa1 as usize], ba.world_normals[fa2 as usize]);
+        for (ib, eb) in bb.shape.edges.iter().enumerate() {
+            let (b0, b1) = (bb.world_vertices[eb[0] as usize], bb.world_vertices[eb[1] as usize]);
+            let w = b1 - b0;
+            let cross = u.cross(&w);
+            let cn = cross.norm();
+            if cn <= PARALLEL_SINE * u.norm() * w.norm() {
+                continue;
+            }
+            let (s, t) = closest_parameters(&a0, &u, &b0, &w);
+            // End points are vertices: vertex–face contacts carry them.
+            if !(s > 1e-9 && s < 1.0 - 1e-9 && t > 1e-9 && t < 1.0 - 1e-9) {
+                continue;
+            }
+            let pa = a0 + u * s;
+            let pb = b0 + w * t;
+            let [fb1, fb2] = bb.edge_faces[ib];
+            let (nb1, nb2) = (bb.world_normals[fb1 as usize], bb.world_normals[fb2 as usize]);
+            let mut n = cross / cn;
+            if n.dot(&(nb1 + nb2)) < 0.0 {
+                n = -n;
+            }
+            if !in_normal_cone(&n, &nb1, &nb2) || !in_normal_cone(&-n, &na1, &na2) {
+                continue;
+            }
+            let gap = (pa - pb).dot(&n);
+            if gap > m {
+                continue;
+            }
+            // Both closest points must lie in (or at the margin of) the other block: the
+            // crossing is local, not two far edges whose infinite lines happen to cross.
+            if bb.plane_distance(&pa).0 > m || ba.plane_distance(&pb).0 > m {
+                continue;
+            }
+            let key = ContactKey { a, b, feature: Feature::EdgeEdge, i: ia as u32, j: ib as u32 };
+            let mut c = Contact::new(key, a, b);
+            c.point = Point::from((pa.coords + pb.coords) * 0.5);
+            c.normal = n;
+            c.gap = gap;
+            c.tan_phi = joint.tan_phi;
+            c.cohesion = joint.cohesion;
+            if let Some(o) = contact::find(old, &key) {
+                c.inherit(o);
+            }
+            out.push(c);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared::scene::{BlockKind, BlockSpec, ShapeSpec};
+
+    fn block(kind: BlockKind, vertices: Vec<[f64; 3]>) -> Block {
+        let spec = BlockSpec {
+            name: "t".into(),
+            kind,
+            shape: ShapeSpec::Convex { vertices },
+            density: 1000.0,
+            velocity: [0.0; 3],
+            angular_velocity: [0.0; 3],
+            motion: None,
+            friction_angle: None,
+            cohesion: None,
+        };
+        Block::from_spec(0, &spec).unwrap()
+    }
+
+    fn cube(c: [f64; 3], h: f64, turn: f64) -> Block {
+        let mut v = Vec::new();
+        for &x in &[-h, h] {
+            for &y in &[-h, h] {
+                for &z in &[-h, h] {
+                    let (s, co) = turn.sin_cos();
+                    v.push([c[0] + co * x - s * y, c[1] + s * x + co * y, c[2] + z]);
+                }
+            }
+        }
+        block(BlockKind::Free, v)
+    }
+
+    const JOINT: Joint = Joint { tan_phi: 0.5, cohesion: 0.0 };
+    const P: NarrowParams = NarrowParams { margin: 1e-3 };
+
+    #[test]
+    fn resting_cube_has_four_vertex_face_contacts() {
+        let floor = cube([0.0, 0.0, -1.0], 1.0, 0.0);
+        let top = cube([0.2, 0.1, 0.25 - 1e-4], 0.25, 0.3);
+        let mut out = Vec::new();
+        collide(0, 1, &floor, &top, JOINT, P, &[], &mut out);
+        let vf: Vec<_> = out.iter().filter(|c| c.key.feature == Feature::VertexOfB).collect();
+        assert_eq!(vf.len(), 4, "{out:#?}");
+        for c in &vf {
+            assert!((c.gap + 1e-4).abs() < 1e-12);
+            assert!((c.normal - Vector::z()).norm() < 1e-12);
+            assert_eq!((c.p, c.q), (1, 0));
+            assert!((c.area - 0.25 * 0.25).abs() < 1e-12, "area {}", c.area);
+        }
+        assert!(out.iter().all(|c| c.key.feature != Feature::VertexOfA));
+    }
+
+    /// Two equal cubes stacked with a 45° twist touch only where edges cross: eight edge–edge
+    /// contacts (the octagon of the overlap), no vertex inside the other cube.
+    #[test]
+    fn twisted_stack_touches_by_edge_crossings() {
+        let low = cube([0.0, 0.0, 0.0], 0.5, 0.0);
+        let high = cube([0.0, 0.0, 1.0 - 2e-4], 0.5, std::f64::consts::FRAC_PI_4);
+        let mut out = Vec::new();
+        collide(0, 1, &low, &high, JOINT, P, &[], &mut out);
+        let ee: Vec<_> = out.iter().filter(|c| c.key.feature == Feature::EdgeEdge).collect();
+        assert_eq!(ee.len(), 8, "{out:#?}");
+        for c in &ee {
+            assert!((c.normal + Vector::z()).norm() < 1e-9, "normal {}", c.normal);
+            assert!((c.gap + 2e-4).abs() < 1e-9, "gap {}", c.gap);
+            assert!((c.point.z - 0.5).abs() < 2e-4);
+        }
+        assert_eq!(out.len(), 8);
+    }
+
+    /// Two bars crossing at right angles, edge on edge: one edge–edge contact with the normal
+    /// along the common perpendicular.
+    #[test]
+    fn crossed_edges() {
+        // A bar along x with a vertical diamond cross-section (edge on top), another along y
+        // with its edge pointing down onto it.
+        let r = 0.1;
+        let mut lo = Vec::new();
+        let mut hi = Vec::new();
+        for &s in &[-1.0, 1.0] {
+            for &(y, z) in &[(0.0, r), (r, 0.0), (0.0, -r), (-r, 0.0)] {
+                lo.push([s, y, z]);
+                hi.push([y, s, z + 2.0 * r - 1e-4]);
+            }
+        }
+        let (bl, bh) = (block(BlockKind::Fixed, lo), block(BlockKind::Free, hi));
+        let mut out = Vec::new();
+        collide(0, 1, &bl, &bh, JOINT, P, &[], &mut out);
+        assert_eq!(out.len(), 1, "{out:#?}");
+        let c = &out[0];
+        assert_eq!(c.key.feature, Feature::EdgeEdge);
+        assert!((c.gap + 1e-4).abs() < 1e-12);
+        // Normal outward from b (the upper bar, q), i.e. pointing down onto a.
+        assert!((c.normal + Vector::z()).norm() < 1e-12);
+        assert!((c.point - Point::new(0.0, 0.0, r - 0.5e-4)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn separated_blocks_have_no_contact() {
+        let a = cube([0.0, 0.0, 0.0], 0.5, 0.0);
+        let b = cube([0.0, 0.0, 1.01], 0.5, 0.2);
+        let mut out = Vec::new();
+        collide(0, 1, &a, &b, JOINT, P, &[], &mut out);
+        assert!(out.is_empty(), "{out:#?}");
+    }
+}

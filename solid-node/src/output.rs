@@ -1,0 +1,88 @@
+//! What the solid node writes into the run directory: block kinematics as CSV (every step, at
+//! most every `output.interval / 20` of simulated time) and the block geometry per frame.
+
+use crate::world::World;
+use shared::math::Real;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Rows between flushes: a killed run keeps all but the last few.
+const FLUSH_EVERY: usize = 64;
+
+/// `blocks.csv`: time, block, centroid, velocity, orientation quaternion [i, j, k, w] and
+/// angular velocity of every kinematic and free block.
+pub struct KinematicsCsv {
+    out: BufWriter<File>,
+    min_interval: Real,
+    last: Option<Real>,
+    rows: usize,
+}
+
+impl KinematicsCsv {
+    pub fn create(run_dir: &Path, output_interval: Real) -> std::io::Result<KinematicsCsv> {
+        let mut out = BufWriter::new(File::create(run_dir.join("blocks.csv"))?);
+        writeln!(out, "time,block,x,y,z,vx,vy,vz,qi,qj,qk,qw,wx,wy,wz")?;
+        Ok(KinematicsCsv { out, min_interval: output_interval / 20.0, last: None, rows: 0 })
+    }
+
+    /// Writes the moving blocks' state if at least `output.interval / 20` passed since the last
+    /// sample (or `force`).
+    pub fn sample(&mut self, world: &World, force: bool) -> std::io::Result<()> {
+        let t = world.time;
+        if !force && self.last.is_some_and(|l| t - l < self.min_interval * (1.0 - 1e-9)) {
+            return Ok(());
+        }
+        if self.last == Some(t) {
+            return Ok(());
+        }
+        self.last = Some(t);
+        for &i in &world.moving {
+            let b = &world.blocks[i];
+            let (p, v, q, w) = (b.position, b.velocity, b.rotation.coords, b.angular_velocity);
+            writeln!(
+                self.out,
+                "{t:.9},{},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.12},{:.12},{:.12},{:.12},{:.9},{:.9},{:.9}",
+                b.name, p.x, p.y, p.z, v.x, v.y, v.z, q.x, q.y, q.z, q.w, w.x, w.y, w.z
+            )?;
+            self.rows += 1;
+        }
+        if self.rows >= FLUSH_EVERY {
+            self.rows = 0;
+            self.out.flush()?;
+        }
+        Ok(())
+    }
+
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// Path of frame `frame`'s block file.
+pub fn frame_path(run_dir: &Path, frame: u32) -> PathBuf {
+    run_dir.join(format!("blocks_{frame:05}.vtp"))
+}
+
+/// Writes all blocks (fixed ones too) at their current pose as polygons, with per-block kind
+/// (0 fixed, 1 kinematic, 2 free), speed and contact-force magnitude as cell data.
+pub fn write_blocks_vtp(world: &World, path: &Path) -> std::io::Result<()> {
+    let verts: Vec<Vec<[f64; 3]>> =
+        world.blocks.iter().map(|b| b.world_vertices.iter().map(|p| [p.x, p.y, p.z]).collect()).collect();
+    let faces: Vec<Vec<Vec<u32>>> =
+        world.blocks.iter().map(|b| b.shape.faces.iter().map(|f| f.vertices.clone()).collect()).collect();
+    let blocks: Vec<(&[[f64; 3]], &[Vec<u32>])> =
+        verts.iter().zip(&faces).map(|(v, f)| (v.as_slice(), f.as_slice())).collect();
+    let kind: Vec<f64> = world
+        .blocks
+        .iter()
+        .map(|b| match b.kind {
+            shared::scene::BlockKind::Fixed => 0.0,
+            shared::scene::BlockKind::Kinematic => 1.0,
+            shared::scene::BlockKind::Free => 2.0,
+        })
+        .collect();
+    let speed: Vec<f64> = world.blocks.iter().map(|b| b.velocity.norm()).collect();
+    let contact: Vec<f64> = world.contact_force.iter().map(|f| f.norm()).collect();
+    shared::vtk::write_polyhedra(path, &blocks, &[("kind", &kind), ("speed", &speed), ("contact_force", &contact)])
+}

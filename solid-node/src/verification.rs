@@ -1,0 +1,1 @@
+//! Verification cases (filled in below).

@@ -1,0 +1,203 @@
+//! The block system both integrators advance: blocks, contacts, loads and the checks that end a
+//! run when the method has gone wrong.
+
+use crate::block::Block;
+use crate::broad_phase::BroadPhase;
+use crate::contact::{self, Contact};
+use crate::friction::Joint;
+use crate::narrow_phase::{self, NarrowParams};
+use crate::penalty::PenaltyModel;
+use rayon::prelude::*;
+use shared::math::{Point, Real, Vector};
+use shared::scene::{ContactSpec, Scene};
+use shared::solver::SolverError;
+
+/// Below this many pairs (or contacts) the narrow phase runs on one thread: rayon's fork costs
+/// more than the work.
+const PARALLEL_MIN: usize = 64;
+
+/// Blocks, their contacts and the loads on them.
+pub struct World {
+    /// All blocks in scene order (fixed ones too: they are contact partners).
+    pub blocks: Vec<Block>,
+    /// Indices of the kinematic and free blocks, in `Scene::moving_blocks` order.
+    pub moving: Vec<usize>,
+    /// Indices of the free blocks.
+    pub free: Vec<usize>,
+    pub gravity: Vector,
+    pub penalty: PenaltyModel,
+    pub contact_spec: ContactSpec,
+    pub domain_min: Point,
+    pub domain_max: Point,
+    /// Simulated time [s].
+    pub time: Real,
+    /// The scene's `[time].dt_max`: the proposal when nothing limits the step.
+    pub dt_max: Real,
+    /// The scene's `[time].dt_min`: the implicit scheme gives up below it.
+    pub dt_min: Real,
+    pub broad: BroadPhase,
+    /// Current contacts, sorted by key.
+    pub contacts: Vec<Contact>,
+    previous: Vec<Contact>,
+    slots: Vec<Vec<Contact>>,
+    /// Fluid loads per block (force, torque about the centroid), for the coming step.
+    pub load_force: Vec<Vector>,
+    pub load_torque: Vec<Vector>,
+    /// Contact force and torque on each block from the last force evaluation.
+    pub contact_force: Vec<Vector>,
+    pub contact_torque: Vec<Vector>,
+}
+
+impl World {
+    pub fn new(scene: &Scene) -> Result<World, SolverError> {
+        let blocks = scene
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(i, spec)| Block::from_spec(i, spec))
+            .collect::<Result<Vec<_>, _>>()?;
+        let gravity = Vector::from(scene.gravity);
+        let penalty = PenaltyModel::new(&scene.solid.contact, &blocks, &gravity);
+        let n = blocks.len();
+        Ok(World {
+            moving: scene.moving_blocks(),
+            free: (0..n).filter(|&i| blocks[i].is_free()).collect(),
+            blocks,
+            gravity,
+            penalty,
+            contact_spec: scene.solid.contact.clone(),
+            domain_min: Point::from(scene.domain.min),
+            domain_max: Point::from(scene.domain.max),
+            time: 0.0,
+            dt_max: scene.time.dt_max,
+            dt_min: scene.time.dt_min,
+            broad: BroadPhase::default(),
+            contacts: Vec::new(),
+            previous: Vec::new(),
+            slots: Vec::new(),
+            load_force: vec![Vector::zeros(); n],
+            load_torque: vec![Vector::zeros(); n],
+            contact_force: vec![Vector::zeros(); n],
+            contact_torque: vec![Vector::zeros(); n],
+        })
+    }
+
+    /// Total mass of the free blocks [kg].
+    pub fn free_mass(&self) -> Real {
+        self.free.iter().map(|&i| self.blocks[i].mass).sum()
+    }
+
+    /// Size of the smallest free block [m].
+    pub fn smallest_free_size(&self) -> Real {
+        self.free.iter().map(|&i| self.blocks[i].size()).fold(Real::INFINITY, Real::min)
+    }
+
+    /// Finds the contacts at the current poses (broad phase, then vertex–face and edge–edge
+    /// tests per pair, in parallel), carrying each contact's history over from the previous
+    /// call. Contacts closer than `margin` are kept.
+    pub fn detect(&mut self, margin: Real) {
+        std::mem::swap(&mut self.contacts, &mut self.previous);
+        self.broad.update(&self.blocks, margin);
+        let pairs = &self.broad.pairs;
+        if self.slots.len() < pairs.len() {
+            self.slots.resize_with(pairs.len(), Vec::new);
+        }
+        let blocks = &self.blocks;
+        let previous = &self.previous;
+        let spec = &self.contact_spec;
+        let params = NarrowParams { margin };
+        let work = |(slot, &(a, b)): (&mut Vec<Contact>, &(u32, u32))| {
+            slot.clear();
+            let (ba, bb) = (&blocks[a as usize], &blocks[b as usize]);
+            let joint = Joint::of_pair(spec, (ba.friction_angle, bb.friction_angle), (ba.cohesion, bb.cohesion));
+            let old = contact::pair_range(previous, a, b);
+            narrow_phase::collide(a, b, ba, bb, joint, params, old, slot);
+        };
+        let slots = &mut self.slots[..pairs.len()];
+        if pairs.len() >= PARALLEL_MIN {
+            slots.par_iter_mut().zip(pairs.par_iter()).with_min_len(16).for_each(work);
+        } else {
+            slots.iter_mut().zip(pairs.iter()).for_each(work);
+        }
+        self.contacts.clear();
+        for s in slots.iter() {
+            self.contacts.extend_from_slice(s);
+        }
+    }
+
+    /// Explicit penalty forces of all contacts (see [`PenaltyModel::update_explicit`]), summed
+    /// into [`World::contact_force`] / [`World::contact_torque`].
+    pub fn update_contact_forces_explicit(&mut self) {
+        let blocks = &self.blocks;
+        let penalty = &self.penalty;
+        let work = |c: &mut Contact| penalty.update_explicit(c, &blocks[c.p as usize], &blocks[c.q as usize]);
+        if self.contacts.len() >= PARALLEL_MIN {
+            self.contacts.par_iter_mut().with_min_len(64).for_each(work);
+        } else {
+            self.contacts.iter_mut().for_each(work);
+        }
+        self.sum_contact_forces();
+    }
+
+    /// Sums the committed contact forces into per-block force and torque.
+    pub fn sum_contact_forces(&mut self) {
+        self.contact_force.iter_mut().for_each(|f| *f = Vector::zeros());
+        self.contact_torque.iter_mut().for_each(|t| *t = Vector::zeros());
+        for c in &self.contacts {
+            if c.force == Vector::zeros() {
+                continue;
+            }
+            let (p, q) = (c.p as usize, c.q as usize);
+            self.contact_force[p] += c.force;
+            self.contact_torque[p] += (c.point - self.blocks[p].position).cross(&c.force);
+            self.contact_force[q] -= c.force;
+            self.contact_torque[q] -= (c.point - self.blocks[q].position).cross(&c.force);
+        }
+    }
+
+    /// Kinetic energy of the free blocks [J].
+    pub fn kinetic_energy(&self) -> Real {
+        self.free.iter().map(|&i| self.blocks[i].kinetic_energy()).sum()
+    }
+
+    /// Gravitational potential energy of the free blocks [J] (zero at the origin).
+    pub fn potential_energy(&self) -> Real {
+        self.free.iter().map(|&i| -self.blocks[i].mass * self.gravity.dot(&self.blocks[i].position.coords)).sum()
+    }
+
+    /// Energy stored in the contact springs [J].
+    pub fn contact_energy(&self) -> Real {
+        self.contacts.iter().map(|c| self.penalty.energy(c)).sum()
+    }
+
+    /// NaN and domain checks on the free blocks: either is an instability.
+    pub fn check_state(&self, solver: &str) -> Result<(), SolverError> {
+        for &i in &self.free {
+            let b = &self.blocks[i];
+            if !b.is_finite() {
+                return Err(SolverError::Unstable(format!(
+                    "{solver} solver: block '{}' has a non-finite state (position {:?}, velocity {:?}) at t = {:.6} s",
+                    b.name,
+                    b.position.coords.as_slice(),
+                    b.velocity.as_slice(),
+                    self.time
+                )));
+            }
+            let p = &b.position;
+            if (0..3).any(|k| p[k] < self.domain_min[k] || p[k] > self.domain_max[k]) {
+                return Err(SolverError::Unstable(format!(
+                    "{solver} solver: block '{}' left the domain: centroid ({:.4}, {:.4}, {:.4}) m outside [{:?}, {:?}] at t = {:.6} s, speed {:.4e} m/s",
+                    b.name,
+                    p.x,
+                    p.y,
+                    p.z,
+                    self.domain_min.coords.as_slice(),
+                    self.domain_max.coords.as_slice(),
+                    self.time,
+                    b.velocity.norm()
+                )));
+            }
+        }
+        Ok(())
+    }
+}
