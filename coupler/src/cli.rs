@@ -73,8 +73,14 @@ pub fn run(args: RunArgs) -> u8 {
 
 fn run_inner(args: RunArgs) -> Result<u8, String> {
     let (mut scene, origin) = match &args.scene {
-        Some(path) => (Scene::load(path).map_err(|e| e.to_string())?, path.display().to_string()),
-        None => (Scene::default_scene(), shared::scene::DEFAULT_SCENE_ORIGIN.to_string()),
+        Some(path) => (
+            Scene::load(path).map_err(|e| e.to_string())?,
+            path.display().to_string(),
+        ),
+        None => (
+            Scene::default_scene(),
+            shared::scene::DEFAULT_SCENE_ORIGIN.to_string(),
+        ),
     };
     if let Some(dx) = args.dx {
         if !(dx.is_finite() && dx > 0.0) {
@@ -89,10 +95,16 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     let problems = scene.validate();
     if !problems.is_empty() {
         let list: Vec<String> = problems.iter().map(|e| format!("  {e}")).collect();
-        return Err(format!("scene '{origin}' after command-line overrides:\n{}", list.join("\n")));
+        return Err(format!(
+            "scene '{origin}' after command-line overrides:\n{}",
+            list.join("\n")
+        ));
     }
     if !(args.dt_factor.is_finite() && args.dt_factor > 0.0) {
-        return Err(format!("--dt-factor {}: must be a positive number", args.dt_factor));
+        return Err(format!(
+            "--dt-factor {}: must be a positive number",
+            args.dt_factor
+        ));
     }
     let run_id = match &args.run_id {
         Some(s) => RunId::parse(s).map_err(|e| format!("--run-id: {e}"))?,
@@ -110,24 +122,44 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     let roles = Session::roles(&scene);
     if !args.attach {
         for role in &roles {
-            let cmd = if *role == Role::Fluid { &fluid_cmd } else { &solid_cmd };
+            let cmd = if *role == Role::Fluid {
+                &fluid_cmd
+            } else {
+                &solid_cmd
+            };
             cmd.check()?;
         }
     }
-    let out = args.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", scene.name, run_id)));
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", scene.name, run_id)));
     let mut dir = RunDir::create(&out, &scene)?;
 
     // Cheap housekeeping: files of runs whose processes were all killed long ago.
     let stale = shared::transport::remove_stale_runs(Duration::from_secs(60));
     if !stale.is_empty() {
-        eprintln!("coupler: removed shared memory left by {} dead run(s)", stale.len());
+        eprintln!(
+            "coupler: removed shared memory left by {} dead run(s)",
+            stale.len()
+        );
     }
 
     let scheme = args.scheme.unwrap_or(scene.coupling.scheme);
     let fluid_solver = roles.contains(&Role::Fluid).then(|| {
-        args.fluid_solver.clone().unwrap_or_else(|| scene.fluid.as_ref().map(|f| f.solver.clone()).unwrap_or_default())
+        args.fluid_solver.clone().unwrap_or_else(|| {
+            scene
+                .fluid
+                .as_ref()
+                .map(|f| f.solver.clone())
+                .unwrap_or_default()
+        })
     });
-    let solid_solver = roles.contains(&Role::Solid).then(|| args.solid_solver.clone().unwrap_or_else(|| scene.solid.solver.clone()));
+    let solid_solver = roles.contains(&Role::Solid).then(|| {
+        args.solid_solver
+            .clone()
+            .unwrap_or_else(|| scene.solid.solver.clone())
+    });
     eprintln!(
         "coupler: scene '{}' ({origin}); run {run_id}; fluid: {}; solid: {}; scheme {scheme}; output in {}",
         scene.name,
@@ -150,7 +182,14 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         progress: !args.quiet,
     };
     let (stats, outcome) = Session::execute(opts, &mut dir);
-    let summary = Summary::gather(&dir, &scene, run_id.as_str(), &stats, &outcome, (fluid_solver, solid_solver), scheme.to_string());
+    let summary = Summary::gather(
+        &dir,
+        &scene,
+        run_id.as_str(),
+        &stats,
+        &outcome,
+        scheme.to_string(),
+    );
     if let Err(e) = dir.write_summary(&summary) {
         eprintln!("coupler: cannot write summary.json: {e}");
     }

@@ -18,17 +18,26 @@ pub struct NodeCommand {
 impl NodeCommand {
     /// The node binary installed beside the coupler's own executable (`fluid-node`, `solid-node`).
     pub fn beside_me(role: Role) -> Result<NodeCommand, String> {
-        let me = std::env::current_exe().map_err(|e| format!("cannot locate the coupler executable: {e}"))?;
+        let me = std::env::current_exe()
+            .map_err(|e| format!("cannot locate the coupler executable: {e}"))?;
         let dir = me.parent().unwrap_or(Path::new("."));
         let program = dir.join(format!("{}-node", role.name()));
-        Ok(NodeCommand { role, program, args: Vec::new() })
+        Ok(NodeCommand {
+            role,
+            program,
+            args: Vec::new(),
+        })
     }
 
     /// A user-given executable; a bare name is looked up on PATH.
     pub fn given(role: Role, cmd: &str) -> NodeCommand {
         let mut words = cmd.split_whitespace().map(String::from);
         let program = PathBuf::from(words.next().unwrap_or_default());
-        NodeCommand { role, program, args: words.collect() }
+        NodeCommand {
+            role,
+            program,
+            args: words.collect(),
+        }
     }
 
     /// Resolves the program to an existing executable, or says what to do.
@@ -36,8 +45,11 @@ impl NodeCommand {
         let found = if self.program.components().count() > 1 || self.program.is_absolute() {
             Some(self.program.clone()).filter(|p| p.is_file())
         } else {
-            std::env::var_os("PATH")
-                .and_then(|paths| std::env::split_paths(&paths).map(|d| d.join(&self.program)).find(|p| p.is_file()))
+            std::env::var_os("PATH").and_then(|paths| {
+                std::env::split_paths(&paths)
+                    .map(|d| d.join(&self.program))
+                    .find(|p| p.is_file())
+            })
         };
         let role = self.role.name();
         let Some(path) = found else {
@@ -49,7 +61,9 @@ impl NodeCommand {
             ));
         };
         use std::os::unix::fs::PermissionsExt;
-        let mode = std::fs::metadata(&path).map(|m| m.permissions().mode()).unwrap_or(0);
+        let mode = std::fs::metadata(&path)
+            .map(|m| m.permissions().mode())
+            .unwrap_or(0);
         if mode & 0o111 == 0 {
             return Err(format!(
                 "the {role} node binary '{}' is not executable. Fix: chmod +x it",
@@ -80,8 +94,19 @@ impl NodeProcess {
             .arg(id.as_str())
             .stdin(std::process::Stdio::null())
             .spawn()
-            .map_err(|e| format!("cannot start the {} node '{}': {e}", cmd.role.name(), program.display()))?;
-        Ok(NodeProcess { role: cmd.role, program, child, status: None })
+            .map_err(|e| {
+                format!(
+                    "cannot start the {} node '{}': {e}",
+                    cmd.role.name(),
+                    program.display()
+                )
+            })?;
+        Ok(NodeProcess {
+            role: cmd.role,
+            program,
+            child,
+            status: None,
+        })
     }
 
     pub fn pid(&self) -> u32 {

@@ -4,7 +4,10 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Debug, Parser)]
-#[command(version, about = "rockwave: coupled SPH (water) and 3D-DDA (rock blocks), after Geraili Mikola & Sitar (2014)")]
+#[command(
+    version,
+    about = "rockwave: coupled SPH (water) and 3D-DDA (rock blocks), after Geraili Mikola & Sitar (2014)"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Cmd,
@@ -13,7 +16,7 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Cmd {
     /// Run a scene: starts the fluid and solid nodes and steps them to the end time.
-    Run(coupler::cli::RunArgs),
+    Run(Box<coupler::cli::RunArgs>),
     /// Check a scene file and print what would run.
     Check {
         /// Scene file; default: the embedded default scene.
@@ -26,7 +29,7 @@ enum Cmd {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Cmd::Run(args) => ExitCode::from(coupler::cli::run(args)),
+        Cmd::Run(args) => ExitCode::from(coupler::cli::run(*args)),
         Cmd::Check { scene } => {
             let loaded = match &scene {
                 Some(p) => shared::scene::Scene::load(p),

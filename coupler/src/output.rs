@@ -10,6 +10,7 @@ use crate::session::{RunError, RunStats};
 use shared::geometry::Polyhedron;
 use shared::protocol::Role;
 use shared::scene::{BlockKind, Scene};
+use shared::vtk::PolyhedronRef;
 use std::collections::BTreeMap;
 use std::io;
 use std::path::{Path, PathBuf};
@@ -26,19 +27,32 @@ impl RunDir {
     /// Creates `path`; refuses an existing non-empty directory so that no earlier result is
     /// ever overwritten.
     pub fn create(path: &Path, scene: &Scene) -> Result<RunDir, String> {
-        if path.exists() && std::fs::read_dir(path).map(|mut d| d.next().is_some()).unwrap_or(true) {
+        if path.exists()
+            && std::fs::read_dir(path)
+                .map(|mut d| d.next().is_some())
+                .unwrap_or(true)
+        {
             return Err(format!(
                 "the run directory '{}' already exists and is not empty. Fix: choose another --out, or remove it",
                 path.display()
             ));
         }
-        std::fs::create_dir_all(path).map_err(|e| format!("cannot create run directory '{}': {e}", path.display()))?;
-        let text = toml::to_string(scene).map_err(|e| format!("cannot serialise the scene: {e}"))?;
-        std::fs::write(path.join("scene.toml"), text).map_err(|e| format!("cannot write scene.toml: {e}"))?;
-        let mut dir = RunDir { path: path.to_path_buf(), particles: Vec::new(), blocks: Vec::new(), static_blocks: false };
+        std::fs::create_dir_all(path)
+            .map_err(|e| format!("cannot create run directory '{}': {e}", path.display()))?;
+        let text =
+            toml::to_string(scene).map_err(|e| format!("cannot serialise the scene: {e}"))?;
+        std::fs::write(path.join("scene.toml"), text)
+            .map_err(|e| format!("cannot write scene.toml: {e}"))?;
+        let mut dir = RunDir {
+            path: path.to_path_buf(),
+            particles: Vec::new(),
+            blocks: Vec::new(),
+            static_blocks: false,
+        };
         if !scene.has_moving_blocks() && scene.output.vtk && !scene.blocks.is_empty() {
             // No solid node runs: the fixed blocks never move, one file serves every frame.
-            dir.write_static_blocks(scene).map_err(|e| format!("cannot write blocks_00000.vtp: {e}"))?;
+            dir.write_static_blocks(scene)
+                .map_err(|e| format!("cannot write blocks_00000.vtp: {e}"))?;
             dir.static_blocks = true;
         }
         Ok(dir)
@@ -49,27 +63,44 @@ impl RunDir {
     }
 
     fn write_static_blocks(&self, scene: &Scene) -> io::Result<()> {
-        let polys: Vec<(Vec<[f64; 3]>, Vec<Vec<u32>>)> = scene
+        let polys: Vec<Polyhedron> = scene
             .blocks
             .iter()
             .filter(|b| b.kind == BlockKind::Fixed)
             .filter_map(|b| Polyhedron::from_shape(&b.shape).ok())
+            .collect();
+        let corners: Vec<Vec<[f64; 3]>> = polys
+            .iter()
             .map(|p| {
-                let v = p.vertices.iter().map(|v| (v + p.centroid.coords).into()).collect();
-                let f = p.faces.iter().map(|f| f.vertices.clone()).collect();
-                (v, f)
+                p.vertices
+                    .iter()
+                    .map(|v| (v + p.centroid.coords).into())
+                    .collect()
             })
             .collect();
-        let refs: Vec<(&[[f64; 3]], &[Vec<u32>])> = polys.iter().map(|(v, f)| (v.as_slice(), f.as_slice())).collect();
+        let faces: Vec<Vec<Vec<u32>>> = polys
+            .iter()
+            .map(|p| p.faces.iter().map(|f| f.vertices.clone()).collect())
+            .collect();
+        let refs: Vec<PolyhedronRef> = corners
+            .iter()
+            .zip(&faces)
+            .map(|(v, f)| (v.as_slice(), f.as_slice()))
+            .collect();
         let ids: Vec<f64> = (0..refs.len()).map(|i| i as f64).collect();
-        shared::vtk::write_polyhedra(&self.path.join("blocks_00000.vtp"), &refs, &[("block", &ids)])
+        shared::vtk::write_polyhedra(
+            &self.path.join("blocks_00000.vtp"),
+            &refs,
+            &[("block", &ids)],
+        )
     }
 
     /// Records frame `frame` (written by the nodes) and rewrites the .pvd series, so a run that
     /// stops early still opens in ParaView.
     pub fn add_frame(&mut self, frame: u32, time: f64, roles: &[Role]) -> io::Result<()> {
         if roles.contains(&Role::Fluid) {
-            self.particles.push((time, format!("particles_{frame:05}.vtp")));
+            self.particles
+                .push((time, format!("particles_{frame:05}.vtp")));
             shared::vtk::write_pvd(&self.path.join("particles.pvd"), &self.particles)?;
         }
         if roles.contains(&Role::Solid) {
@@ -125,7 +156,15 @@ pub struct Summary {
 
 impl Summary {
     /// Builds the summary of a finished (or failed) run from its stats and files.
-    pub fn gather(dir: &RunDir, scene: &Scene, id: &str, stats: &RunStats, outcome: &Result<(), RunError>, solvers: (Option<String>, Option<String>), scheme: String) -> Summary {
+    pub fn gather(
+        dir: &RunDir,
+        scene: &Scene,
+        id: &str,
+        stats: &RunStats,
+        outcome: &Result<(), RunError>,
+        scheme: String,
+    ) -> Summary {
+        let solvers = (stats.fluid_solver.clone(), stats.solid_solver.clone());
         let status = match outcome {
             Ok(()) => "completed",
             Err(RunError::Interrupted { .. }) => "interrupted",
@@ -160,33 +199,59 @@ impl Summary {
 fn read_csv(path: &Path) -> Option<(Vec<String>, Vec<Vec<String>>)> {
     let text = std::fs::read_to_string(path).ok()?;
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-    let header: Vec<String> = lines.next()?.split(',').map(|s| s.trim().to_string()).collect();
-    let rows = lines.map(|l| l.split(',').map(|s| s.trim().to_string()).collect()).collect();
+    let header: Vec<String> = lines
+        .next()?
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|s| s.trim().to_string()).collect())
+        .collect();
     Some((header, rows))
 }
 
 fn gauge_summaries(path: &Path) -> BTreeMap<String, GaugeSummary> {
     let mut out = BTreeMap::new();
-    let Some((header, rows)) = read_csv(path) else { return out };
+    let Some((header, rows)) = read_csv(path) else {
+        return out;
+    };
     for (col, name) in header.iter().enumerate().skip(1) {
         let series: Vec<(f64, f64)> = rows
             .iter()
             .filter_map(|r| Some((r.first()?.parse().ok()?, r.get(col)?.parse().ok()?)))
             .filter(|(_, v): &(f64, f64)| v.is_finite())
             .collect();
-        let Some(&(_, initial)) = series.first() else { continue };
-        let (crest_time, crest) = series.iter().fold((0.0, f64::NEG_INFINITY), |a, &(t, v)| if v > a.1 { (t, v) } else { a });
+        let Some(&(_, initial)) = series.first() else {
+            continue;
+        };
+        let (crest_time, crest) =
+            series.iter().fold(
+                (0.0, f64::NEG_INFINITY),
+                |a, &(t, v)| if v > a.1 { (t, v) } else { a },
+            );
         let trough = series.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
-        out.insert(name.clone(), GaugeSummary { initial, max_crest: crest - initial, max_trough: initial - trough, crest_time });
+        out.insert(
+            name.clone(),
+            GaugeSummary {
+                initial,
+                max_crest: crest - initial,
+                max_trough: initial - trough,
+                crest_time,
+            },
+        );
     }
     out
 }
 
 fn final_positions(path: &Path) -> BTreeMap<String, [f64; 3]> {
     let mut out = BTreeMap::new();
-    let Some((header, rows)) = read_csv(path) else { return out };
+    let Some((header, rows)) = read_csv(path) else {
+        return out;
+    };
     let col = |name: &str| header.iter().position(|h| h == name);
-    let (Some(b), Some(x), Some(y), Some(z)) = (col("block"), col("x"), col("y"), col("z")) else { return out };
+    let (Some(b), Some(x), Some(y), Some(z)) = (col("block"), col("x"), col("y"), col("z")) else {
+        return out;
+    };
     for r in rows {
         let p = [x, y, z].map(|c| r.get(c).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN));
         if let Some(name) = r.get(b) {

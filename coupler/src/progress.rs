@@ -15,7 +15,10 @@ const TICKS_PER_SECOND: f64 = 1e6;
 impl Progress {
     pub fn new(enabled: bool, end_time: f64) -> Progress {
         let bar = enabled.then(|| {
-            let bar = ProgressBar::with_draw_target(Some((end_time * TICKS_PER_SECOND) as u64), ProgressDrawTarget::stderr());
+            let bar = ProgressBar::with_draw_target(
+                Some((end_time * TICKS_PER_SECOND) as u64),
+                ProgressDrawTarget::stderr(),
+            );
             bar.set_style(
                 ProgressStyle::with_template("{bar:30} t = {msg} ETA {eta}")
                     .expect("valid template")
@@ -23,7 +26,10 @@ impl Progress {
             );
             bar
         });
-        Progress { bar, started: Instant::now() }
+        Progress {
+            bar,
+            started: Instant::now(),
+        }
     }
 
     pub fn update(&self, time: f64, steps: u64) {

@@ -7,11 +7,11 @@
 
 use crate::launch::{NodeCommand, NodeProcess, describe_exit};
 use crate::output::RunDir;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
 use shared::protocol::*;
 use shared::scene::{Scene, Scheme};
 use shared::transport::{self, Ipc, Party, Pub, Run, RunId, Sub};
-use iceoryx2::port::listener::Listener;
-use iceoryx2::port::notifier::Notifier;
 use std::time::{Duration, Instant};
 
 /// One slice of blocking wait between liveness checks.
@@ -46,17 +46,45 @@ pub enum RunError {
     #[error("{0}")]
     Input(String),
     #[error("{node} went unstable at step {step}, t = {time:.6} s: {cause}")]
-    Unstable { node: String, step: u64, time: f64, cause: String },
+    Unstable {
+        node: String,
+        step: u64,
+        time: f64,
+        cause: String,
+    },
     #[error("{node} failed at step {step}, t = {time:.6} s: {cause}")]
-    Failed { node: String, step: u64, time: f64, cause: String },
+    Failed {
+        node: String,
+        step: u64,
+        time: f64,
+        cause: String,
+    },
     #[error("{node} died at step {step}, t = {time:.6} s: the process {how}")]
-    Died { node: String, step: u64, time: f64, how: String },
+    Died {
+        node: String,
+        step: u64,
+        time: f64,
+        how: String,
+    },
     #[error("{node} hung at step {step}, t = {time:.6} s: no answer within {waited:.1} s")]
-    Hung { node: String, step: u64, time: f64, waited: f64 },
+    Hung {
+        node: String,
+        step: u64,
+        time: f64,
+        waited: f64,
+    },
     #[error("start-up failed: {0}")]
     Handshake(String),
-    #[error("step collapsed at step {step}, t = {time:.6} s: {node} proposed dt = {dt:e} s, below dt_min = {dt_min:e} s")]
-    Collapsed { node: String, step: u64, time: f64, dt: f64, dt_min: f64 },
+    #[error(
+        "step collapsed at step {step}, t = {time:.6} s: {node} proposed dt = {dt:e} s, below dt_min = {dt_min:e} s"
+    )]
+    Collapsed {
+        node: String,
+        step: u64,
+        time: f64,
+        dt: f64,
+        dt_min: f64,
+    },
     #[error("interrupted at step {step}, t = {time:.6} s")]
     Interrupted { step: u64, time: f64 },
     #[error("transport: {0}")]
@@ -69,7 +97,10 @@ impl RunError {
         match self {
             RunError::Input(_) => 1,
             RunError::Unstable { .. } | RunError::Failed { .. } | RunError::Collapsed { .. } => 2,
-            RunError::Died { .. } | RunError::Hung { .. } | RunError::Handshake(_) | RunError::Transport(_) => 3,
+            RunError::Died { .. }
+            | RunError::Hung { .. }
+            | RunError::Handshake(_)
+            | RunError::Transport(_) => 3,
             RunError::Interrupted { .. } => 130,
         }
     }
@@ -102,6 +133,9 @@ pub struct RunStats {
     pub last_warning: Option<String>,
     /// Output frames written (including frame 0).
     pub frames: u32,
+    /// Solvers the nodes actually run (a node may be started with its own `--solver`).
+    pub fluid_solver: Option<String>,
+    pub solid_solver: Option<String>,
 }
 
 /// One node as the coupler sees it.
@@ -116,7 +150,12 @@ struct Peer {
 
 impl Peer {
     fn label(&self) -> String {
-        format!("{} node ({}, pid {})", self.role.name(), self.solver, self.pid)
+        format!(
+            "{} node ({}, pid {})",
+            self.role.name(),
+            self.solver,
+            self.pid
+        )
     }
 }
 
@@ -141,10 +180,28 @@ impl Session {
     /// Opens the run's services. Nodes are started by [`Session::start`].
     pub fn open(opts: RunOptions) -> Result<Session, RunError> {
         let run = Run::join(&opts.run_id, "coupler")?;
-        let hello_in = run.hello()?.subscriber_builder().create().map_err(iox("hello subscriber"))?;
-        let status_in = run.status()?.subscriber_builder().create().map_err(iox("status subscriber"))?;
-        let setup_out = run.setup()?.publisher_builder().initial_max_slice_len(1 << 16).allocation_strategy(iceoryx2::prelude::AllocationStrategy::PowerOfTwo).create().map_err(iox("setup publisher"))?;
-        let command_out = run.command()?.publisher_builder().create().map_err(iox("command publisher"))?;
+        let hello_in = run
+            .hello()?
+            .subscriber_builder()
+            .create()
+            .map_err(iox("hello subscriber"))?;
+        let status_in = run
+            .status()?
+            .subscriber_builder()
+            .create()
+            .map_err(iox("status subscriber"))?;
+        let setup_out = run
+            .setup()?
+            .publisher_builder()
+            .initial_max_slice_len(1 << 16)
+            .allocation_strategy(iceoryx2::prelude::AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(iox("setup publisher"))?;
+        let command_out = run
+            .command()?
+            .publisher_builder()
+            .create()
+            .map_err(iox("command publisher"))?;
         let listener = run.listener(Party::Coupler)?;
         let fluid_bell = run.notifier(Party::Fluid)?;
         let solid_bell = run.notifier(Party::Solid)?;
@@ -170,11 +227,18 @@ impl Session {
     }
 
     fn fluid_solver(&self) -> String {
-        self.opts.fluid_solver.clone().or_else(|| self.opts.scene.fluid.as_ref().map(|f| f.solver.clone())).unwrap_or_default()
+        self.opts
+            .fluid_solver
+            .clone()
+            .or_else(|| self.opts.scene.fluid.as_ref().map(|f| f.solver.clone()))
+            .unwrap_or_default()
     }
 
     fn solid_solver(&self) -> String {
-        self.opts.solid_solver.clone().unwrap_or_else(|| self.opts.scene.solid.solver.clone())
+        self.opts
+            .solid_solver
+            .clone()
+            .unwrap_or_else(|| self.opts.scene.solid.solver.clone())
     }
 
     /// The roles this scene needs: no water, no fluid node; nothing moving, no solid node.
@@ -214,16 +278,26 @@ impl Session {
     pub fn start(&mut self, dir: &mut RunDir) -> Result<(), RunError> {
         let roles = Session::roles(&self.opts.scene);
         if roles.is_empty() {
-            return Err(RunError::Input("the scene has neither water nor moving blocks: nothing to simulate".into()));
+            return Err(RunError::Input(
+                "the scene has neither water nor moving blocks: nothing to simulate".into(),
+            ));
         }
         let mut processes = Vec::new();
         if !self.opts.attach {
             for &role in &roles {
-                let cmd = if role == Role::Fluid { &self.opts.fluid_cmd } else { &self.opts.solid_cmd };
-                processes.push(NodeProcess::spawn(cmd, &self.opts.run_id).map_err(RunError::Input)?);
+                let cmd = if role == Role::Fluid {
+                    &self.opts.fluid_cmd
+                } else {
+                    &self.opts.solid_cmd
+                };
+                processes
+                    .push(NodeProcess::spawn(cmd, &self.opts.run_id).map_err(RunError::Input)?);
             }
         } else {
-            eprintln!("coupler: waiting for nodes of run {id}; start them with:", id = self.opts.run_id);
+            eprintln!(
+                "coupler: waiting for nodes of run {id}; start them with:",
+                id = self.opts.run_id
+            );
             for &role in &roles {
                 eprintln!("  {}-node --prefix {}", role.name(), self.opts.run_id);
             }
@@ -231,7 +305,8 @@ impl Session {
         self.handshake(&roles, processes)?;
 
         let setup = Setup {
-            scene: self.opts.scene.clone(),
+            scene_toml: toml::to_string(&self.opts.scene)
+                .map_err(|e| RunError::Input(format!("cannot serialise the scene: {e}")))?,
             run_dir: dir.path().to_path_buf(),
             scheme: self.scheme(),
             fluid_present: roles.contains(&Role::Fluid),
@@ -241,15 +316,25 @@ impl Session {
             coupler_pid: std::process::id(),
         };
         let bytes = setup.encode();
-        let mut sample = self.setup_out.loan_slice_uninit(bytes.len()).map_err(iox("loan setup"))?;
-        *sample.user_header_mut() = SetupHeader { protocol_version: PROTOCOL_VERSION, payload_len: bytes.len() as u32 };
+        let mut sample = self
+            .setup_out
+            .loan_slice_uninit(bytes.len())
+            .map_err(iox("loan setup"))?;
+        *sample.user_header_mut() = SetupHeader {
+            protocol_version: PROTOCOL_VERSION,
+            payload_len: bytes.len() as u32,
+        };
         let sample = sample.write_from_slice(&bytes);
         sample.send().map_err(iox("send setup"))?;
         self.ring();
         self.collect_statuses(0, self.opts.connect_timeout)?;
         if self.opts.scene.output.vtk {
-            dir.add_frame(0, 0.0, &self.peers.iter().map(|p| p.role).collect::<Vec<_>>())
-                .map_err(|e| RunError::Input(format!("cannot write to the run directory: {e}")))?;
+            dir.add_frame(
+                0,
+                0.0,
+                &self.peers.iter().map(|p| p.role).collect::<Vec<_>>(),
+            )
+            .map_err(|e| RunError::Input(format!("cannot write to the run directory: {e}")))?;
             self.stats.frames = 1;
         }
         Ok(())
@@ -261,19 +346,32 @@ impl Session {
     }
 
     /// Waits for a hello from each role; checks protocol versions.
-    fn handshake(&mut self, roles: &[Role], mut processes: Vec<NodeProcess>) -> Result<(), RunError> {
+    fn handshake(
+        &mut self,
+        roles: &[Role],
+        mut processes: Vec<NodeProcess>,
+    ) -> Result<(), RunError> {
         let started = Instant::now();
         while self.peers.len() < roles.len() {
             while let Some(sample) = self.hello_in.receive().map_err(iox("receive hello"))? {
                 let hello = *sample.payload();
                 let Some(role) = Role::from_u32(hello.role).filter(|r| roles.contains(r)) else {
-                    return Err(RunError::Handshake(format!("a node with unknown role {} said hello", hello.role)));
+                    return Err(RunError::Handshake(format!(
+                        "a node with unknown role {} said hello",
+                        hello.role
+                    )));
                 };
                 if self.peers.iter().any(|p| p.role == role) {
                     continue; // a repeated hello
                 }
-                let process = processes.iter().position(|p| p.role == role).map(|i| processes.swap_remove(i));
-                let program = process.as_ref().map(|p| p.program.display().to_string()).unwrap_or_else(|| format!("pid {}", hello.pid));
+                let process = processes
+                    .iter()
+                    .position(|p| p.role == role)
+                    .map(|i| processes.swap_remove(i));
+                let program = process
+                    .as_ref()
+                    .map(|p| p.program.display().to_string())
+                    .unwrap_or_else(|| format!("pid {}", hello.pid));
                 if hello.protocol_version != PROTOCOL_VERSION {
                     return Err(RunError::Handshake(format!(
                         "the {} node '{program}' speaks protocol version {}, this coupler version {PROTOCOL_VERSION}. \
@@ -282,8 +380,24 @@ impl Session {
                         hello.protocol_version
                     )));
                 }
-                let solver = if role == Role::Fluid { self.fluid_solver() } else { self.solid_solver() };
-                self.peers.push(Peer { role, solver, pid: hello.pid, process, proposal: f64::INFINITY, answered: false });
+                // A node started with its own --solver runs that one.
+                let solver = match hello.solver.as_str() {
+                    "" if role == Role::Fluid => self.fluid_solver(),
+                    "" => self.solid_solver(),
+                    own => own.to_string(),
+                };
+                match role {
+                    Role::Fluid => self.stats.fluid_solver = Some(solver.clone()),
+                    Role::Solid => self.stats.solid_solver = Some(solver.clone()),
+                }
+                self.peers.push(Peer {
+                    role,
+                    solver,
+                    pid: hello.pid,
+                    process,
+                    proposal: f64::INFINITY,
+                    answered: false,
+                });
             }
             if self.peers.len() == roles.len() {
                 break;
@@ -302,8 +416,11 @@ impl Session {
                 return Err(RunError::Interrupted { step: 0, time: 0.0 });
             }
             if started.elapsed() > self.opts.connect_timeout {
-                let missing: Vec<&str> =
-                    roles.iter().filter(|r| !self.peers.iter().any(|p| p.role == **r)).map(|r| r.name()).collect();
+                let missing: Vec<&str> = roles
+                    .iter()
+                    .filter(|r| !self.peers.iter().any(|p| p.role == **r))
+                    .map(|r| r.name())
+                    .collect();
                 return Err(RunError::Handshake(format!(
                     "no hello from the {} node(s) within {:.0} s",
                     missing.join(" and "),
@@ -324,7 +441,9 @@ impl Session {
         loop {
             while let Some(sample) = self.status_in.receive().map_err(iox("receive status"))? {
                 let s = *sample.payload();
-                let Some(peer) = self.peers.iter_mut().find(|p| p.role as u32 == s.role) else { continue };
+                let Some(peer) = self.peers.iter_mut().find(|p| p.role as u32 == s.role) else {
+                    continue;
+                };
                 let node = peer.label();
                 match StatusCode::from_u32(s.code) {
                     StatusCode::Ok | StatusCode::Warning | StatusCode::Stopped => {
@@ -339,7 +458,11 @@ impl Session {
                         }
                         if StatusCode::from_u32(s.code) == StatusCode::Warning {
                             self.stats.warnings += 1;
-                            let msg = format!("{node}: warning at step {step}, t = {:.6} s: {}", s.time, s.message.as_str());
+                            let msg = format!(
+                                "{node}: warning at step {step}, t = {:.6} s: {}",
+                                s.time,
+                                s.message.as_str()
+                            );
                             if self.stats.warnings == 1 || self.stats.warnings.is_power_of_two() {
                                 eprintln!("coupler: {msg} (warning #{})", self.stats.warnings);
                             }
@@ -347,10 +470,20 @@ impl Session {
                         }
                     }
                     StatusCode::Unstable => {
-                        return Err(RunError::Unstable { node, step: s.step, time: s.time, cause: s.message.as_str().into() });
+                        return Err(RunError::Unstable {
+                            node,
+                            step: s.step,
+                            time: s.time,
+                            cause: s.message.as_str().into(),
+                        });
                     }
                     StatusCode::Failed => {
-                        return Err(RunError::Failed { node, step: s.step, time: s.time, cause: s.message.as_str().into() });
+                        return Err(RunError::Failed {
+                            node,
+                            step: s.step,
+                            time: s.time,
+                            cause: s.message.as_str().into(),
+                        });
                     }
                 }
             }
@@ -359,11 +492,23 @@ impl Session {
             }
             self.check_peers(step)?;
             if self.run.termination_requested() {
-                return Err(RunError::Interrupted { step, time: self.time });
+                return Err(RunError::Interrupted {
+                    step,
+                    time: self.time,
+                });
             }
             if sent.elapsed() > timeout {
-                let p = self.peers.iter().find(|p| !p.answered).expect("someone has not answered");
-                return Err(RunError::Hung { node: p.label(), step, time: self.time, waited: sent.elapsed().as_secs_f64() });
+                let p = self
+                    .peers
+                    .iter()
+                    .find(|p| !p.answered)
+                    .expect("someone has not answered");
+                return Err(RunError::Hung {
+                    node: p.label(),
+                    step,
+                    time: self.time,
+                    waited: sent.elapsed().as_secs_f64(),
+                });
             }
             transport::wait(&self.listener, SLICE)?;
         }
@@ -374,10 +519,17 @@ impl Session {
         for p in self.peers.iter_mut() {
             let how = match p.process.as_mut() {
                 Some(proc_) => proc_.exited().map(describe_exit),
-                None => (!transport::process_alive(p.pid)).then(|| "is no longer running".to_string()),
+                None => {
+                    (!transport::process_alive(p.pid)).then(|| "is no longer running".to_string())
+                }
             };
             if let Some(how) = how {
-                return Err(RunError::Died { node: p.label(), step, time: self.time, how });
+                return Err(RunError::Died {
+                    node: p.label(),
+                    step,
+                    time: self.time,
+                    how,
+                });
             }
         }
         Ok(())
@@ -402,9 +554,17 @@ impl Session {
                 .peers
                 .iter()
                 .map(|p| (p.label(), p.proposal))
-                .fold((String::from("dt_max"), dt_max), |a, b| if b.1 < a.1 { b } else { a });
-            if !(proposal >= dt_min) {
-                return Err(RunError::Collapsed { node: limiting, step: self.step, time: self.time, dt: proposal, dt_min });
+                .fold((String::from("dt_max"), dt_max), |a, b| {
+                    if b.1 < a.1 { b } else { a }
+                });
+            if proposal.is_nan() || proposal < dt_min {
+                return Err(RunError::Collapsed {
+                    node: limiting,
+                    step: self.step,
+                    time: self.time,
+                    dt: proposal,
+                    dt_min,
+                });
             }
             let mut dt = proposal * self.opts.dt_factor;
             // Land exactly on the next output time; split the last two steps evenly rather
@@ -420,9 +580,22 @@ impl Session {
                 }
                 false
             };
-            let output_frame = if lands && self.opts.scene.output.vtk && (next_output <= end + tol) { frame as i32 } else { -1 };
-            let cmd = Command { kind: CommandKind::Advance as u32, output_frame, step: self.step, time: self.time, dt };
-            self.command_out.send_copy(cmd).map_err(iox("send command"))?;
+            let output_frame = if lands && self.opts.scene.output.vtk && (next_output <= end + tol)
+            {
+                frame as i32
+            } else {
+                -1
+            };
+            let cmd = Command {
+                kind: CommandKind::Advance as u32,
+                output_frame,
+                step: self.step,
+                time: self.time,
+                dt,
+            };
+            self.command_out
+                .send_copy(cmd)
+                .map_err(iox("send command"))?;
             self.ring();
             self.collect_statuses(self.step, self.opts.step_timeout)?;
 
@@ -434,8 +607,9 @@ impl Session {
             self.stats.time = self.time;
             if lands {
                 if output_frame >= 0 {
-                    dir.add_frame(frame, self.time, &roles)
-                        .map_err(|e| RunError::Input(format!("cannot write to the run directory: {e}")))?;
+                    dir.add_frame(frame, self.time, &roles).map_err(|e| {
+                        RunError::Input(format!("cannot write to the run directory: {e}"))
+                    })?;
                     self.stats.frames = frame + 1;
                     frame += 1;
                 }
@@ -450,7 +624,13 @@ impl Session {
     /// Ends the run: asks the nodes to stop (they flush their files), then makes sure every
     /// process is gone. Returns the run's outcome.
     fn stop(&mut self, outcome: Result<(), RunError>) -> Result<(), RunError> {
-        let cmd = Command { kind: CommandKind::Stop as u32, output_frame: -1, step: self.step, time: self.time, dt: 0.0 };
+        let cmd = Command {
+            kind: CommandKind::Stop as u32,
+            output_frame: -1,
+            step: self.step,
+            time: self.time,
+            dt: 0.0,
+        };
         let _ = self.command_out.send_copy(cmd);
         self.ring();
         let stopped = if outcome.is_ok() {
@@ -460,10 +640,10 @@ impl Session {
             Ok(())
         };
         for p in self.peers.iter_mut() {
-            if let Some(proc_) = p.process.as_mut() {
-                if proc_.wait_exit(Duration::from_secs(1)).is_none() {
-                    proc_.terminate(Duration::from_secs(1));
-                }
+            if let Some(proc_) = p.process.as_mut()
+                && proc_.wait_exit(Duration::from_secs(1)).is_none()
+            {
+                proc_.terminate(Duration::from_secs(1));
             }
         }
         outcome.and(stopped)

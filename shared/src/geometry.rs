@@ -46,14 +46,17 @@ pub struct GeometryError {
 }
 
 fn err(problem: impl Into<String>, fix: impl Into<String>) -> GeometryError {
-    GeometryError { problem: problem.into(), fix: fix.into() }
+    GeometryError {
+        problem: problem.into(),
+        fix: fix.into(),
+    }
 }
 
 /// The corner points of a scene shape, in world coordinates.
 pub fn shape_points(shape: &ShapeSpec) -> Result<Vec<Point>, GeometryError> {
     match shape {
         ShapeSpec::Box { min, max } => {
-            if (0..3).any(|k| !(max[k] > min[k])) {
+            if (0..3).any(|k| max[k].partial_cmp(&min[k]) != Some(std::cmp::Ordering::Greater)) {
                 return Err(err(
                     format!("box max {max:?} is not above min {min:?} on every axis"),
                     "make max[k] > min[k] for x, y and z",
@@ -69,22 +72,35 @@ pub fn shape_points(shape: &ShapeSpec) -> Result<Vec<Point>, GeometryError> {
             }
             Ok(p)
         }
-        ShapeSpec::Prism { axis, profile, extent } => {
+        ShapeSpec::Prism {
+            axis,
+            profile,
+            extent,
+        } => {
             if profile.len() < 3 {
                 return Err(err(
-                    format!("a prism profile needs at least 3 points, got {}", profile.len()),
+                    format!(
+                        "a prism profile needs at least 3 points, got {}",
+                        profile.len()
+                    ),
                     "give the cross-section as 3 or more [a, b] points",
                 ));
             }
-            if !(extent[1] > extent[0]) {
-                return Err(err(format!("prism extent {extent:?} is empty"), "give extent = [from, to] with to > from"));
+            if extent[1].partial_cmp(&extent[0]) != Some(std::cmp::Ordering::Greater) {
+                return Err(err(
+                    format!("prism extent {extent:?} is empty"),
+                    "give extent = [from, to] with to > from",
+                ));
             }
             let place = |a: f64, b: f64, c: f64| match axis {
                 Axis::X => Point::new(c, a, b),
                 Axis::Y => Point::new(a, c, b),
                 Axis::Z => Point::new(a, b, c),
             };
-            Ok(extent.iter().flat_map(|&c| profile.iter().map(move |q| place(q[0], q[1], c))).collect())
+            Ok(extent
+                .iter()
+                .flat_map(|&c| profile.iter().map(move |q| place(q[0], q[1], c)))
+                .collect())
         }
         ShapeSpec::Convex { vertices } => Ok(vertices.iter().map(|v| Point::from(*v)).collect()),
     }
@@ -99,28 +115,45 @@ impl Polyhedron {
     /// Builds the convex polyhedron whose corners are exactly `points` (world frame).
     pub fn from_points(points: &[Point]) -> Result<Polyhedron, GeometryError> {
         if points.len() < 4 {
-            return Err(err(format!("{} vertices cannot enclose a volume", points.len()), "give at least 4 corners"));
+            return Err(err(
+                format!("{} vertices cannot enclose a volume", points.len()),
+                "give at least 4 corners",
+            ));
         }
-        if let Some(p) = points.iter().find(|p| !p.coords.iter().all(|x| x.is_finite())) {
-            return Err(err(format!("vertex {p} is not finite"), "give finite coordinates"));
+        if let Some(p) = points
+            .iter()
+            .find(|p| !p.coords.iter().all(|x| x.is_finite()))
+        {
+            return Err(err(
+                format!("vertex {p} is not finite"),
+                "give finite coordinates",
+            ));
         }
         let (lo, hi) = aabb(points);
         let scale = (hi - lo).norm();
         let tol = 1e-9 * scale;
         for (i, a) in points.iter().enumerate() {
             if let Some(j) = points[..i].iter().position(|b| (a - b).norm() <= tol) {
-                return Err(err(format!("vertices {j} and {i} coincide at {a}"), "remove the duplicate vertex"));
+                return Err(err(
+                    format!("vertices {j} and {i} coincide at {a}"),
+                    "remove the duplicate vertex",
+                ));
             }
         }
         let hull = ConvexPolyhedron::from_convex_hull(points).ok_or_else(|| {
-            err("the vertices are degenerate (coplanar or collinear): they enclose no volume", "give corners that span 3D")
+            err(
+                "the vertices are degenerate (coplanar or collinear): they enclose no volume",
+                "give corners that span 3D",
+            )
         })?;
         // Every given vertex must be a corner of the hull: a vertex inside the hull (or on a face)
         // means the shape the user meant is not convex.
         for (i, p) in points.iter().enumerate() {
             if !hull.points().iter().any(|q| (p - q).norm() <= tol * 10.0) {
                 return Err(err(
-                    format!("vertex {i} at {p} is not a corner of the convex hull: the shape is not convex"),
+                    format!(
+                        "vertex {i} at {p} is not a corner of the convex hull: the shape is not convex"
+                    ),
                     "blocks are convex polyhedra; split a concave shape into convex blocks",
                 ));
             }
@@ -129,11 +162,18 @@ impl Polyhedron {
         let (tri_points, tris) = hull.to_trimesh();
         let mp = MassProperties::from_convex_polyhedron(1.0, &tri_points, &tris);
         let volume = mp.mass();
-        if !(volume > 1e-12 * scale.powi(3)) {
-            return Err(err(format!("the shape has no volume ({volume:e} m³)"), "give corners that span 3D"));
+        if volume.is_nan() || volume <= 1e-12 * scale.powi(3) {
+            return Err(err(
+                format!("the shape has no volume ({volume:e} m³)"),
+                "give corners that span 3D",
+            ));
         }
         let centroid = mp.local_com;
-        let vertices: Vec<Point> = hull.points().iter().map(|p| Point::from(p - centroid)).collect();
+        let vertices: Vec<Point> = hull
+            .points()
+            .iter()
+            .map(|p| Point::from(p - centroid))
+            .collect();
 
         let adj = hull.vertices_adj_to_face();
         let faces: Vec<Face> = hull
@@ -144,7 +184,11 @@ impl Polyhedron {
                 let ids: Vec<u32> = adj[first..first + f.num_vertices_or_edges as usize].to_vec();
                 let normal = f.normal.into_inner();
                 let offset = normal.dot(&vertices[ids[0] as usize].coords);
-                Face { vertices: ids, normal, offset }
+                Face {
+                    vertices: ids,
+                    normal,
+                    offset,
+                }
             })
             .collect();
         // Edges from the merged polygonal faces (parry keeps the diagonals of merged triangles
@@ -160,7 +204,10 @@ impl Polyhedron {
                 }
             }
         }
-        let radius = vertices.iter().map(|v| v.coords.norm()).fold(0.0, Real::max);
+        let radius = vertices
+            .iter()
+            .map(|v| v.coords.norm())
+            .fold(0.0, Real::max);
         Ok(Polyhedron {
             vertices,
             faces,
@@ -174,7 +221,11 @@ impl Polyhedron {
 
     /// Axis-aligned bounds at the scene (t = 0) pose.
     pub fn world_aabb(&self) -> (Point, Point) {
-        let world: Vec<Point> = self.vertices.iter().map(|v| v + self.centroid.coords).collect();
+        let world: Vec<Point> = self
+            .vertices
+            .iter()
+            .map(|v| v + self.centroid.coords)
+            .collect();
         aabb(&world)
     }
 
@@ -209,7 +260,11 @@ mod tests {
 
     #[test]
     fn box_mass_properties() {
-        let b = Polyhedron::from_shape(&ShapeSpec::Box { min: [0.0, 0.0, 0.0], max: [2.0, 1.0, 0.5] }).unwrap();
+        let b = Polyhedron::from_shape(&ShapeSpec::Box {
+            min: [0.0, 0.0, 0.0],
+            max: [2.0, 1.0, 0.5],
+        })
+        .unwrap();
         assert!((b.volume - 1.0).abs() < 1e-12);
         assert!((b.centroid - Point::new(1.0, 0.5, 0.25)).norm() < 1e-12);
         // I_xx = m (b² + c²)/12 for a box of sides a, b, c.
@@ -220,12 +275,20 @@ mod tests {
         assert!(i[(0, 1)].abs() < 1e-12);
         assert_eq!(b.faces.len(), 6);
         assert_eq!(b.edges.len(), 12);
-        assert!(b.faces.iter().all(|f| f.vertices.len() == 4 && f.offset > 0.0));
+        assert!(
+            b.faces
+                .iter()
+                .all(|f| f.vertices.len() == 4 && f.offset > 0.0)
+        );
     }
 
     #[test]
     fn wedge_prism() {
-        let shape = ShapeSpec::Prism { axis: Axis::Y, profile: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], extent: [0.0, 2.0] };
+        let shape = ShapeSpec::Prism {
+            axis: Axis::Y,
+            profile: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+            extent: [0.0, 2.0],
+        };
         let w = Polyhedron::from_shape(&shape).unwrap();
         assert!((w.volume - 1.0).abs() < 1e-12);
         assert!((w.centroid - Point::new(1.0 / 3.0, 1.0, 1.0 / 3.0)).norm() < 1e-12);
@@ -241,14 +304,25 @@ mod tests {
         assert!(e.problem.contains("not convex"), "{e}");
         let flat = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]];
         let e = Polyhedron::from_shape(&ShapeSpec::Convex { vertices: flat }).unwrap_err();
-        assert!(e.problem.contains("degenerate") || e.problem.contains("volume"), "{e}");
-        let e = Polyhedron::from_shape(&ShapeSpec::Box { min: [0.0; 3], max: [1.0, 0.0, 1.0] }).unwrap_err();
+        assert!(
+            e.problem.contains("degenerate") || e.problem.contains("volume"),
+            "{e}"
+        );
+        let e = Polyhedron::from_shape(&ShapeSpec::Box {
+            min: [0.0; 3],
+            max: [1.0, 0.0, 1.0],
+        })
+        .unwrap_err();
         assert!(e.problem.contains("not above"), "{e}");
     }
 
     #[test]
     fn plane_distance_signs() {
-        let b = Polyhedron::from_shape(&ShapeSpec::Box { min: [-1.0; 3], max: [1.0; 3] }).unwrap();
+        let b = Polyhedron::from_shape(&ShapeSpec::Box {
+            min: [-1.0; 3],
+            max: [1.0; 3],
+        })
+        .unwrap();
         let (d, _) = b.plane_distance(&Point::new(0.0, 0.0, 0.5));
         assert!((d + 0.5).abs() < 1e-12);
         let (d, f) = b.plane_distance(&Point::new(0.0, 0.0, 1.25));

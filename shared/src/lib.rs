@@ -11,8 +11,8 @@
 pub mod geometry;
 pub mod math;
 pub mod protocol;
+pub mod runtime;
 pub mod scene;
 pub mod solver;
 pub mod transport;
 pub mod vtk;
-pub mod runtime;

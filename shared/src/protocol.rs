@@ -50,7 +50,10 @@ impl<const N: usize> Text<N> {
         }
         let mut bytes = [0u8; N];
         bytes[..end].copy_from_slice(&s.as_bytes()[..end]);
-        Self { len: end as u32, bytes }
+        Self {
+            len: end as u32,
+            bytes,
+        }
     }
     pub fn as_str(&self) -> &str {
         let n = (self.len as usize).min(N);
@@ -92,7 +95,9 @@ pub struct SetupHeader {
 /// What a node needs to start, sent once after the handshake (bincode, variable size).
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Setup {
-    pub scene: crate::scene::Scene,
+    /// The scene as run, as TOML text: the scene's tagged enums need a self-describing format,
+    /// which bincode is not. Parsed (and validated again) by [`Setup::scene`].
+    pub scene_toml: String,
     /// Directory the node writes its output files into.
     pub run_dir: std::path::PathBuf,
     pub scheme: crate::scene::Scheme,
@@ -108,9 +113,14 @@ pub struct Setup {
 }
 
 impl Setup {
+    /// The scene of this run.
+    pub fn scene(&self) -> Result<crate::scene::Scene, String> {
+        crate::scene::Scene::parse(&self.scene_toml, "setup message").map_err(|e| e.to_string())
+    }
     /// Encodes for the setup message (bincode, standard configuration).
     pub fn encode(&self) -> Vec<u8> {
-        bincode::serde::encode_to_vec(self, bincode::config::standard()).expect("a setup always encodes")
+        bincode::serde::encode_to_vec(self, bincode::config::standard())
+            .expect("a setup always encodes")
     }
     /// Decodes a setup message.
     pub fn decode(bytes: &[u8]) -> Result<Setup, String> {

@@ -45,7 +45,9 @@ pub mod exit {
 
 /// Command line shared by every node binary.
 #[derive(Debug, Parser)]
-#[command(about = "A rockwave solver node. Normally started by `coupler run`; start it by hand with the run id the coupler prints.")]
+#[command(
+    about = "A rockwave solver node. Normally started by `coupler run`; start it by hand with the run id the coupler prints."
+)]
 struct NodeArgs {
     /// Solver to run (overrides the scene's choice).
     #[arg(long)]
@@ -172,30 +174,76 @@ struct Node<'a> {
     setup: Setup,
     side: Side,
     n_moving: usize,
+    write_vtk: bool,
     hang_after: Option<u64>,
 }
 
-fn serve(role: Role, solvers: &[&str], factory: &Factory, args: &NodeArgs, id: &RunId) -> Result<u8, Fatal> {
+fn serve(
+    role: Role,
+    solvers: &[&str],
+    factory: &Factory,
+    args: &NodeArgs,
+    id: &RunId,
+) -> Result<u8, Fatal> {
     let who = format!("{}-node", role.name());
     let run = Run::join(id, &who)?;
-    let me = if role == Role::Fluid { Party::Fluid } else { Party::Solid };
-    let peer = if role == Role::Fluid { Party::Solid } else { Party::Fluid };
+    let me = if role == Role::Fluid {
+        Party::Fluid
+    } else {
+        Party::Solid
+    };
+    let peer = if role == Role::Fluid {
+        Party::Solid
+    } else {
+        Party::Fluid
+    };
 
     // Every subscriber exists before the hello goes out, so nothing sent to us is lost.
-    let setup_in = run.setup()?.subscriber_builder().create().map_err(iox("setup subscriber"))?;
-    let command = run.command()?.subscriber_builder().create().map_err(iox("command subscriber"))?;
+    let setup_in = run
+        .setup()?
+        .subscriber_builder()
+        .create()
+        .map_err(iox("setup subscriber"))?;
+    let command = run
+        .command()?
+        .subscriber_builder()
+        .create()
+        .map_err(iox("command subscriber"))?;
     let (mut geometry_blocks_in, mut geometry_vertices_in, mut loads_in) = (None, None, None);
     if role == Role::Fluid {
-        geometry_blocks_in = Some(run.geometry_blocks()?.subscriber_builder().create().map_err(iox("geometry subscriber"))?);
-        geometry_vertices_in = Some(run.geometry_vertices()?.subscriber_builder().create().map_err(iox("vertex subscriber"))?);
+        geometry_blocks_in = Some(
+            run.geometry_blocks()?
+                .subscriber_builder()
+                .create()
+                .map_err(iox("geometry subscriber"))?,
+        );
+        geometry_vertices_in = Some(
+            run.geometry_vertices()?
+                .subscriber_builder()
+                .create()
+                .map_err(iox("vertex subscriber"))?,
+        );
     } else {
-        loads_in = Some(run.loads()?.subscriber_builder().create().map_err(iox("loads subscriber"))?);
+        loads_in = Some(
+            run.loads()?
+                .subscriber_builder()
+                .create()
+                .map_err(iox("loads subscriber"))?,
+        );
     }
     let listener = run.listener(me)?;
     let coupler_bell = run.notifier(Party::Coupler)?;
     let peer_bell = run.notifier(peer)?;
-    let hello_out = run.hello()?.publisher_builder().create().map_err(iox("hello publisher"))?;
-    let status = run.status()?.publisher_builder().create().map_err(iox("status publisher"))?;
+    let hello_out = run
+        .hello()?
+        .publisher_builder()
+        .create()
+        .map_err(iox("hello publisher"))?;
+    let status = run
+        .status()?
+        .publisher_builder()
+        .create()
+        .map_err(iox("status publisher"))?;
 
     let hello = Hello {
         protocol_version: args.fake_protocol_version.unwrap_or(PROTOCOL_VERSION),
@@ -253,16 +301,28 @@ fn serve(role: Role, solvers: &[&str], factory: &Factory, args: &NodeArgs, id: &
         peer_bell,
     };
 
-    // Build the solver; a failure is reported to the coupler, which names it.
-    let name = match role {
+    // Build the solver; a failure is reported to the coupler, which names it. A solver named
+    // on this node's own command line wins over the coupler's choice.
+    let name = args.solver.clone().unwrap_or_else(|| match role {
         Role::Fluid => setup.fluid_solver.clone(),
         Role::Solid => setup.solid_solver.clone(),
+    });
+    let scene = match setup.scene() {
+        Ok(scene) => scene,
+        Err(e) => {
+            report(&ports, role, StatusCode::Failed, 0, 0.0, 0.0, 0.0, &e)?;
+            return Ok(exit::SOLVER);
+        }
     };
     let ctx = SetupContext {
-        scene: &setup.scene,
+        scene: &scene,
         run_dir: &setup.run_dir,
         scheme: setup.scheme,
-        peer_present: if role == Role::Fluid { setup.solid_present } else { setup.fluid_present },
+        peer_present: if role == Role::Fluid {
+            setup.solid_present
+        } else {
+            setup.fluid_present
+        },
     };
     let built = if !solvers.contains(&name.as_str()) {
         Err(SolverError::Failed(format!(
@@ -279,12 +339,31 @@ fn serve(role: Role, solvers: &[&str], factory: &Factory, args: &NodeArgs, id: &
     let side = match built {
         Ok(side) => side,
         Err(e) => {
-            report(&ports, role, StatusCode::Failed, 0, 0.0, 0.0, 0.0, &format!("{e}"))?;
+            report(
+                &ports,
+                role,
+                StatusCode::Failed,
+                0,
+                0.0,
+                0.0,
+                0.0,
+                &format!("{e}"),
+            )?;
             return Ok(exit::SOLVER);
         }
     };
-    let n_moving = setup.scene.moving_blocks().len();
-    let mut node = Node { role, run: &run, ports, setup, side, n_moving, hang_after: args.hang_after_steps };
+    let n_moving = scene.moving_blocks().len();
+    let write_vtk = scene.output.vtk;
+    let mut node = Node {
+        role,
+        run: &run,
+        ports,
+        setup,
+        side,
+        n_moving,
+        write_vtk,
+        hang_after: args.hang_after_steps,
+    };
     node.serve()
 }
 
@@ -324,7 +403,9 @@ impl Node<'_> {
 
     /// Waits one slice, then checks the coupler and signals.
     fn wait_slice(&self) -> Result<(), Fatal> {
-        if transport::wait(&self.ports.listener, SLICE)? == Wake::Quiet && !transport::process_alive(self.setup.coupler_pid) {
+        if transport::wait(&self.ports.listener, SLICE)? == Wake::Quiet
+            && !transport::process_alive(self.setup.coupler_pid)
+        {
             return Err(Fatal::CouplerGone);
         }
         if self.run.termination_requested() {
@@ -345,13 +426,22 @@ impl Node<'_> {
         if let Err(e) = self.initial_exchange() {
             return self.fail(e, 0, 0.0);
         }
-        if self.setup.scene.output.vtk
+        if self.write_vtk
             && let Err(e) = self.side.solver().write_frame(0, 0.0)
         {
             return self.fail(e, 0, 0.0);
         }
         let dt = self.side.solver().dt_proposal();
-        report(&self.ports, self.role, StatusCode::Ok, 0, 0.0, dt, t0.elapsed().as_secs_f64(), "ready")?;
+        report(
+            &self.ports,
+            self.role,
+            StatusCode::Ok,
+            0,
+            0.0,
+            dt,
+            t0.elapsed().as_secs_f64(),
+            "ready",
+        )?;
 
         loop {
             let cmd = self.next_command()?;
@@ -360,7 +450,16 @@ impl Node<'_> {
                     if let Err(e) = self.side.solver().finish() {
                         return self.fail(e, cmd.step, cmd.time);
                     }
-                    report(&self.ports, self.role, StatusCode::Stopped, cmd.step, cmd.time, 0.0, 0.0, "stopped")?;
+                    report(
+                        &self.ports,
+                        self.role,
+                        StatusCode::Stopped,
+                        cmd.step,
+                        cmd.time,
+                        0.0,
+                        0.0,
+                        "stopped",
+                    )?;
                     return Ok(0);
                 }
                 k if k == CommandKind::Advance as u32 => {
@@ -380,14 +479,25 @@ impl Node<'_> {
                                 None => (StatusCode::Ok, ""),
                             };
                             let dt = self.side.solver().dt_proposal();
-                            report(&self.ports, self.role, code, cmd.step, cmd.time + cmd.dt, dt, compute, msg)?;
+                            report(
+                                &self.ports,
+                                self.role,
+                                code,
+                                cmd.step,
+                                cmd.time + cmd.dt,
+                                dt,
+                                compute,
+                                msg,
+                            )?;
                         }
                         Err(StepFailure::Solver(e)) => return self.fail(e, cmd.step, cmd.time),
                         Err(StepFailure::Fatal(f)) => return Err(f),
                     }
                 }
                 other => {
-                    return Err(Fatal::Transport(TransportError::Iceoryx(format!("unknown command kind {other}"))));
+                    return Err(Fatal::Transport(TransportError::Iceoryx(format!(
+                        "unknown command kind {other}"
+                    ))));
                 }
             }
         }
@@ -399,13 +509,27 @@ impl Node<'_> {
             SolverError::Failed(_) => StatusCode::Failed,
         };
         let name = self.side.solver().name().to_string();
-        report(&self.ports, self.role, code, step, time, 0.0, 0.0, &format!("[{name}] {e}"))?;
+        report(
+            &self.ports,
+            self.role,
+            code,
+            step,
+            time,
+            0.0,
+            0.0,
+            &format!("[{name}] {e}"),
+        )?;
         Ok(exit::SOLVER)
     }
 
     fn next_command(&self) -> Result<Command, Fatal> {
         loop {
-            if let Some(s) = self.ports.command.receive().map_err(iox("receive command"))? {
+            if let Some(s) = self
+                .ports
+                .command
+                .receive()
+                .map_err(iox("receive command"))?
+            {
                 return Ok(*s.payload());
             }
             self.wait_slice()?;
@@ -448,7 +572,9 @@ impl Node<'_> {
     }
 
     fn create_solid_publishers(&mut self) -> Result<(), Fatal> {
-        let Side::Solid(solver) = &self.side else { unreachable!() };
+        let Side::Solid(solver) = &self.side else {
+            unreachable!()
+        };
         let nv = solver.vertex_count().max(1);
         if self.setup.fluid_present {
             self.ports.geometry_blocks_out = Some(
@@ -491,7 +617,9 @@ impl Node<'_> {
                 } else {
                     // No solid node: only fixed walls, still computed through the same path.
                     let t = Instant::now();
-                    let Side::Fluid(f) = &mut self.side else { unreachable!() };
+                    let Side::Fluid(f) = &mut self.side else {
+                        unreachable!()
+                    };
                     f.write_loads(&mut []);
                     compute += t.elapsed();
                 }
@@ -515,7 +643,9 @@ impl Node<'_> {
         };
         if cmd.output_frame >= 0 {
             let t = Instant::now();
-            self.side.solver().write_frame(cmd.output_frame as u32, end)?;
+            self.side
+                .solver()
+                .write_frame(cmd.output_frame as u32, end)?;
             compute += t.elapsed();
         }
         Ok((report_, compute.as_secs_f64()))
@@ -523,12 +653,22 @@ impl Node<'_> {
 
     /// Waits for geometry message `tag` (both parts) and hands it to the fluid solver.
     fn receive_geometry(&mut self, tag: u64) -> Result<Duration, Fatal> {
-        let blocks_in = self.ports.geometry_blocks_in.as_ref().expect("fluid has geometry ports");
-        let vertices_in = self.ports.geometry_vertices_in.as_ref().expect("fluid has geometry ports");
+        let blocks_in = self
+            .ports
+            .geometry_blocks_in
+            .as_ref()
+            .expect("fluid has geometry ports");
+        let vertices_in = self
+            .ports
+            .geometry_vertices_in
+            .as_ref()
+            .expect("fluid has geometry ports");
         let blocks = self.receive_tagged(blocks_in, |h| h.step, tag)?;
         let vertices = self.receive_tagged(vertices_in, |h| h.step, tag)?;
         let t = Instant::now();
-        let Side::Fluid(f) = &mut self.side else { unreachable!() };
+        let Side::Fluid(f) = &mut self.side else {
+            unreachable!()
+        };
         // Zero copy: the solver reads straight from shared memory.
         f.read_geometry(blocks.payload(), vertices.payload());
         Ok(t.elapsed())
@@ -537,10 +677,16 @@ impl Node<'_> {
     /// Computes the coupling loads straight into a loaned shared-memory slice and sends them.
     fn send_loads(&mut self, tag: u64, time: f64) -> Result<Duration, Fatal> {
         let t = Instant::now();
-        let out = self.ports.loads_out.as_ref().expect("loads publisher exists when a solid runs");
+        let out = self
+            .ports
+            .loads_out
+            .as_ref()
+            .expect("loads publisher exists when a solid runs");
         let mut sample = out.loan_slice(self.n_moving).map_err(iox("loan loads"))?;
         *sample.user_header_mut() = LoadsHeader { step: tag, time };
-        let Side::Fluid(f) = &mut self.side else { unreachable!() };
+        let Side::Fluid(f) = &mut self.side else {
+            unreachable!()
+        };
         f.write_loads(sample.payload_mut());
         sample.send().map_err(iox("send loads"))?;
         self.ports.peer_bell.notify().map_err(iox("notify solid"))?;
@@ -549,10 +695,16 @@ impl Node<'_> {
 
     /// Waits for loads message `tag` and hands it to the solid solver.
     fn receive_loads(&mut self, tag: u64) -> Result<Duration, Fatal> {
-        let loads_in = self.ports.loads_in.as_ref().expect("solid has a loads port");
+        let loads_in = self
+            .ports
+            .loads_in
+            .as_ref()
+            .expect("solid has a loads port");
         let sample = self.receive_tagged(loads_in, |h| h.step, tag)?;
         let t = Instant::now();
-        let Side::Solid(s) = &mut self.side else { unreachable!() };
+        let Side::Solid(s) = &mut self.side else {
+            unreachable!()
+        };
         s.read_loads(sample.payload());
         Ok(t.elapsed())
     }
@@ -560,12 +712,29 @@ impl Node<'_> {
     /// Writes the solid's geometry straight into loaned shared memory and sends it.
     fn send_geometry(&mut self, tag: u64, time: f64) -> Result<Duration, Fatal> {
         let t = Instant::now();
-        let Side::Solid(s) = &self.side else { unreachable!() };
+        let Side::Solid(s) = &self.side else {
+            unreachable!()
+        };
         let nv = s.vertex_count();
-        let header = GeometryHeader { step: tag, time, vertex_count: nv as u32, _reserved: 0 };
-        let blocks_out = self.ports.geometry_blocks_out.as_ref().expect("geometry publisher exists when a fluid runs");
-        let vertices_out = self.ports.geometry_vertices_out.as_ref().expect("vertex publisher exists when a fluid runs");
-        let mut blocks = blocks_out.loan_slice(self.n_moving).map_err(iox("loan geometry"))?;
+        let header = GeometryHeader {
+            step: tag,
+            time,
+            vertex_count: nv as u32,
+            _reserved: 0,
+        };
+        let blocks_out = self
+            .ports
+            .geometry_blocks_out
+            .as_ref()
+            .expect("geometry publisher exists when a fluid runs");
+        let vertices_out = self
+            .ports
+            .geometry_vertices_out
+            .as_ref()
+            .expect("vertex publisher exists when a fluid runs");
+        let mut blocks = blocks_out
+            .loan_slice(self.n_moving)
+            .map_err(iox("loan geometry"))?;
         let mut vertices = vertices_out.loan_slice(nv).map_err(iox("loan vertices"))?;
         *blocks.user_header_mut() = header;
         *vertices.user_header_mut() = header;
@@ -579,7 +748,12 @@ impl Node<'_> {
     /// Blocks until a sample tagged `want` arrives on `sub`; older ones are dropped. If the
     /// peer died meanwhile, the coupler ends the run and terminates this node with SIGTERM,
     /// which ends the wait within one slice.
-    fn receive_tagged<E, H>(&self, sub: &Sub<[E], H>, tag: fn(&H) -> u64, want: u64) -> Result<Sample<Ipc, [E], H>, Fatal>
+    fn receive_tagged<E, H>(
+        &self,
+        sub: &Sub<[E], H>,
+        tag: fn(&H) -> u64,
+        want: u64,
+    ) -> Result<Sample<Ipc, [E], H>, Fatal>
     where
         E: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static,
         H: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static,

@@ -14,7 +14,7 @@
 use crate::protocol::{
     BlockLoad, BlockState, Command, GeometryHeader, Hello, LoadsHeader, SetupHeader, Status,
 };
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
@@ -68,8 +68,13 @@ impl RunId {
     pub fn parse(s: &str) -> Result<RunId, TransportError> {
         let ok = (1..=24).contains(&s.len())
             && s.starts_with(|c: char| c.is_ascii_lowercase())
-            && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit());
-        if ok { Ok(RunId(s.to_string())) } else { Err(TransportError::BadRunId(s.to_string())) }
+            && s.chars()
+                .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit());
+        if ok {
+            Ok(RunId(s.to_string()))
+        } else {
+            Err(TransportError::BadRunId(s.to_string()))
+        }
     }
 
     pub fn as_str(&self) -> &str {
@@ -142,12 +147,18 @@ macro_rules! pubsub {
 impl Run {
     /// Joins run `id` as an iceoryx2 node named `name`.
     pub fn join(id: &RunId, name: &str) -> Result<Run, TransportError> {
+        // iceoryx2 warns on stderr when it tidies up after a killed peer; our own messages
+        // name what happened, so only its errors are shown.
+        set_log_level(LogLevel::Error);
         let node = NodeBuilder::new()
             .config(&id.config())
             .name(&NodeName::new(name).map_err(iox("node name"))?)
             .create::<Ipc>()
             .map_err(iox("create node"))?;
-        Ok(Run { id: id.clone(), node })
+        Ok(Run {
+            id: id.clone(),
+            node,
+        })
     }
 
     fn name(&self, leaf: &str) -> Result<ServiceName, TransportError> {
@@ -202,12 +213,18 @@ impl Run {
 
     /// The bell `party` waits on; only that party creates a listener on it.
     pub fn listener(&self, party: Party) -> Result<Listener<Ipc>, TransportError> {
-        self.bell(party)?.listener_builder().create().map_err(iox("listener"))
+        self.bell(party)?
+            .listener_builder()
+            .create()
+            .map_err(iox("listener"))
     }
 
     /// A handle to ring `party`'s bell.
     pub fn notifier(&self, party: Party) -> Result<Notifier<Ipc>, TransportError> {
-        self.bell(party)?.notifier_builder().create().map_err(iox("notifier"))
+        self.bell(party)?
+            .notifier_builder()
+            .create()
+            .map_err(iox("notifier"))
     }
 }
 
@@ -222,9 +239,13 @@ pub enum Wake {
 
 /// Blocks on a listener for at most `slice`. Waiting is always in bounded slices so that the
 /// caller can check, between slices, that its peers are alive and no signal arrived.
+/// A signal interrupting the wait is not an error: the caller checks for termination next.
 pub fn wait(listener: &Listener<Ipc>, slice: Duration) -> Result<Wake, TransportError> {
-    let n = listener.timed_wait(|_| {}, slice).map_err(iox("wait"))?;
-    Ok(if n > 0 { Wake::Rung } else { Wake::Quiet })
+    match listener.timed_wait(|_| {}, slice) {
+        Ok(n) if n > 0 => Ok(Wake::Rung),
+        Ok(_) | Err(ListenerWaitError::InterruptSignal) => Ok(Wake::Quiet),
+        Err(e) => Err(TransportError::Iceoryx(format!("wait: {e:?}"))),
+    }
 }
 
 /// Is the process `pid` still alive (and not a zombie)?
@@ -260,7 +281,9 @@ pub fn remove_run_files(id: &RunId) -> usize {
 }
 
 fn remove_prefixed(dir: &Path, prefix: &str, depth: usize) -> usize {
-    let Ok(entries) = std::fs::read_dir(dir) else { return 0 };
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
     let mut removed = 0;
     for entry in entries.flatten() {
         let path = entry.path();
@@ -268,14 +291,21 @@ fn remove_prefixed(dir: &Path, prefix: &str, depth: usize) -> usize {
         let name = name.to_string_lossy();
         let is_dir = entry.file_type().is_ok_and(|t| t.is_dir());
         if name.starts_with(prefix) {
-            let ok = if is_dir { std::fs::remove_dir_all(&path) } else { std::fs::remove_file(&path) };
+            let ok = if is_dir {
+                std::fs::remove_dir_all(&path)
+            } else {
+                std::fs::remove_file(&path)
+            };
             removed += ok.is_ok() as usize;
         } else if is_dir && depth < 3 {
             let inner = remove_prefixed(&path, prefix, depth + 1);
             removed += inner;
             // A node's folder that held only this run's files is this run's too. A folder
             // that was empty already may be another run's node being created: leave it.
-            if inner > 0 && depth > 0 && std::fs::read_dir(&path).is_ok_and(|mut d| d.next().is_none()) {
+            if inner > 0
+                && depth > 0
+                && std::fs::read_dir(&path).is_ok_and(|mut d| d.next().is_none())
+            {
                 let _ = std::fs::remove_dir(&path);
             }
         }
@@ -286,10 +316,14 @@ fn remove_prefixed(dir: &Path, prefix: &str, depth: usize) -> usize {
 /// Run ids that have files in /dev/shm, with the age of their newest file.
 pub fn runs_with_files() -> Vec<(RunId, Duration)> {
     let mut found: Vec<(RunId, Duration)> = Vec::new();
-    let Ok(entries) = std::fs::read_dir(SHM_ROOT) else { return found };
+    let Ok(entries) = std::fs::read_dir(SHM_ROOT) else {
+        return found;
+    };
     for entry in entries.flatten() {
         let name = entry.file_name().to_string_lossy().to_string();
-        let Some((id, _)) = name.split_once('_') else { continue };
+        let Some((id, _)) = name.split_once('_') else {
+            continue;
+        };
         let Ok(id) = RunId::parse(id) else { continue };
         if !id.0.starts_with("rw") {
             continue;
@@ -334,7 +368,9 @@ pub fn remove_stale_runs(min_age: Duration) -> Vec<RunId> {
 /// The files of run `id` still present (for tests and `coupler clean --dry-run`).
 pub fn run_files(id: &RunId) -> Vec<PathBuf> {
     fn walk(dir: &Path, prefix: &str, out: &mut Vec<PathBuf>, depth: usize) {
-        let Ok(entries) = std::fs::read_dir(dir) else { return };
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
         for e in entries.flatten() {
             let p = e.path();
             if e.file_name().to_string_lossy().starts_with(prefix) {

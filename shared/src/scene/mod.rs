@@ -31,36 +31,51 @@ pub enum SceneError {
     Syntax { origin: String, message: String },
     /// The text parsed but some values are impossible.
     #[error("scene '{origin}' has {} invalid field(s):\n{}", errors.len(), render(errors))]
-    Invalid { origin: String, errors: Vec<FieldError> },
+    Invalid {
+        origin: String,
+        errors: Vec<FieldError>,
+    },
 }
 
 fn render(errors: &[FieldError]) -> String {
-    errors.iter().map(|e| format!("  {e}")).collect::<Vec<_>>().join("\n")
+    errors
+        .iter()
+        .map(|e| format!("  {e}"))
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 impl Scene {
     /// Reads and validates a scene file.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| SceneError::Read { path: path.display().to_string(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            path: path.display().to_string(),
+            source,
+        })?;
         Scene::parse(&text, &path.display().to_string())
     }
 
     /// The embedded default scene.
     pub fn default_scene() -> Scene {
-        Scene::parse(DEFAULT_SCENE, DEFAULT_SCENE_ORIGIN).expect("the embedded default scene is valid")
+        Scene::parse(DEFAULT_SCENE, DEFAULT_SCENE_ORIGIN)
+            .expect("the embedded default scene is valid")
     }
 
     /// Parses and validates scene text; `origin` names it in messages.
     pub fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
-        let scene: Scene = toml::from_str(text)
-            .map_err(|e| SceneError::Syntax { origin: origin.into(), message: e.to_string() })?;
+        let scene: Scene = toml::from_str(text).map_err(|e| SceneError::Syntax {
+            origin: origin.into(),
+            message: e.to_string(),
+        })?;
         let mut errors = scene.validate();
         if errors.is_empty() {
             return Ok(scene);
         }
         span::locate(text, &mut errors);
-        Err(SceneError::Invalid { origin: origin.into(), errors })
+        Err(SceneError::Invalid {
+            origin: origin.into(),
+            errors,
+        })
     }
 
     /// Checks every value; returns all problems found (empty when the scene is usable).
@@ -80,7 +95,9 @@ impl Scene {
 
     /// Indices (into `blocks`) of the blocks whose geometry changes: the ones exchanged each step.
     pub fn moving_blocks(&self) -> Vec<usize> {
-        (0..self.blocks.len()).filter(|&i| self.blocks[i].kind != BlockKind::Fixed).collect()
+        (0..self.blocks.len())
+            .filter(|&i| self.blocks[i].kind != BlockKind::Fixed)
+            .collect()
     }
 
     /// Overrides the particle spacing (the `--dx` of quick runs).
@@ -120,7 +137,9 @@ mod tests {
     fn bad_value_names_field_line_and_fix() {
         let text = DEFAULT_SCENE.replacen("density = 2500.0", "density = -3.0", 1);
         let err = Scene::parse(&text, "t.toml").unwrap_err();
-        let SceneError::Invalid { errors, .. } = &err else { panic!("{err}") };
+        let SceneError::Invalid { errors, .. } = &err else {
+            panic!("{err}")
+        };
         let e = &errors[0];
         assert!(e.path.ends_with(".density"), "{e}");
         let line = e.line.expect("line located");

@@ -12,13 +12,21 @@ impl MotionSpec {
             return (1.0, 0.0);
         }
         let tau = (t / ramp).max(0.0);
-        (tau * tau * (3.0 - 2.0 * tau), 6.0 * tau * (1.0 - tau) / ramp)
+        (
+            tau * tau * (3.0 - 2.0 * tau),
+            6.0 * tau * (1.0 - tau) / ramp,
+        )
     }
 
     /// Displacement of the block from its scene position at time t [m].
     pub fn displacement(&self, t: f64) -> Vector {
         match self {
-            MotionSpec::Sine { amplitude, period, phase, ramp } => {
+            MotionSpec::Sine {
+                amplitude,
+                period,
+                phase,
+                ramp,
+            } => {
                 let (s, _) = Self::ramp(*ramp, t);
                 let w = TAU / period;
                 Vector::from(*amplitude) * (s * ((w * t + phase).sin() - phase.sin()))
@@ -30,7 +38,12 @@ impl MotionSpec {
     /// Velocity at time t [m/s], the exact derivative of [`Self::displacement`].
     pub fn velocity(&self, t: f64) -> Vector {
         match self {
-            MotionSpec::Sine { amplitude, period, phase, ramp } => {
+            MotionSpec::Sine {
+                amplitude,
+                period,
+                phase,
+                ramp,
+            } => {
                 let (s, ds) = Self::ramp(*ramp, t);
                 let w = TAU / period;
                 let f = (w * t + phase).sin() - phase.sin();
@@ -47,7 +60,12 @@ mod tests {
 
     #[test]
     fn velocity_is_derivative_of_displacement() {
-        let m = MotionSpec::Sine { amplitude: [0.3, 0.0, 0.0], period: 2.0, phase: 0.4, ramp: 1.0 };
+        let m = MotionSpec::Sine {
+            amplitude: [0.3, 0.0, 0.0],
+            period: 2.0,
+            phase: 0.4,
+            ramp: 1.0,
+        };
         for &t in &[0.1, 0.5, 0.99, 1.5, 3.2] {
             let h = 1e-6;
             let fd = (m.displacement(t + h) - m.displacement(t - h)) / (2.0 * h);

@@ -29,11 +29,14 @@ pub struct FieldError {
 
 impl std::fmt::Display for FieldError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self.line {
-            Some(l) => write!(f, "line {l}: ")?,
-            None => {}
+        if let Some(l) = self.line {
+            write!(f, "line {l}: ")?;
         }
-        write!(f, "{} = {}: {}; fix: {}", self.path, self.value, self.problem, self.fix)
+        write!(
+            f,
+            "{} = {}: {}; fix: {}",
+            self.path, self.value, self.problem, self.fix
+        )
     }
 }
 
@@ -116,26 +119,58 @@ impl Checker {
 fn shape_summary(shape: &ShapeSpec) -> String {
     match shape {
         ShapeSpec::Box { min, max } => format!("box {min:?}..{max:?}"),
-        ShapeSpec::Prism { axis, profile, extent } => {
-            format!("prism along {axis:?}, {} profile points, extent {extent:?}", profile.len())
+        ShapeSpec::Prism {
+            axis,
+            profile,
+            extent,
+        } => {
+            format!(
+                "prism along {axis:?}, {} profile points, extent {extent:?}",
+                profile.len()
+            )
         }
         ShapeSpec::Convex { vertices } => format!("convex set of {} vertices", vertices.len()),
     }
 }
 
 pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
-    let mut c = Checker { path: Vec::new(), errors: Vec::new() };
+    let mut c = Checker {
+        path: Vec::new(),
+        errors: Vec::new(),
+    };
     if s.name.trim().is_empty() {
-        c.fail("name", &s.name, "is empty", "give the scene a short name, e.g. name = \"wedge\"");
+        c.fail(
+            "name",
+            &s.name,
+            "is empty",
+            "give the scene a short name, e.g. name = \"wedge\"",
+        );
     }
     c.finite3("gravity", s.gravity);
 
     c.key("time", |c| {
-        c.positive("end", s.time.end, "give the simulated end time in seconds, e.g. end = 3.0");
-        c.positive("dt_max", s.time.dt_max, "give the largest step in seconds, e.g. dt_max = 1e-3");
-        c.positive("dt_min", s.time.dt_min, "give the smallest acceptable step, e.g. dt_min = 1e-9");
+        c.positive(
+            "end",
+            s.time.end,
+            "give the simulated end time in seconds, e.g. end = 3.0",
+        );
+        c.positive(
+            "dt_max",
+            s.time.dt_max,
+            "give the largest step in seconds, e.g. dt_max = 1e-3",
+        );
+        c.positive(
+            "dt_min",
+            s.time.dt_min,
+            "give the smallest acceptable step, e.g. dt_min = 1e-9",
+        );
         if s.time.dt_min >= s.time.dt_max {
-            c.fail("dt_min", s.time.dt_min, "is not below dt_max", "make dt_min much smaller than dt_max");
+            c.fail(
+                "dt_min",
+                s.time.dt_min,
+                "is not below dt_max",
+                "make dt_min much smaller than dt_max",
+            );
         }
     });
 
@@ -144,37 +179,74 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
         c.finite3("min", d.min);
         c.finite3("max", d.max);
         if (0..3).any(|k| d.max[k] <= d.min[k]) {
-            c.fail("max", d.max, "is not above domain.min on every axis", "make max[k] > min[k] for x, y and z");
+            c.fail(
+                "max",
+                d.max,
+                "is not above domain.min on every axis",
+                "make max[k] > min[k] for x, y and z",
+            );
         }
     });
 
     c.key("output", |c| {
-        c.positive("interval", s.output.interval, "give the time between frames, e.g. interval = 0.05");
+        c.positive(
+            "interval",
+            s.output.interval,
+            "give the time between frames, e.g. interval = 0.05",
+        );
     });
 
     if let Some(f) = &s.fluid {
         c.key("fluid", |c| {
             c.positive("density", f.density, "water is density = 1000.0");
-            c.positive("dx", f.dx, "give the particle spacing in metres, e.g. dx = 0.02");
-            let smallest = (0..3).map(|k| d.max[k] - d.min[k]).fold(f64::INFINITY, f64::min);
+            c.positive(
+                "dx",
+                f.dx,
+                "give the particle spacing in metres, e.g. dx = 0.02",
+            );
+            let smallest = (0..3)
+                .map(|k| d.max[k] - d.min[k])
+                .fold(f64::INFINITY, f64::min);
             if f.dx.is_finite() && f.dx > 0.0 && f.dx * 4.0 > smallest {
-                c.fail("dx", f.dx, "is too coarse for the domain (fewer than 4 particles across)", "use a smaller dx");
+                c.fail(
+                    "dx",
+                    f.dx,
+                    "is too coarse for the domain (fewer than 4 particles across)",
+                    "use a smaller dx",
+                );
             }
             if !(f.kinematic_viscosity.is_finite() && f.kinematic_viscosity >= 0.0) {
-                c.fail("kinematic_viscosity", f.kinematic_viscosity, "must be >= 0", "water is 1e-6 m²/s");
+                c.fail(
+                    "kinematic_viscosity",
+                    f.kinematic_viscosity,
+                    "must be >= 0",
+                    "water is 1e-6 m²/s",
+                );
             }
             if !(f.density_ratio_bound.is_finite() && f.density_ratio_bound > 1.0) {
-                c.fail("density_ratio_bound", f.density_ratio_bound, "must be > 1", "e.g. density_ratio_bound = 1.3");
+                c.fail(
+                    "density_ratio_bound",
+                    f.density_ratio_bound,
+                    "must be > 1",
+                    "e.g. density_ratio_bound = 1.3",
+                );
             }
             for (i, w) in f.water.iter().enumerate() {
-                c.key("water", |c| c.at(Seg::Index(i), |c| c.shape(&w.shape, d, true)));
+                c.key("water", |c| {
+                    c.at(Seg::Index(i), |c| c.shape(&w.shape, d, true))
+                });
             }
             if let Some(integrator) = &f.wcsph.integrator
                 && integrator != "symplectic"
                 && integrator != "verlet"
             {
                 c.key("wcsph", |c| {
-                    c.fail("integrator", integrator, "is not a known integrator", "use \"symplectic\" or \"verlet\"")
+                    c.fail(
+                        "integrator",
+                        integrator,
+                        "is not a known integrator",
+                        "use \"symplectic\" or \"verlet\"",
+                    )
                 });
             }
         });
@@ -182,25 +254,58 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
 
     c.key("solid", |c| {
         if !(s.solid.safety_factor > 0.0 && s.solid.safety_factor <= 10.0) {
-            c.fail("safety_factor", s.solid.safety_factor, "must be in (0, 10]", "0.5 is safe; > 1 exceeds 2/ω_max");
+            c.fail(
+                "safety_factor",
+                s.solid.safety_factor,
+                "must be in (0, 10]",
+                "0.5 is safe; > 1 exceeds 2/ω_max",
+            );
         }
-        c.positive("displacement_limit", s.solid.displacement_limit, "e.g. displacement_limit = 0.01");
+        c.positive(
+            "displacement_limit",
+            s.solid.displacement_limit,
+            "e.g. displacement_limit = 0.01",
+        );
         c.key("contact", |c| {
             let k = &s.solid.contact;
             if let Some(kn) = k.normal_stiffness {
-                c.positive("normal_stiffness", kn, "give a spring in N/m, or leave it out to derive one");
+                c.positive(
+                    "normal_stiffness",
+                    kn,
+                    "give a spring in N/m, or leave it out to derive one",
+                );
             }
             if !(k.shear_ratio >= 0.0 && k.shear_ratio.is_finite()) {
-                c.fail("shear_ratio", k.shear_ratio, "must be >= 0", "e.g. shear_ratio = 0.4");
+                c.fail(
+                    "shear_ratio",
+                    k.shear_ratio,
+                    "must be >= 0",
+                    "e.g. shear_ratio = 0.4",
+                );
             }
             if !(0.0..90.0).contains(&k.friction_angle) {
-                c.fail("friction_angle", k.friction_angle, "must be in [0, 90) degrees", "e.g. friction_angle = 30.0");
+                c.fail(
+                    "friction_angle",
+                    k.friction_angle,
+                    "must be in [0, 90) degrees",
+                    "e.g. friction_angle = 30.0",
+                );
             }
             if !(k.cohesion >= 0.0 && k.cohesion.is_finite()) {
-                c.fail("cohesion", k.cohesion, "must be >= 0", "give cohesion in Pa, 0 for a clean joint");
+                c.fail(
+                    "cohesion",
+                    k.cohesion,
+                    "must be >= 0",
+                    "give cohesion in Pa, 0 for a clean joint",
+                );
             }
             if !(0.0..=1.0).contains(&k.damping_ratio) {
-                c.fail("damping_ratio", k.damping_ratio, "must be in [0, 1]", "0 keeps bounces elastic");
+                c.fail(
+                    "damping_ratio",
+                    k.damping_ratio,
+                    "must be in [0, 1]",
+                    "0 keeps bounces elastic",
+                );
             }
         });
     });
@@ -208,15 +313,28 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
     c.key("coupling", |c| {
         let k = &s.coupling;
         if let Some(v) = k.penalty_stiffness {
-            c.positive("penalty_stiffness", v, "give K_S in N/m, or leave it out to derive one");
+            c.positive(
+                "penalty_stiffness",
+                v,
+                "give K_S in N/m, or leave it out to derive one",
+            );
         }
         if let Some(v) = k.penalty_damping
             && !(v >= 0.0 && v.is_finite())
         {
-            c.fail("penalty_damping", v, "must be >= 0", "give K_D in N·s/m, or leave it out");
+            c.fail(
+                "penalty_damping",
+                v,
+                "must be >= 0",
+                "give K_D in N·s/m, or leave it out",
+            );
         }
         if let Some(v) = k.margin {
-            c.positive("margin", v, "give the Eq. 22 contact margin in metres, e.g. dx/2");
+            c.positive(
+                "margin",
+                v,
+                "give the Eq. 22 contact margin in metres, e.g. dx/2",
+            );
         }
     });
 
@@ -225,11 +343,20 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
         c.key("block", |c| {
             c.at(Seg::Index(i), |c| {
                 if !names.insert(b.name.as_str()) {
-                    c.fail("name", &b.name, "is used by an earlier block", "give every block a unique name");
+                    c.fail(
+                        "name",
+                        &b.name,
+                        "is used by an earlier block",
+                        "give every block a unique name",
+                    );
                 }
                 c.shape(&b.shape, d, b.kind != BlockKind::Fixed);
                 if b.kind == BlockKind::Free {
-                    c.positive("density", b.density, "give the rock density in kg/m³, e.g. density = 2500.0");
+                    c.positive(
+                        "density",
+                        b.density,
+                        "give the rock density in kg/m³, e.g. density = 2500.0",
+                    );
                 }
                 c.finite3("velocity", b.velocity);
                 c.finite3("angular_velocity", b.angular_velocity);
@@ -240,12 +367,19 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                         "a kinematic block needs a prescribed motion",
                         "add motion = { type = \"sine\", amplitude = [0.1, 0, 0], period = 2.0 }",
                     ),
-                    (BlockKind::Kinematic, Some(MotionSpec::Sine { period, ramp, .. })) => c.key("motion", |c| {
-                        c.positive("period", *period, "give the period in seconds");
-                        if !(*ramp >= 0.0) {
-                            c.fail("ramp", *ramp, "must be >= 0", "give the ramp-in time in seconds, or 0");
-                        }
-                    }),
+                    (BlockKind::Kinematic, Some(MotionSpec::Sine { period, ramp, .. })) => {
+                        c.key("motion", |c| {
+                            c.positive("period", *period, "give the period in seconds");
+                            if ramp.is_nan() || *ramp < 0.0 {
+                                c.fail(
+                                    "ramp",
+                                    *ramp,
+                                    "must be >= 0",
+                                    "give the ramp-in time in seconds, or 0",
+                                );
+                            }
+                        })
+                    }
                     (BlockKind::Fixed | BlockKind::Free, Some(_)) => c.fail(
                         "motion",
                         format!("{:?}", b.kind).to_lowercase(),
@@ -257,10 +391,15 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                 if let Some(phi) = b.friction_angle
                     && !(0.0..90.0).contains(&phi)
                 {
-                    c.fail("friction_angle", phi, "must be in [0, 90) degrees", "e.g. friction_angle = 30.0");
+                    c.fail(
+                        "friction_angle",
+                        phi,
+                        "must be in [0, 90) degrees",
+                        "e.g. friction_angle = 30.0",
+                    );
                 }
                 if let Some(coh) = b.cohesion
-                    && !(coh >= 0.0)
+                    && (coh.is_nan() || coh < 0.0)
                 {
                     c.fail("cohesion", coh, "must be >= 0", "give cohesion in Pa");
                 }
@@ -268,12 +407,18 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
         });
     }
 
-    let inside_xy = |x: f64, y: f64| x >= d.min[0] && x <= d.max[0] && y >= d.min[1] && y <= d.max[1];
+    let inside_xy =
+        |x: f64, y: f64| x >= d.min[0] && x <= d.max[0] && y >= d.min[1] && y <= d.max[1];
     for (i, g) in s.gauges.iter().enumerate() {
         if !inside_xy(g.x, g.y) {
             c.key("gauge", |c| {
                 c.at(Seg::Index(i), |c| {
-                    c.fail("x", (g.x, g.y), "lies outside the domain", "put the gauge inside [domain] in x and y")
+                    c.fail(
+                        "x",
+                        (g.x, g.y),
+                        "lies outside the domain",
+                        "put the gauge inside [domain] in x and y",
+                    )
                 })
             });
         }
@@ -283,7 +428,12 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
         if (0..3).any(|k| q[k] < d.min[k] || q[k] > d.max[k]) {
             c.key("probe", |c| {
                 c.at(Seg::Index(i), |c| {
-                    c.fail("position", q, "lies outside the domain", "put the probe inside [domain]")
+                    c.fail(
+                        "position",
+                        q,
+                        "lies outside the domain",
+                        "put the probe inside [domain]",
+                    )
                 })
             });
         }

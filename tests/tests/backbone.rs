@@ -1,0 +1,303 @@
+//! The co-simulation backbone (issue 2), tested with real processes: the coupler and two
+//! nodes talking over iceoryx2. The toy nodes (tests::toy) check every geometry message they
+//! receive against the exact motion, so a message from the wrong step fails the run.
+
+mod common;
+use common::*;
+use std::process::Stdio;
+use std::time::Duration;
+
+#[test]
+fn full_short_run_in_both_schemes() {
+    for scheme in ["parallel", "serial"] {
+        for toy in ["hover", "drop"] {
+            let (id, out) = fresh("full");
+            let scene = scene("toy_hover.toml");
+            let o = run(coupler(
+                &id,
+                &out,
+                &[
+                    scene.to_str().unwrap(),
+                    "--scheme",
+                    scheme,
+                    "--fluid-cmd",
+                    &toy_fluid(toy),
+                    "--solid-cmd",
+                    &toy_solid(),
+                ],
+            ));
+            assert!(o.status.success(), "{scheme}/{toy}: {}", stderr(&o));
+            let s = summary(&out);
+            assert_eq!(s["status"], "completed");
+            // end = 0.5 s at dt_max = 1e-3 s, landing exactly on each output time.
+            assert_eq!(s["stats"]["steps"], 500, "{s}");
+            assert!((s["stats"]["time"].as_f64().unwrap() - 0.5).abs() < 1e-12);
+            assert_eq!(s["fluid_solver"], toy);
+            assert!(leftovers(&id).is_empty(), "{:?}", leftovers(&id));
+            std::fs::remove_dir_all(&out).unwrap();
+        }
+    }
+}
+
+#[test]
+fn killed_node_ends_the_run_within_two_seconds_and_leaves_nothing() {
+    let (id, out) = fresh("kill");
+    let scene = scene("toy_hover.toml");
+    let mut cmd = coupler(
+        &id,
+        &out,
+        &[
+            scene.to_str().unwrap(),
+            "--end",
+            "1000",
+            "--fluid-cmd",
+            &toy_fluid("hover"),
+            "--solid-cmd",
+            &toy_solid(),
+        ],
+    );
+    let child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let coupler_pid = child.id();
+    // Wait until both nodes run, then kill the fluid node the hard way.
+    assert!(eventually(Duration::from_secs(10), || children(
+        coupler_pid
+    )
+    .len()
+        == 2));
+    std::thread::sleep(Duration::from_millis(300));
+    let fluid = children(coupler_pid)
+        .into_iter()
+        .find(|p| cmdline(*p).contains("toy-fluid-node"))
+        .expect("fluid node runs");
+    unsafe_kill(fluid, 9);
+    let killed_at = std::time::Instant::now();
+    let (o, _) = wait_output(child, Duration::from_secs(10));
+    let took = killed_at.elapsed();
+    let err = stderr(&o);
+    assert!(
+        took < Duration::from_secs(2),
+        "coupler took {took:?} to notice: {err}"
+    );
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("fluid node") && err.contains("died") && err.contains("SIGKILL"),
+        "{err}"
+    );
+    assert!(err.contains("step ") && err.contains("t = "), "{err}");
+    assert!(leftovers(&id).is_empty(), "{:?}", leftovers(&id));
+    assert_eq!(summary(&out)["status"], "failed");
+    // The solid node is gone too.
+    assert!(children(coupler_pid).is_empty());
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn missing_node_binary_is_named_and_nothing_is_written() {
+    let (id, out) = fresh("missing");
+    let scene = scene("toy_hover.toml");
+    let o = run(coupler(
+        &id,
+        &out,
+        &[
+            scene.to_str().unwrap(),
+            "--fluid-cmd",
+            "/nonexistent/fluid-node-v9",
+            "--solid-cmd",
+            &toy_solid(),
+        ],
+    ));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("/nonexistent/fluid-node-v9") && err.contains("Fix:"),
+        "{err}"
+    );
+    assert!(
+        !out.exists(),
+        "no run directory for a run that cannot start"
+    );
+    assert!(leftovers(&id).is_empty());
+}
+
+#[test]
+fn two_runs_at_once_do_not_interfere() {
+    let scene = scene("toy_hover.toml");
+    let (id_a, out_a) = fresh("twin-a");
+    let (id_b, out_b) = fresh("twin-b");
+    // One hovers (block still), one drops (free fall): each checks its own geometry, so a
+    // message crossing over would fail it.
+    let a = coupler(
+        &id_a,
+        &out_a,
+        &[
+            scene.to_str().unwrap(),
+            "--fluid-cmd",
+            &toy_fluid("hover"),
+            "--solid-cmd",
+            &toy_solid(),
+        ],
+    )
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    let b = coupler(
+        &id_b,
+        &out_b,
+        &[
+            scene.to_str().unwrap(),
+            "--fluid-cmd",
+            &toy_fluid("drop"),
+            "--solid-cmd",
+            &toy_solid(),
+        ],
+    )
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    let (oa, _) = wait_output(a, Duration::from_secs(60));
+    let (ob, _) = wait_output(b, Duration::from_secs(60));
+    assert!(oa.status.success(), "{}", stderr(&oa));
+    assert!(ob.status.success(), "{}", stderr(&ob));
+    let za = summary(&out_a)["final_block_positions"].clone();
+    let _ = za;
+    assert_eq!(summary(&out_a)["fluid_solver"], "hover");
+    assert_eq!(summary(&out_b)["fluid_solver"], "drop");
+    assert!(leftovers(&id_a).is_empty() && leftovers(&id_b).is_empty());
+    std::fs::remove_dir_all(&out_a).unwrap();
+    std::fs::remove_dir_all(&out_b).unwrap();
+}
+
+#[test]
+fn protocol_version_mismatch_is_refused() {
+    let (id, out) = fresh("version");
+    let scene = scene("toy_hover.toml");
+    let fluid = format!("{} --fake-protocol-version 99", toy_fluid("hover"));
+    let o = run(coupler(
+        &id,
+        &out,
+        &[
+            scene.to_str().unwrap(),
+            "--fluid-cmd",
+            &fluid,
+            "--solid-cmd",
+            &toy_solid(),
+        ],
+    ));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("protocol version 99") && err.contains("fluid node"),
+        "{err}"
+    );
+    assert!(leftovers(&id).is_empty(), "{:?}", leftovers(&id));
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn hung_node_is_detected_and_named() {
+    let (id, out) = fresh("hung");
+    let scene = scene("toy_hover.toml");
+    let solid = format!("{} --hang-after-steps 20", toy_solid());
+    let o = run(coupler(
+        &id,
+        &out,
+        &[
+            scene.to_str().unwrap(),
+            "--fluid-cmd",
+            &toy_fluid("hover"),
+            "--solid-cmd",
+            &solid,
+            "--step-timeout",
+            "1",
+        ],
+    ));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("solid node") && err.contains("hung at step 20"),
+        "{err}"
+    );
+    assert!(leftovers(&id).is_empty(), "{:?}", leftovers(&id));
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn interrupt_stops_all_three_cleanly() {
+    use std::os::unix::process::CommandExt;
+    let (id, out) = fresh("sigint");
+    let scene = scene("toy_hover.toml");
+    let mut cmd = coupler(
+        &id,
+        &out,
+        &[
+            scene.to_str().unwrap(),
+            "--end",
+            "1000",
+            "--fluid-cmd",
+            &toy_fluid("hover"),
+            "--solid-cmd",
+            &toy_solid(),
+        ],
+    );
+    // Its own process group, as a shell gives a foreground job: Ctrl-C reaches all three.
+    cmd.process_group(0).stderr(Stdio::piped());
+    let child = cmd.spawn().unwrap();
+    let pid = child.id();
+    assert!(eventually(Duration::from_secs(10), || children(pid).len() == 2));
+    std::thread::sleep(Duration::from_millis(300));
+    let nodes = children(pid);
+    unsafe_kill_group(pid, 2);
+    let (o, took) = wait_output(child, Duration::from_secs(10));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(took < Duration::from_secs(3), "{took:?}");
+    assert!(err.contains("interrupted"), "{err}");
+    for n in nodes {
+        assert!(!shared::transport::process_alive(n), "node {n} survived");
+    }
+    assert!(leftovers(&id).is_empty(), "{:?}", leftovers(&id));
+    assert_eq!(summary(&out)["status"], "interrupted");
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+fn unsafe_kill_group(pgid: u32, signal: i32) {
+    let _ = std::process::Command::new("kill")
+        .arg(format!("-{signal}"))
+        .arg("--")
+        .arg(format!("-{pgid}"))
+        .status();
+}
+
+#[test]
+fn nodes_started_by_hand_are_attached() {
+    let (id, out) = fresh("attach");
+    let scene = scene("toy_hover.toml");
+    let coupler = coupler(&id, &out, &[scene.to_str().unwrap(), "--attach"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Started by hand, after the coupler, each with the run id it printed.
+    let fluid = std::process::Command::new(env!("CARGO_BIN_EXE_toy-fluid-node"))
+        .args(["--solver", "drop", "--prefix", id.as_str()])
+        .spawn()
+        .unwrap();
+    let solid = std::process::Command::new(env!("CARGO_BIN_EXE_toy-solid-node"))
+        .args(["--solver", "ballistic", "--prefix", id.as_str()])
+        .spawn()
+        .unwrap();
+    let (o, _) = wait_output(coupler, Duration::from_secs(60));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("fluid-node --prefix {id}")),
+        "the coupler tells how to start the nodes"
+    );
+    let (fo, _) = wait_output(fluid, Duration::from_secs(10));
+    let (so, _) = wait_output(solid, Duration::from_secs(10));
+    assert!(fo.status.success() && so.status.success());
+    assert!(leftovers(&id).is_empty(), "{:?}", leftovers(&id));
+    std::fs::remove_dir_all(&out).unwrap();
+}

@@ -1,0 +1,136 @@
+//! Helpers shared by the integration tests: where the binaries are, fresh run ids and
+//! directories, and running the coupler as a real process.
+#![allow(dead_code)]
+
+use shared::transport::RunId;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// The directory cargo put this package's binaries in; the workspace's other binaries
+/// (coupler, fluid-node, solid-node) are built into the same one by `cargo test --workspace`.
+pub fn bin_dir() -> PathBuf {
+    Path::new(env!("CARGO_BIN_EXE_toy-fluid-node"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+pub fn bin(name: &str) -> PathBuf {
+    let p = bin_dir().join(name);
+    assert!(
+        p.is_file(),
+        "{} is missing: run the tests with `cargo test --release --workspace`",
+        p.display()
+    );
+    p
+}
+
+pub fn toy_fluid(solver: &str) -> String {
+    format!("{} --solver {solver}", env!("CARGO_BIN_EXE_toy-fluid-node"))
+}
+
+pub fn toy_solid() -> String {
+    format!(
+        "{} --solver ballistic",
+        env!("CARGO_BIN_EXE_toy-solid-node")
+    )
+}
+
+pub fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+/// A fresh run id and an empty, not yet existing output directory for it.
+pub fn fresh(tag: &str) -> (RunId, PathBuf) {
+    let id = RunId::fresh();
+    let dir = std::env::temp_dir().join(format!("rockwave-test-{tag}-{id}"));
+    (id, dir)
+}
+
+/// `coupler run` with the given arguments plus `--run-id`, `--out` and `--quiet`.
+pub fn coupler(id: &RunId, out: &Path, args: &[&str]) -> Command {
+    let mut c = Command::new(bin("coupler"));
+    c.arg("run")
+        .args(args)
+        .args(["--run-id", id.as_str(), "--quiet", "--out"])
+        .arg(out);
+    c.stdin(Stdio::null());
+    c
+}
+
+pub fn run(mut cmd: Command) -> Output {
+    cmd.output().expect("coupler starts")
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).to_string()
+}
+
+/// Files of the run still in /dev/shm or /tmp/iceoryx2.
+pub fn leftovers(id: &RunId) -> Vec<PathBuf> {
+    shared::transport::run_files(id)
+}
+
+/// Child processes of `pid` (from /proc).
+pub fn children(pid: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
+        for t in tasks.flatten() {
+            if let Ok(s) = std::fs::read_to_string(t.path().join("children")) {
+                out.extend(s.split_whitespace().filter_map(|p| p.parse::<u32>().ok()));
+            }
+        }
+    }
+    out
+}
+
+/// The command line of a process.
+pub fn cmdline(pid: u32) -> String {
+    std::fs::read(format!("/proc/{pid}/cmdline"))
+        .map(|b| String::from_utf8_lossy(&b).replace('\0', " "))
+        .unwrap_or_default()
+}
+
+/// Waits for `child` to exit, at most `timeout`; returns its output and how long it took.
+pub fn wait_output(child: Child, timeout: Duration) -> (Output, Duration) {
+    let start = Instant::now();
+    let pid = child.id();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait_with_output());
+    });
+    match rx.recv_timeout(timeout) {
+        Ok(out) => (out.expect("wait"), start.elapsed()),
+        Err(_) => {
+            unsafe_kill(pid, 9);
+            panic!("process {pid} did not exit within {timeout:?}");
+        }
+    }
+}
+
+pub fn unsafe_kill(pid: u32, signal: i32) {
+    let _ = Command::new("kill")
+        .arg(format!("-{signal}"))
+        .arg(pid.to_string())
+        .status();
+}
+
+/// Polls until `f` holds or `timeout` passes (test helper; the product itself never polls).
+pub fn eventually(timeout: Duration, mut f: impl FnMut() -> bool) -> bool {
+    let start = Instant::now();
+    while start.elapsed() < timeout {
+        if f() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    f()
+}
+
+pub fn summary(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json written");
+    serde_json::from_str(&text).expect("summary.json is JSON")
+}
