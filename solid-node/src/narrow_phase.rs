@@ -29,6 +29,10 @@ const FACE_ALIGNMENT: Real = 0.984_807_753;
 /// touching is carried by vertex–face contacts.
 const PARALLEL_SINE: Real = 1e-3;
 
+/// Largest ratio of an edge–edge penetration to the depth of its points below the nearest face
+/// (1/cos 75°).
+const EDGE_DEPTH_RATIO: Real = 3.9;
+
 /// Appends the contacts of blocks `a` < `b` to `out` in key order, inheriting state from `old`
 /// (the previous step's contacts of this pair, sorted by key).
 pub fn collide(
@@ -205,7 +209,16 @@ fn edge_edge(
             }
             // Both closest points must lie in (or at the margin of) the other block: the
             // crossing is local, not two far edges whose infinite lines happen to cross.
-            if bb.plane_distance(&pa).0 > m || ba.plane_distance(&pb).0 > m {
+            let (da, db) = (bb.plane_distance(&pa).0, ba.plane_distance(&pb).0);
+            if da > m || db > m {
+                continue;
+            }
+            // And the depth along n must be of the order of the points' depth below the
+            // nearest face: an edge sunk a little into a face is "crossed" by every edge of
+            // that face's plane at the distance between them, which is no contact (the face
+            // carries it as vertex–face). A true crossing is at most 1/cos of the angle
+            // between n and the nearest face normal deeper.
+            if -gap > EDGE_DEPTH_RATIO * (-da).max(0.0) + m || -gap > EDGE_DEPTH_RATIO * (-db).max(0.0) + m {
                 continue;
             }
             let key = ContactKey { a, b, feature: Feature::EdgeEdge, i: ia as u32, j: ib as u32 };
