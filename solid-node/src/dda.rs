@@ -49,6 +49,19 @@ impl Solver for DdaSolver {
         if !(dt > 0.0 && dt.is_finite()) {
             return Err(SolverError::Failed(format!("{} solver: cannot advance by dt = {dt}", self.name())));
         }
+        for &i in &self.world.moving {
+            let (f, t) = (self.world.load_force[i], self.world.load_torque[i]);
+            if !(f.iter().chain(t.iter()).all(|x| x.is_finite())) {
+                return Err(SolverError::Unstable(format!(
+                    "{} solver: the fluid load on block '{}' is non-finite (force {:?}, torque {:?}) at t = {:.6} s",
+                    self.name(),
+                    self.world.blocks[i].name,
+                    f.as_slice(),
+                    t.as_slice(),
+                    self.world.time
+                )));
+            }
+        }
         let report = self.integrator.advance(&mut self.world, dt, &mut self.energy)?;
         self.csv.sample(&self.world, false)?;
         Ok(report)
@@ -72,7 +85,7 @@ impl Solver for DdaSolver {
 impl SolidSolver for DdaSolver {
     fn read_loads(&mut self, loads: &[BlockLoad]) {
         // Loads arrive per moving block in `Scene::moving_blocks` order; a non-finite load is
-        // kept and makes the step report it (the solver cannot refuse it here).
+        // kept and the next advance reports it as an instability.
         for (l, &i) in loads.iter().zip(&self.world.moving) {
             self.world.load_force[i] = Vector::from(l.force);
             self.world.load_torque[i] = Vector::from(l.torque);

@@ -111,8 +111,9 @@ impl Integrator for CentralDifference {
             }
             b.remember_pose();
             b.set_kinematic_pose(t1);
-            // Work of the prescribed motion on the blocks it pushes.
-            work -= world.contact_force[i].dot(&(b.position - b.prev_position));
+            // Work of the prescribed motion on the blocks it pushes (first half of the
+            // trapezoid; the second half once the forces at t_{n+1} are known).
+            work -= 0.5 * world.contact_force[i].dot(&(b.position - b.prev_position));
             b.update_world_geometry();
         }
         world.time = t1;
@@ -122,6 +123,14 @@ impl Integrator for CentralDifference {
 
         world.detect(world.penalty.margin);
         world.update_contact_forces_explicit();
+        let mut work_end = 0.0;
+        for &i in &world.moving {
+            let b = &world.blocks[i];
+            if !b.is_free() {
+                work_end -= 0.5 * world.contact_force[i].dot(&(b.position - b.prev_position));
+            }
+        }
+        energy.add_work(work_end);
         // Velocities at t_{n+1} for the outputs and the coupling: v_{n+½} + ½ Δt a_{n+1}, with
         // the loads of the step just taken standing in for the next ones.
         for &i in &world.free {

@@ -151,11 +151,17 @@ fn closest_parameters(p0: &Point, u: &Vector, q0: &Point, w: &Vector) -> (Real, 
     (s, t)
 }
 
+/// Slack of the normal-cone test (in cosine, about 3° at a right-angled edge). Two nearly
+/// parallel faces (a block resting on another) touch where their edges cross, with n at the
+/// very border of both cones; without slack, every tiny rocking tilt would drop and re-add
+/// those contacts at full penetration, and the force jumps pump a rocking limit cycle.
+const CONE_SLACK: Real = 0.05;
+
 /// True when unit `n` (normal to the edge) lies in the wedge spanned by the edge's face
 /// normals `n1`, `n2`: the edge's normal cone, where it can touch.
 #[inline]
 fn in_normal_cone(n: &Vector, n1: &Vector, n2: &Vector) -> bool {
-    let c12 = n1.dot(n2) - 1e-6;
+    let c12 = n1.dot(n2) - CONE_SLACK;
     n.dot(n1) >= c12 && n.dot(n2) >= c12
 }
 

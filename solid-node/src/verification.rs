@@ -526,7 +526,8 @@ pub fn explicit_limit_rows() -> Vec<Row> {
 }
 
 /// A stack of `n` staggered boxes on a fixed floor, starting at zero gap: the largest
-/// displacement of any block between t = 1 s (settled) and `duration`.
+/// displacement of any block between t = 2 s (settled onto its springs, ~0.1 mm) and
+/// `duration`.
 pub fn stack_drift(solver: &str, n: usize, duration: Real) -> Result<Real, SolverError> {
     let mut blocks = vec![block_toml("floor", "fixed", 2500.0, &box_corners([-2.0, -2.0, -0.5], [2.0, 2.0, 0.0]), "")];
     for i in 0..n {
@@ -537,7 +538,7 @@ pub fn stack_drift(solver: &str, n: usize, duration: Real) -> Result<Real, Solve
     }
     let s = scene("stack", [0.0, 0.0, -G], 10.0, "", "friction_angle = 30.0\ndamping_ratio = 0.1", &blocks);
     let mut h = Harness::new(&s, solver)?;
-    h.run_until(1.0, None, |_| {})?;
+    h.run_until(STACK_SETTLE, None, |_| {})?;
     let settled: Vec<_> = h.world().free.iter().map(|&i| h.world().blocks[i].position).collect();
     let mut drift: Real = 0.0;
     h.run_until(duration, None, |w| {
@@ -548,11 +549,14 @@ pub fn stack_drift(solver: &str, n: usize, duration: Real) -> Result<Real, Solve
     Ok(drift)
 }
 
+/// Time the stack is given to settle onto its springs [s].
+pub const STACK_SETTLE: Real = 2.0;
+
 pub fn stack_row(solver: &str, duration: Real) -> Row {
     let case = format!("stack of 4 boxes at rest, {duration} s");
     match stack_drift(solver, 4, duration) {
         Err(e) => Row::failed(&case, solver, "drift [m]", &e),
-        Ok(d) => Row::numeric(&case, solver, "max drift after 1 s [m]", 0.0, d, Tolerance::Absolute(1e-4)),
+        Ok(d) => Row::numeric(&case, solver, "max drift after 2 s [m]", 0.0, d, Tolerance::Absolute(1e-4)),
     }
 }
 
