@@ -133,6 +133,14 @@ pub struct RunStats {
     pub last_warning: Option<String>,
     /// Output frames written (including frame 0).
     pub frames: u32,
+    /// CPU seconds each process used over the run; compare with the compute seconds: the
+    /// difference is what waiting and talking cost.
+    pub fluid_cpu_seconds: f64,
+    pub solid_cpu_seconds: f64,
+    pub coupler_cpu_seconds: f64,
+    /// Median and 99th percentile of the wall time of one step, command to last status [µs].
+    pub step_wall_median_us: f64,
+    pub step_wall_p99_us: f64,
     /// Solvers the nodes actually run (a node may be started with its own `--solver`).
     pub fluid_solver: Option<String>,
     pub solid_solver: Option<String>,
@@ -267,6 +275,7 @@ impl Session {
             Err(e) => (RunStats::default(), Err(e)),
         };
         stats.wall_seconds = started.elapsed().as_secs_f64();
+        stats.coupler_cpu_seconds = shared::runtime::process_cpu_seconds();
         // Every process of the run is gone now (the session dropped its children): remove
         // whatever iceoryx2 left in /dev/shm and /tmp/iceoryx2, e.g. after a SIGKILL.
         transport::remove_run_files(&id);
@@ -453,8 +462,14 @@ impl Session {
                         peer.answered = true;
                         peer.proposal = s.dt_proposal;
                         match peer.role {
-                            Role::Fluid => self.stats.fluid_compute_seconds += s.compute_seconds,
-                            Role::Solid => self.stats.solid_compute_seconds += s.compute_seconds,
+                            Role::Fluid => {
+                                self.stats.fluid_compute_seconds += s.compute_seconds;
+                                self.stats.fluid_cpu_seconds = s.cpu_seconds;
+                            }
+                            Role::Solid => {
+                                self.stats.solid_compute_seconds += s.compute_seconds;
+                                self.stats.solid_cpu_seconds = s.cpu_seconds;
+                            }
                         }
                         if StatusCode::from_u32(s.code) == StatusCode::Warning {
                             self.stats.warnings += 1;
@@ -545,18 +560,19 @@ impl Session {
         let mut next_output = interval.min(end);
         let roles: Vec<Role> = self.peers.iter().map(|p| p.role).collect();
         let progress = crate::progress::Progress::new(self.opts.progress, end);
+        // Step wall times, for the median and tail the benchmark reports.
+        let mut step_walls: Vec<f32> = Vec::new();
         self.stats.dt_min = f64::INFINITY;
         let tol = 1e-12 * end.max(1.0);
 
         while self.time < end - tol {
             // The shared step: the most restrictive proposal, never past dt_max.
-            let (limiting, proposal) = self
-                .peers
-                .iter()
-                .map(|p| (p.label(), p.proposal))
-                .fold((String::from("dt_max"), dt_max), |a, b| {
+            let (limiting, proposal) = self.peers.iter().map(|p| (p.label(), p.proposal)).fold(
+                (String::from("dt_max"), dt_max),
+                |a, b| {
                     if b.1 < a.1 { b } else { a }
-                });
+                },
+            );
             if proposal.is_nan() || proposal < dt_min {
                 return Err(RunError::Collapsed {
                     node: limiting,
@@ -593,11 +609,13 @@ impl Session {
                 time: self.time,
                 dt,
             };
+            let sent = Instant::now();
             self.command_out
                 .send_copy(cmd)
                 .map_err(iox("send command"))?;
             self.ring();
             self.collect_statuses(self.step, self.opts.step_timeout)?;
+            step_walls.push(sent.elapsed().as_secs_f32());
 
             self.stats.dt_min = self.stats.dt_min.min(dt);
             self.stats.dt_max = self.stats.dt_max.max(dt);
@@ -618,6 +636,14 @@ impl Session {
             progress.update(self.time, self.step);
         }
         progress.finish();
+        if !step_walls.is_empty() {
+            step_walls.sort_by(f32::total_cmp);
+            let at = |q: f64| {
+                step_walls[((step_walls.len() - 1) as f64 * q).round() as usize] as f64 * 1e6
+            };
+            self.stats.step_wall_median_us = at(0.5);
+            self.stats.step_wall_p99_us = at(0.99);
+        }
         Ok(())
     }
 

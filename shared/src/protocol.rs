@@ -197,6 +197,9 @@ pub struct Status {
     pub dt_proposal: f64,
     /// Seconds of wall time this node spent computing (not waiting) in the step.
     pub compute_seconds: f64,
+    /// CPU seconds this node's process has used so far (user + system): with
+    /// `compute_seconds` it shows what waiting costs (nothing, when nobody spins).
+    pub cpu_seconds: f64,
     pub message: Text<512>,
 }
 

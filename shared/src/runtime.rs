@@ -386,11 +386,24 @@ fn report(
         time,
         dt_proposal,
         compute_seconds,
+        cpu_seconds: process_cpu_seconds(),
         message: Text::new(message),
     };
     ports.status.send_copy(status).map_err(iox("send status"))?;
     ports.coupler_bell.notify().map_err(iox("notify coupler"))?;
     Ok(())
+}
+
+/// CPU time (user + system) of this process so far [s].
+pub fn process_cpu_seconds() -> f64 {
+    // SAFETY: getrusage writes into the zeroed struct we pass and nothing else.
+    let usage = unsafe {
+        let mut u: libc::rusage = std::mem::zeroed();
+        libc::getrusage(libc::RUSAGE_SELF, &mut u);
+        u
+    };
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    secs(usage.ru_utime) + secs(usage.ru_stime)
 }
 
 impl Node<'_> {

@@ -41,6 +41,9 @@ fn moving_blocks(scene: &Scene) -> Result<Vec<ToyBlock>, SolverError> {
 
 /// Ballistic rigid blocks (no rotation, no contacts).
 pub struct Ballistic {
+    /// Sleep this long in each advance: a stand-in for an expensive solver that keeps the
+    /// other node waiting, without burning CPU itself (used to measure the cost of waiting).
+    nap: std::time::Duration,
     blocks: Vec<ToyBlock>,
     forces: Vec<Vector3<f64>>,
     gravity: Vector3<f64>,
@@ -48,9 +51,10 @@ pub struct Ballistic {
 }
 
 impl Ballistic {
-    pub fn new(ctx: &SetupContext) -> Result<Ballistic, SolverError> {
+    pub fn new(nap: std::time::Duration, ctx: &SetupContext) -> Result<Ballistic, SolverError> {
         let blocks = moving_blocks(ctx.scene)?;
         Ok(Ballistic {
+            nap,
             forces: vec![Vector3::zeros(); blocks.len()],
             blocks,
             gravity: Vector3::from(ctx.scene.gravity),
@@ -67,6 +71,9 @@ impl Solver for Ballistic {
         self.dt_max
     }
     fn advance(&mut self, dt: f64) -> Result<StepReport, SolverError> {
+        if !self.nap.is_zero() {
+            std::thread::sleep(self.nap);
+        }
         for (b, f) in self.blocks.iter_mut().zip(&self.forces) {
             // Exact for an acceleration that is constant over the step.
             let a = if b.mass > 0.0 {
@@ -213,12 +220,17 @@ impl FluidSolver for Checker {
 /// Fluid toys offered by `toy-fluid-node`.
 pub const FLUID_TOYS: &[&str] = &["hover", "drop"];
 /// Solid toys offered by `toy-solid-node`.
-pub const SOLID_TOYS: &[&str] = &["ballistic"];
+pub const SOLID_TOYS: &[&str] = &["ballistic", "ballistic-slow"];
 
 pub fn build_fluid(name: &str, ctx: &SetupContext) -> Result<Box<dyn FluidSolver>, SolverError> {
     Ok(Box::new(Checker::new(name == "hover", ctx)?))
 }
 
-pub fn build_solid(_name: &str, ctx: &SetupContext) -> Result<Box<dyn SolidSolver>, SolverError> {
-    Ok(Box::new(Ballistic::new(ctx)?))
+pub fn build_solid(name: &str, ctx: &SetupContext) -> Result<Box<dyn SolidSolver>, SolverError> {
+    let nap = if name == "ballistic-slow" {
+        std::time::Duration::from_millis(1)
+    } else {
+        std::time::Duration::ZERO
+    };
+    Ok(Box::new(Ballistic::new(nap, ctx)?))
 }
