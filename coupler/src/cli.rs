@@ -193,6 +193,24 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     if let Err(e) = dir.write_summary(&summary) {
         eprintln!("coupler: cannot write summary.json: {e}");
     }
+    if scene.output.povray {
+        // The paper rendered with POV-Ray: scene files always, pictures when povray is here.
+        let render = std::env::var_os("PATH")
+            .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("povray").is_file()));
+        match crate::povray::export(&out, render, 960, 540) {
+            Ok(files) => eprintln!(
+                "coupler: {} POV-Ray frame(s) in {}{}",
+                files.len(),
+                out.join("povray").display(),
+                if render {
+                    ", rendered"
+                } else {
+                    " (install povray to render them)"
+                }
+            ),
+            Err(e) => eprintln!("coupler: POV-Ray export failed: {e}"),
+        }
+    }
     match outcome {
         Ok(()) => {
             eprintln!(

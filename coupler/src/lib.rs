@@ -4,5 +4,6 @@
 pub mod cli;
 pub mod launch;
 pub mod output;
+pub mod povray;
 pub mod progress;
 pub mod session;

@@ -24,6 +24,18 @@ enum Cmd {
     },
     /// Remove shared memory left behind by runs whose processes were all killed.
     Clean,
+    /// Write POV-Ray scene files for every frame of a run directory (and render them).
+    Povray {
+        /// A run directory written by `coupler run`.
+        run_dir: std::path::PathBuf,
+        /// Render each frame to PNG with `povray` (must be installed).
+        #[arg(long)]
+        render: bool,
+        #[arg(long, default_value_t = 960)]
+        width: u32,
+        #[arg(long, default_value_t = 540)]
+        height: u32,
+    },
 }
 
 fn main() -> ExitCode {
@@ -53,6 +65,25 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Cmd::Povray {
+            run_dir,
+            render,
+            width,
+            height,
+        } => match coupler::povray::export(&run_dir, render, width, height) {
+            Ok(files) => {
+                println!(
+                    "wrote {} POV-Ray frame(s) in {}",
+                    files.len(),
+                    run_dir.join("povray").display()
+                );
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("coupler: error: {e}");
+                ExitCode::from(1)
+            }
+        },
         Cmd::Clean => {
             let cleaned = shared::transport::remove_stale_runs(std::time::Duration::ZERO);
             println!("removed the files of {} dead run(s)", cleaned.len());

@@ -1,0 +1,245 @@
+//! POV-Ray export, as the paper rendered its figures: one scene file per output frame, built
+//! from the run directory's VTK frames (particles as spheres, blocks as triangle meshes), and
+//! rendered to PNG when `povray` is installed (Debian package `povray`).
+
+use shared::scene::Scene;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Points and polygons read back from one of our .vtp files.
+#[derive(Debug, Default)]
+pub struct PolyData {
+    pub points: Vec<[f64; 3]>,
+    pub polys: Vec<Vec<usize>>,
+}
+
+/// Reads the ASCII PolyData that `shared::vtk` writes.
+pub fn read_vtp(path: &Path) -> Result<PolyData, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let array = |section: &str, name: &str| -> Option<Vec<f64>> {
+        let sec = text.find(&format!("<{section}>"))?;
+        let rest = &text[sec..];
+        let start = rest.find(&format!("Name=\"{name}\""))?;
+        let body = &rest[start..];
+        let open = body.find('>')? + 1;
+        let close = body.find("</DataArray>")?;
+        Some(
+            body[open..close]
+                .split_whitespace()
+                .filter_map(|v| v.parse().ok())
+                .collect(),
+        )
+    };
+    let coords =
+        array("Points", "Points").ok_or_else(|| format!("{}: no points", path.display()))?;
+    let points = coords.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let mut polys = Vec::new();
+    if let (Some(conn), Some(offsets)) = (array("Polys", "connectivity"), array("Polys", "offsets"))
+    {
+        let mut start = 0usize;
+        for &end in &offsets {
+            let end = end as usize;
+            polys.push(conn[start..end].iter().map(|&i| i as usize).collect());
+            start = end;
+        }
+    }
+    Ok(PolyData { points, polys })
+}
+
+/// Writes the .pov scene of one frame: camera framing the domain from the front-left, water
+/// particles as blue spheres of radius dx/2, blocks as grey triangle meshes.
+pub fn scene_file(
+    scene: &Scene,
+    particles: Option<&PolyData>,
+    blocks: Option<&PolyData>,
+    time: f64,
+) -> String {
+    let (lo, hi) = (scene.domain.min, scene.domain.max);
+    let centre = [
+        (lo[0] + hi[0]) / 2.0,
+        (lo[1] + hi[1]) / 2.0,
+        (lo[2] + hi[2]) / 3.0,
+    ];
+    let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    // POV-Ray is y-up and left-handed: write <x, z, y>.
+    let v = |p: [f64; 3]| format!("<{:.5},{:.5},{:.5}>", p[0], p[2], p[1]);
+    let eye = [
+        centre[0] - 0.35 * size,
+        centre[1] - 1.1 * size,
+        centre[2] + 0.55 * size,
+    ];
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "// rockwave frame at t = {time:.4} s, scene '{}'",
+        scene.name
+    );
+    let _ = writeln!(s, "#version 3.7;\nglobal_settings {{ assumed_gamma 1.0 }}");
+    let _ = writeln!(s, "background {{ rgb <0.92, 0.94, 0.97> }}");
+    let _ = writeln!(
+        s,
+        "camera {{ location {} look_at {} angle 50 }}",
+        v(eye),
+        v(centre)
+    );
+    let _ = writeln!(
+        s,
+        "light_source {{ {} color rgb 1.0 }}",
+        v([eye[0], eye[1] - size, eye[2] + 2.0 * size])
+    );
+    let _ = writeln!(
+        s,
+        "light_source {{ {} color rgb 0.4 shadowless }}",
+        v([hi[0] + size, lo[1] - size, hi[2] + size])
+    );
+    if let (Some(p), Some(fluid)) = (particles, scene.fluid.as_ref()) {
+        let r = 0.5 * fluid.dx;
+        let _ = writeln!(
+            s,
+            "#declare Water = texture {{ pigment {{ rgb <0.15, 0.45, 0.85> }} finish {{ phong 0.4 }} }}"
+        );
+        s.push_str("union {\n");
+        for q in &p.points {
+            let _ = writeln!(s, "sphere {{ {}, {r:.5} }}", v(*q));
+        }
+        s.push_str("texture { Water } }\n");
+    }
+    if let Some(b) = blocks {
+        s.push_str("mesh {\n");
+        for poly in &b.polys {
+            for k in 1..poly.len().saturating_sub(1) {
+                let _ = writeln!(
+                    s,
+                    "triangle {{ {}, {}, {} }}",
+                    v(b.points[poly[0]]),
+                    v(b.points[poly[k]]),
+                    v(b.points[poly[k + 1]])
+                );
+            }
+        }
+        s.push_str("texture { pigment { rgb <0.55, 0.5, 0.45> } finish { diffuse 0.8 } } }\n");
+    }
+    s
+}
+
+/// Writes `povray/frame_NNNNN.pov` for every frame in the run directory's .pvd series and, when
+/// `render` is set, renders each to PNG with `povray`. Returns the scene files written.
+pub fn export(
+    run_dir: &Path,
+    render: bool,
+    width: u32,
+    height: u32,
+) -> Result<Vec<PathBuf>, String> {
+    let scene = Scene::load(&run_dir.join("scene.toml")).map_err(|e| e.to_string())?;
+    let frames = pvd_frames(&run_dir.join("particles.pvd"));
+    let block_frames = pvd_frames(&run_dir.join("blocks.pvd"));
+    let times: Vec<f64> = if frames.is_empty() {
+        block_frames.iter().map(|f| f.0).collect()
+    } else {
+        frames.iter().map(|f| f.0).collect()
+    };
+    if times.is_empty() {
+        return Err(format!(
+            "{} has no frames (particles.pvd / blocks.pvd)",
+            run_dir.display()
+        ));
+    }
+    if render && which("povray").is_none() {
+        return Err("rendering needs POV-Ray: install it (Debian: apt-get install povray), or export without --render".into());
+    }
+    let out = run_dir.join("povray");
+    std::fs::create_dir_all(&out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let mut written = Vec::new();
+    for (i, &t) in times.iter().enumerate() {
+        let particles = frames
+            .get(i)
+            .map(|f| read_vtp(&run_dir.join(&f.1)))
+            .transpose()?;
+        let blocks = block_frames
+            .iter()
+            .find(|f| (f.0 - t).abs() < 1e-9)
+            .map(|f| read_vtp(&run_dir.join(&f.1)))
+            .transpose()?;
+        let path = out.join(format!("frame_{i:05}.pov"));
+        std::fs::write(
+            &path,
+            scene_file(&scene, particles.as_ref(), blocks.as_ref(), t),
+        )
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        if render {
+            let status = std::process::Command::new("povray")
+                .arg(format!("+I{}", path.display()))
+                .arg(format!("+O{}", path.with_extension("png").display()))
+                .args([
+                    format!("+W{width}"),
+                    format!("+H{height}"),
+                    "-D".into(),
+                    "+A0.3".into(),
+                    "-GA".into(),
+                ])
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .status()
+                .map_err(|e| format!("cannot run povray: {e}"))?;
+            if !status.success() {
+                return Err(format!("povray failed on {}", path.display()));
+            }
+        }
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// (time, file) pairs of a .pvd collection.
+fn pvd_frames(path: &Path) -> Vec<(f64, String)> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Vec::new();
+    };
+    text.lines()
+        .filter_map(|l| {
+            let t = l
+                .split("timestep=\"")
+                .nth(1)?
+                .split('"')
+                .next()?
+                .parse()
+                .ok()?;
+            let f = l.split("file=\"").nth(1)?.split('"').next()?.to_string();
+            Some((t, f))
+        })
+        .collect()
+}
+
+fn which(program: &str) -> Option<PathBuf> {
+    std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|d| d.join(program))
+            .find(|p| p.is_file())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_back_what_vtk_writes() {
+        let dir = std::env::temp_dir().join(format!("rockwave-pov-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let verts = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let faces = vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]];
+        shared::vtk::write_polyhedra(&dir.join("b.vtp"), &[(&verts, &faces)], &[]).unwrap();
+        let b = read_vtp(&dir.join("b.vtp")).unwrap();
+        assert_eq!(b.points.len(), 4);
+        assert_eq!(
+            b.polys,
+            vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]]
+        );
+        let scene = Scene::default_scene();
+        let pov = scene_file(&scene, None, Some(&b), 0.5);
+        assert_eq!(pov.matches("triangle").count(), 4);
+        assert!(pov.contains("camera"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
