@@ -104,6 +104,12 @@ pub struct FluidSpec {
     /// `[fluid.wcsph]`: weakly compressible SPH (Tait, Wendland C2, δ-SPH).
     #[serde(default)]
     pub wcsph: WcsphSpec,
+    /// Wall treatment of the fixed blocks: `particles` (default: boundary particles on the fixed
+    /// blocks with pressure extrapolated from the fluid, Adami et al. 2012, plus Eq. 22 as a
+    /// backstop) or `penalty` (the paper's Eq. 22 repulsion only). Moving blocks always couple
+    /// through Eq. 22.
+    #[serde(default)]
+    pub walls: Option<String>,
 }
 
 fn default_fluid_solver() -> String {
@@ -145,6 +151,9 @@ pub struct MullerSpec {
     pub support_ratio: Option<f64>,
     /// Step limit factor on the CFL, force and viscous limits; default 0.25.
     pub cfl: Option<f64>,
+    /// Clip negative pressure to zero (p = max(k(ρ − ρ0), 0)); default false, the paper's Eq. 17.
+    /// Summed densities are low at a free surface, so Eq. 17 pulls surface particles inward.
+    pub clamp_negative_pressure: Option<bool>,
 }
 
 /// `[fluid.wcsph]`: parameters of the weakly compressible solver. Unset values are derived.
@@ -284,7 +293,9 @@ impl std::str::FromStr for Scheme {
         match s {
             "parallel" => Ok(Scheme::Parallel),
             "serial" => Ok(Scheme::Serial),
-            other => Err(format!("unknown coupling scheme '{other}': use parallel or serial")),
+            other => Err(format!(
+                "unknown coupling scheme '{other}': use parallel or serial"
+            )),
         }
     }
 }
@@ -315,7 +326,11 @@ pub struct OutputSpec {
 
 impl Default for OutputSpec {
     fn default() -> Self {
-        Self { interval: default_output_interval(), vtk: true, povray: false }
+        Self {
+            interval: default_output_interval(),
+            vtk: true,
+            povray: false,
+        }
     }
 }
 
@@ -376,7 +391,11 @@ pub enum ShapeSpec {
     /// A convex polygon `profile` in the plane normal to `axis`, extruded over `extent` along it.
     /// For axis `y` the profile points are (x, z); for `x` they are (y, z); for `z`, (x, y).
     /// A wedge is a prism with a triangular profile.
-    Prism { axis: Axis, profile: Vec<[f64; 2]>, extent: [f64; 2] },
+    Prism {
+        axis: Axis,
+        profile: Vec<[f64; 2]>,
+        extent: [f64; 2],
+    },
     /// The convex hull of `vertices`; every vertex must be a corner of the hull.
     Convex { vertices: Vec<[f64; 3]> },
 }

@@ -1,0 +1,74 @@
+//! The stable step an SPH solver proposes (DESIGN §4): the smallest of
+//! - CFL: C·h/(c + v_max) (sound crossing a smoothing length; Monaghan 1992),
+//! - force: C·sqrt(h/|a|_max) (no particle moves more than ~h under its acceleration),
+//! - viscous: 0.125·h²/ν (explicit diffusion; Morris et al. 1997),
+//! - penalty: ½·2/sqrt(K_S/m), the explicit limit of the Eq. 22 spring halved for its damper.
+
+use shared::math::Real;
+
+/// Inputs of the proposal.
+#[derive(Debug, Clone, Copy)]
+pub struct StepLimits {
+    /// Length scale of the kernel (smoothing length h) [m].
+    pub h: Real,
+    /// Speed of sound [m/s].
+    pub sound_speed: Real,
+    /// Kinematic viscosity acting in the scheme [m²/s] (0 for none).
+    pub viscosity: Real,
+    /// Eq. 22 spring K_S [N/m] and particle mass [kg].
+    pub penalty_stiffness: Real,
+    pub mass: Real,
+    /// Courant number applied to the CFL and force limits.
+    pub cfl: Real,
+}
+
+/// Which limit set the step, for messages and tests.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Limit {
+    Cfl,
+    Force,
+    Viscous,
+    Penalty,
+}
+
+impl StepLimits {
+    /// The proposal for the current largest speed and acceleration.
+    pub fn propose(&self, v_max: Real, a_max: Real) -> (Real, Limit) {
+        let mut best = (self.cfl * self.h / (self.sound_speed + v_max), Limit::Cfl);
+        let mut take = |dt: Real, l: Limit| {
+            if dt < best.0 {
+                best = (dt, l);
+            }
+        };
+        if a_max > 0.0 {
+            take(self.cfl * (self.h / a_max).sqrt(), Limit::Force);
+        }
+        if self.viscosity > 0.0 {
+            take(0.125 * self.h * self.h / self.viscosity, Limit::Viscous);
+        }
+        if self.penalty_stiffness > 0.0 {
+            take((self.mass / self.penalty_stiffness).sqrt(), Limit::Penalty);
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_limit_can_bind() {
+        let base = StepLimits { h: 0.01, sound_speed: 20.0, viscosity: 1e-6, penalty_stiffness: 1.0, mass: 1e-3, cfl: 0.2 };
+        let (dt, l) = base.propose(0.0, 9.81);
+        assert_eq!(l, Limit::Cfl);
+        assert!((dt - 0.2 * 0.01 / 20.0).abs() < 1e-15);
+        assert_eq!(base.propose(0.0, 1e6).1, Limit::Force);
+        assert_eq!(StepLimits { viscosity: 1.0, ..base }.propose(0.0, 9.81).1, Limit::Viscous);
+        let stiff = StepLimits { penalty_stiffness: 1e6, ..base };
+        let (dt, l) = stiff.propose(0.0, 9.81);
+        assert_eq!(l, Limit::Penalty);
+        // Half of 2/ω.
+        assert!((dt - 1.0 / (1e6f64 / 1e-3).sqrt()).abs() < 1e-15);
+    }
+}

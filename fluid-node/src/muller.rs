@@ -1,0 +1,251 @@
+//! The paper's SPH (Geraili Mikola & Sitar 2014, Eqs. 11–21), which is Müller, Charypar & Gross
+//! (2003): summed density with the poly6 kernel (Eqs. 12–13), the linear equation of state
+//! p = k(ρ − ρ0) (Eq. 17), the symmetric spiky pressure force −Σ m_j (p_i + p_j)/(2ρ_j) ∇W
+//! (Eqs. 14–15; the paper prints p_i − p_j, Müller's symmetric form is the sum), the viscosity
+//! Laplacian μ Σ m_j (v_j − v_i)/ρ_j ∇²W (Eqs. 18–19; the paper's v_i − v_j would anti-damp), and
+//! symplectic Euler (Eq. 21).
+
+use crate::dt::StepLimits;
+use crate::kernel::Kernel;
+use crate::kernels::{Poly6, Spiky, ViscosityKernel};
+use crate::system::{FluidSystem, Initial, WallMode};
+use rayon::prelude::*;
+use shared::math::{Real, Vector};
+use shared::protocol::{BlockLoad, BlockState};
+use shared::solver::{FluidSolver, SetupContext, Solver, SolverError, StepReport};
+
+/// Mean compression above which a step carries a warning (the weakly compressible promise).
+const COMPRESSION_WARNING: Real = 0.01;
+/// Steps between two repeated compression warnings.
+const WARNING_EVERY: u64 = 1000;
+
+pub struct Muller {
+    pub sys: FluidSystem,
+    poly6: Poly6,
+    spiky: Spiky,
+    viscosity_kernel: ViscosityKernel,
+    /// k of Eq. 17 [m²/s²].
+    pub stiffness: Real,
+    /// μ of Eq. 18 [Pa·s].
+    pub viscosity: Real,
+    /// ρ0 of Eq. 17: the summed density of the filled lattice (see [`lattice_density`]).
+    pub rest_density: Real,
+    clamp: bool,
+    limits: StepLimits,
+    dt_next: Real,
+    last_warning: Option<u64>,
+}
+
+/// The poly6 sum of Eq. 12 at a particle inside a full cubic lattice of spacing dx.
+///
+/// The paper's ρ0 is the density of water at rest; at rest in the discrete sense means the
+/// density Eq. 12 gives on the filled lattice, which for h = 2dx is 1.0098·ρ0·(m/ρ0dx³). Using
+/// the continuum ρ0 instead would start every particle 1 % compressed, with k·0.0098ρ0 of
+/// pressure pushing the surface up (more than the hydrostatic pressure of a 0.1 m column).
+pub fn lattice_density(kernel: &Poly6, dx: Real, mass: Real) -> Real {
+    let n = (kernel.support() / dx).ceil() as i64;
+    let mut sum = 0.0;
+    for i in -n..=n {
+        for j in -n..=n {
+            for k in -n..=n {
+                let r = Vector::new(i as Real, j as Real, k as Real) * dx;
+                sum += mass * kernel.value(r.norm());
+            }
+        }
+    }
+    sum
+}
+
+impl Muller {
+    pub fn new(ctx: &SetupContext) -> Result<Self, SolverError> {
+        let init = Initial::from_scene(ctx.scene)?;
+        let spec = &init.fluid.muller;
+        let dx = init.fluid.dx;
+        let rho0 = init.fluid.density;
+        let h = spec.support_ratio.unwrap_or(2.0) * dx;
+        let c = init.default_sound_speed();
+        let stiffness = spec.stiffness.unwrap_or(c * c);
+        let sound = stiffness.sqrt();
+        // μ = ρ0·max(ν, ν_num): water's own viscosity is far below what a particle spacing can
+        // resolve; ν_num = α·h·c/10 with α = 0.05 is the viscosity Monaghan's artificial term
+        // with that α adds in 3D (Monaghan 2005, ν = αhc/(2(d+2))), enough to damp the
+        // particle-scale noise of the explicit scheme.
+        let viscosity = spec.viscosity.unwrap_or(rho0 * init.fluid.kinematic_viscosity.max(0.05 * h * sound / 10.0));
+        let poly6 = Poly6::new(h);
+        let mass = rho0 * dx.powi(3);
+        let rest_density = lattice_density(&poly6, dx, mass);
+        let walls = WallMode::from_spec(&init.fluid)?;
+        // Initial pressure for output and probes: hydrostatic where asked (Eq. 12 fixes density
+        // from positions, so the lattice itself settles by ρ0gH/k, 0.5 % of H at the default k).
+        let density = init.fill.depth.iter().map(|d| rest_density + rho0 * init.gravity.norm() * d / stiffness).collect();
+        let mut sys = FluidSystem::new(ctx, "muller", &init, density, h, walls, sound)?;
+        // The particles were sorted by cell: pressures from their own (permuted) densities.
+        let k = stiffness;
+        sys.particles.pressure.par_iter_mut().zip(sys.particles.density.par_iter()).for_each(|(p, r)| *p = k * (r - rest_density));
+        let limits = StepLimits {
+            h,
+            sound_speed: sound,
+            viscosity: viscosity / rho0,
+            penalty_stiffness: sys.penalty.stiffness,
+            mass,
+            cfl: spec.cfl.unwrap_or(0.25),
+        };
+        let dt_next = limits.propose(0.0, init.gravity.norm()).0;
+        Ok(Self {
+            sys,
+            poly6,
+            spiky: Spiky::new(h),
+            viscosity_kernel: ViscosityKernel::new(h),
+            stiffness,
+            viscosity,
+            rest_density,
+            clamp: spec.clamp_negative_pressure.unwrap_or(true),
+            limits,
+            dt_next,
+            last_warning: None,
+        })
+    }
+
+    /// Eq. 12 (fluid and wall particles both carry mass), then Eq. 17.
+    fn density_and_pressure(&mut self) {
+        let sys = &mut self.sys;
+        let (m, k, rho_ref, clamp) = (sys.mass, self.stiffness, self.rest_density, self.clamp);
+        let h2 = self.poly6.support().powi(2);
+        let poly6 = &self.poly6;
+        let self_weight = poly6.value_r2(0.0);
+        let (lists, wall_lists) = (&sys.fluid_lists, &sys.wall_lists);
+        let p = &mut sys.particles;
+        let pos = &p.position;
+        let walls = sys.walls.as_ref();
+        p.density.par_iter_mut().zip(p.pressure.par_iter_mut()).enumerate().for_each(|(i, (rho, pr))| {
+            let xi = pos[i];
+            let mut sum = self_weight;
+            for &j in lists.of(i) {
+                let r2 = (xi - pos[j as usize]).norm_squared();
+                if r2 < h2 {
+                    sum += poly6.value_r2(r2);
+                }
+            }
+            if let Some(w) = walls {
+                for &j in wall_lists.of(i) {
+                    let r2 = (xi - w.position[j as usize]).norm_squared();
+                    if r2 < h2 {
+                        sum += poly6.value_r2(r2);
+                    }
+                }
+            }
+            *rho = m * sum;
+            let pressure = k * (*rho - rho_ref);
+            *pr = if clamp { pressure.max(0.0) } else { pressure };
+        });
+        if let Some(w) = sys.walls.as_mut() {
+            w.update(&self.poly6, &sys.particles, &sys.wall_fluid_lists, &sys.gravity, rho_ref, |p| rho_ref + p / k);
+        }
+    }
+
+    /// Eqs. 14, 18 and 20: acceleration from pressure, viscosity, gravity and Eq. 22.
+    fn accelerations(&mut self) {
+        let sys = &mut self.sys;
+        let (m, mu, g) = (sys.mass, self.viscosity, sys.gravity);
+        let h2 = self.spiky.support().powi(2);
+        let (spiky, visc) = (&self.spiky, &self.viscosity_kernel);
+        let (lists, wall_lists) = (&sys.fluid_lists, &sys.wall_lists);
+        let p = &mut sys.particles;
+        let (pos, vel, rho, pre, pen) = (&p.position, &p.velocity, &p.density, &p.pressure, &p.penalty);
+        let walls = sys.walls.as_ref();
+        p.acceleration.par_iter_mut().enumerate().for_each(|(i, a)| {
+            let (xi, vi, pi) = (pos[i], vel[i], pre[i]);
+            let mut f_pressure = Vector::zeros();
+            let mut f_visc = Vector::zeros();
+            for &j in lists.of(i) {
+                let j = j as usize;
+                let rij = xi - pos[j];
+                let r2 = rij.norm_squared();
+                if r2 >= h2 {
+                    continue;
+                }
+                let r = r2.sqrt();
+                // Eq. 14 with Müller's symmetric (p_i + p_j)/2.
+                f_pressure -= spiky.gradient(&rij, r) * (m * (pi + pre[j]) / (2.0 * rho[j]));
+                // Eq. 18, Müller's sign: damps the velocity difference.
+                f_visc += (vel[j] - vi) * (mu * m / rho[j] * visc.laplacian(r));
+            }
+            if let Some(w) = walls {
+                for &j in wall_lists.of(i) {
+                    let j = j as usize;
+                    let rij = xi - w.position[j];
+                    let r2 = rij.norm_squared();
+                    if r2 < h2 {
+                        f_pressure -= spiky.gradient(&rij, r2.sqrt()) * (m * (pi + w.pressure[j]) / (2.0 * w.density[j]));
+                    }
+                }
+            }
+            *a = (f_pressure + f_visc) / rho[i] + g + pen[i] / m;
+        });
+    }
+
+    /// Mean compression: the average of max(ρ/ρ0 − 1, 0) over all particles (a free surface's
+    /// low summed densities do not hide compression elsewhere).
+    fn mean_compression(&self) -> Real {
+        let rho = &self.sys.particles.density;
+        let r0 = self.rest_density;
+        let sum: Real = rho.par_iter().map(|&r| ((r - r0) / r0).max(0.0)).sum();
+        sum / rho.len().max(1) as Real
+    }
+}
+
+impl Solver for Muller {
+    fn name(&self) -> &str {
+        "muller"
+    }
+
+    fn dt_proposal(&self) -> Real {
+        self.dt_next
+    }
+
+    fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
+        self.sys.begin_step();
+        self.density_and_pressure();
+        self.accelerations();
+        // Eq. 21: symplectic Euler, velocity first, then position with the new velocity.
+        let p = &mut self.sys.particles;
+        p.velocity.par_iter_mut().zip(p.position.par_iter_mut()).zip(p.acceleration.par_iter()).for_each(|((v, x), a)| {
+            *v += a * dt;
+            *x += *v * dt;
+        });
+        let mut report = StepReport::default();
+        let compression = self.mean_compression();
+        let steps = self.sys.steps + 1;
+        if compression > COMPRESSION_WARNING && self.last_warning.is_none_or(|s| steps >= s + WARNING_EVERY) {
+            self.last_warning = Some(steps);
+            report.warning = Some(format!(
+                "muller: mean compression {:.2} % exceeds {:.0} %: the Eq. 17 stiffness k = {:.4e} m²/s² is too soft for this flow; raise [fluid.muller] stiffness",
+                100.0 * compression,
+                100.0 * COMPRESSION_WARNING,
+                self.stiffness
+            ));
+        }
+        let (v, a) = self.sys.extremes();
+        self.sys.end_step(dt, &self.poly6, false, self.rest_density)?;
+        self.dt_next = self.limits.propose(v, a).0;
+        Ok(report)
+    }
+
+    fn write_frame(&mut self, frame: u32, _time: Real) -> Result<(), SolverError> {
+        self.sys.write_frame(frame)
+    }
+
+    fn finish(&mut self) -> Result<(), SolverError> {
+        self.sys.finish()
+    }
+}
+
+impl FluidSolver for Muller {
+    fn read_geometry(&mut self, blocks: &[BlockState], _vertices: &[[f64; 3]]) {
+        self.sys.read_geometry(blocks);
+    }
+
+    fn write_loads(&mut self, loads: &mut [BlockLoad]) {
+        self.sys.write_loads(loads);
+    }
+}

@@ -1,0 +1,100 @@
+//! Fluid particles as a structure of arrays: each field its own contiguous vector, so the
+//! density pass streams positions only and rayon splits every array the same way.
+
+use rayon::prelude::*;
+use shared::math::{Real, Vector};
+
+/// All per-particle state. Every particle has the same mass ρ0·dx³, kept once in the solver.
+#[derive(Debug, Default, Clone)]
+pub struct Particles {
+    pub position: Vec<Vector>,
+    pub velocity: Vec<Vector>,
+    /// Density [kg/m³]: summed (Müller, paper Eq. 12) or integrated (WCSPH continuity).
+    pub density: Vec<Real>,
+    pub pressure: Vec<Real>,
+    /// Acceleration of the last force evaluation [m/s²].
+    pub acceleration: Vec<Vector>,
+    /// dρ/dt of the last evaluation (WCSPH).
+    pub density_rate: Vec<Real>,
+    /// Eq. 22 force of every block on the particle for the current step [N].
+    pub penalty: Vec<Vector>,
+    /// State at the start of the step (symplectic) or one step back (Verlet).
+    pub position0: Vec<Vector>,
+    pub velocity0: Vec<Vector>,
+    pub density0: Vec<Real>,
+    scratch_v: Vec<Vector>,
+    scratch_s: Vec<Real>,
+}
+
+impl Particles {
+    pub fn new(position: Vec<Vector>, density: Vec<Real>) -> Self {
+        let n = position.len();
+        assert_eq!(density.len(), n);
+        Self {
+            velocity: vec![Vector::zeros(); n],
+            pressure: vec![0.0; n],
+            acceleration: vec![Vector::zeros(); n],
+            density_rate: vec![0.0; n],
+            penalty: vec![Vector::zeros(); n],
+            position0: position.clone(),
+            velocity0: vec![Vector::zeros(); n],
+            density0: density.clone(),
+            scratch_v: vec![Vector::zeros(); n],
+            scratch_s: vec![0.0; n],
+            position,
+            density,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
+
+    /// Reorders every array by `order` (new slot k takes old particle `order[k]`), through two
+    /// scratch buffers that are swapped in: no allocation.
+    pub fn permute(&mut self, order: &[u32]) {
+        fn gather<T: Copy + Send + Sync>(data: &mut Vec<T>, scratch: &mut Vec<T>, order: &[u32]) {
+            scratch.par_iter_mut().zip(order.par_iter()).for_each(|(s, &o)| *s = data[o as usize]);
+            std::mem::swap(data, scratch);
+        }
+        let (sv, ss) = (&mut self.scratch_v, &mut self.scratch_s);
+        for v in [
+            &mut self.position,
+            &mut self.velocity,
+            &mut self.acceleration,
+            &mut self.penalty,
+            &mut self.position0,
+            &mut self.velocity0,
+        ] {
+            gather(v, sv, order);
+        }
+        for s in [&mut self.density, &mut self.pressure, &mut self.density_rate, &mut self.density0] {
+            gather(s, ss, order);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn permute_moves_every_field_together() {
+        let pos: Vec<Vector> = (0..5).map(|i| Vector::new(i as f64, 0.0, 0.0)).collect();
+        let rho: Vec<f64> = (0..5).map(|i| 1000.0 + i as f64).collect();
+        let mut p = Particles::new(pos, rho);
+        p.velocity.iter_mut().enumerate().for_each(|(i, v)| v.y = i as f64);
+        p.permute(&[4, 2, 0, 1, 3]);
+        for k in 0..5 {
+            let i = p.position[k].x;
+            assert_eq!(p.velocity[k].y, i);
+            assert_eq!(p.density[k], 1000.0 + i);
+            assert_eq!(p.position0[k].x, i);
+        }
+        assert_eq!(p.position[0].x, 4.0);
+    }
+}

@@ -1,0 +1,340 @@
+//! What every SPH solver here shares: the particles and their grid, the wall particles, the
+//! Eq. 22 coupling with the blocks, the instruments, the stability checks and the frame output.
+//! A solver (muller.rs, wcsph.rs) owns one [`FluidSystem`] and adds its own force evaluation and
+//! integrator.
+
+use crate::fill::{Fill, fill_water};
+use crate::gauges::{FluidView, Recorder};
+use crate::kernel::Kernel;
+use crate::neighbors::{CellGrid, NeighborLists};
+use crate::particles::Particles;
+use crate::penalty::{Obstacle, Penalty, resting_state};
+use crate::walls::WallParticles;
+use rayon::prelude::*;
+use shared::geometry::Polyhedron;
+use shared::math::{Real, Vector};
+use shared::protocol::{BlockLoad, BlockState};
+use shared::scene::{BlockKind, FluidSpec, Scene};
+use shared::solver::{SetupContext, SolverError};
+use std::path::PathBuf;
+
+/// How the fixed blocks hold the water (`[fluid] walls`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WallMode {
+    /// Boundary particles on the fixed blocks (Adami et al. 2012) with Eq. 22 as a backstop.
+    Particles,
+    /// The paper's Eq. 22 repulsion only.
+    Penalty,
+}
+
+impl WallMode {
+    pub fn from_spec(fluid: &FluidSpec) -> Result<Self, SolverError> {
+        match fluid.walls.as_deref() {
+            None | Some("particles") => Ok(WallMode::Particles),
+            Some("penalty") => Ok(WallMode::Penalty),
+            Some(other) => {
+                Err(SolverError::Failed(format!("fluid.walls = \"{other}\" is not a wall treatment: use \"particles\" or \"penalty\"")))
+            }
+        }
+    }
+}
+
+/// The scene's water, filled, and its blocks as polyhedra.
+pub struct Initial {
+    pub fluid: FluidSpec,
+    pub fill: Fill,
+    /// Every block in scene order.
+    pub blocks: Vec<Polyhedron>,
+    /// Depth H of the deepest water [m]: the scale of the default sound speed c = 10·sqrt(2 g H).
+    pub depth: Real,
+    pub gravity: Vector,
+}
+
+impl Initial {
+    pub fn from_scene(scene: &Scene) -> Result<Self, SolverError> {
+        let fluid = scene.fluid.clone().ok_or_else(|| SolverError::Failed("the scene has no [fluid] table".into()))?;
+        let blocks = scene
+            .blocks
+            .iter()
+            .map(|b| Polyhedron::from_shape(&b.shape).map_err(|e| SolverError::Failed(format!("block '{}': {e}", b.name))))
+            .collect::<Result<Vec<_>, _>>()?;
+        let fill = fill_water(&fluid, &blocks).map_err(SolverError::Failed)?;
+        if fill.positions.is_empty() {
+            return Err(SolverError::Failed(format!(
+                "the water volumes hold no particle at dx = {} m (all inside blocks or thinner than dx)",
+                fluid.dx
+            )));
+        }
+        let depth = fill.max_depth(fluid.dx);
+        Ok(Self { fluid, fill, blocks, depth, gravity: Vector::from(scene.gravity) })
+    }
+
+    /// The default numerical speed of sound, 10·sqrt(2 g H): ten times the largest free-fall
+    /// speed of the water, so density varies by ~1 % (Monaghan 1994).
+    pub fn default_sound_speed(&self) -> Real {
+        10.0 * (2.0 * self.gravity.norm() * self.depth).sqrt().max(1e-6)
+    }
+}
+
+/// Per-step state shared by the solvers.
+pub struct FluidSystem {
+    pub solver: &'static str,
+    pub particles: Particles,
+    pub grid: CellGrid,
+    pub walls: Option<WallParticles>,
+    /// Fluid neighbours of each fluid particle (itself excluded), wall neighbours of each fluid
+    /// particle, fluid neighbours of each wall particle: rebuilt at every sort.
+    pub fluid_lists: NeighborLists,
+    pub wall_lists: NeighborLists,
+    pub wall_fluid_lists: NeighborLists,
+    pub penalty: Penalty,
+    recorder: Recorder,
+    pub dx: Real,
+    pub mass: Real,
+    pub rest_density: Real,
+    pub gravity: Vector,
+    pub density_bound: Real,
+    domain: (Vector, Vector),
+    run_dir: PathBuf,
+    pub time: Real,
+    pub steps: u64,
+    grid_valid: bool,
+    penalty_fresh: bool,
+}
+
+impl FluidSystem {
+    /// Builds the system from the filled scene. `cell` is the kernel support (the neighbour
+    /// radius), `sound_speed` sets the default Eq. 22 stiffness.
+    pub fn new(
+        ctx: &SetupContext,
+        solver: &'static str,
+        init: &Initial,
+        density: Vec<Real>,
+        cell: Real,
+        walls: WallMode,
+        sound_speed: Real,
+    ) -> Result<Self, SolverError> {
+        let scene = ctx.scene;
+        let fluid = &init.fluid;
+        let dx = fluid.dx;
+        let mass = fluid.density * dx.powi(3);
+        let lo = Vector::from(scene.domain.min);
+        let hi = Vector::from(scene.domain.max);
+        let grid = CellGrid::new(lo, hi, cell).map_err(SolverError::Failed)?;
+
+        // Eq. 22 defaults (documented in docs/validation-fluid.md): the spring is as stiff as the
+        // water itself over one particle spacing, K_S = ½ρ0c²·dx (bulk modulus ρ0c² times the
+        // particle's face dx² over its spacing dx, halved), so a wall yields no more than the
+        // water does; the damper is critical for that spring and the particle mass; the margin is
+        // half a spacing, the clearance of the initial lattice.
+        let ks = scene.coupling.penalty_stiffness.unwrap_or(0.5 * fluid.density * sound_speed * sound_speed * dx);
+        let kd = scene.coupling.penalty_damping.unwrap_or(2.0 * (ks * mass).sqrt());
+        let margin = scene.coupling.margin.unwrap_or(0.5 * dx);
+        // With boundary particles the fixed blocks hold the water by pressure; Eq. 22 is then a
+        // backstop that acts only closer than half the margin, so it does not bear the load.
+        let fixed_margin = if walls == WallMode::Particles { 0.5 * margin } else { margin };
+        let moving = scene.moving_blocks();
+        let obstacles = scene
+            .blocks
+            .iter()
+            .zip(&init.blocks)
+            .enumerate()
+            .map(|(i, (spec, poly))| {
+                let mut state = resting_state(i as u32, poly);
+                match moving.iter().position(|&m| m == i) {
+                    Some(k) => {
+                        state.velocity = spec.velocity;
+                        state.angular_velocity = spec.angular_velocity;
+                        Obstacle::new(poly.clone(), state, Some(k), margin)
+                    }
+                    None => Obstacle::new(poly.clone(), state, None, fixed_margin),
+                }
+            })
+            .collect();
+        let penalty = Penalty::new(ks, kd, obstacles);
+
+        let walls = match walls {
+            WallMode::Penalty => None,
+            WallMode::Particles => {
+                let fixed: Vec<Polyhedron> = scene
+                    .blocks
+                    .iter()
+                    .zip(&init.blocks)
+                    .filter(|(b, _)| b.kind == BlockKind::Fixed)
+                    .map(|(_, p)| p.clone())
+                    .collect();
+                let reach = Vector::repeat(cell);
+                let pts = WallParticles::sample(&fixed, &init.fill.anchor, dx, cell, &(lo - reach), &(hi + reach));
+                Some(WallParticles::new(pts, grid.clone()))
+            }
+        };
+
+        let recorder = Recorder::new(ctx.run_dir, &scene.gauges, &scene.probes, scene.output.interval)?;
+        let mut sys = Self {
+            solver,
+            particles: Particles::new(init.fill.positions.clone(), density),
+            grid,
+            walls,
+            fluid_lists: NeighborLists::default(),
+            wall_lists: NeighborLists::default(),
+            wall_fluid_lists: NeighborLists::default(),
+            penalty,
+            recorder,
+            dx,
+            mass,
+            rest_density: fluid.density,
+            gravity: init.gravity,
+            density_bound: fluid.density_ratio_bound,
+            domain: (lo, hi),
+            run_dir: ctx.run_dir.to_path_buf(),
+            time: 0.0,
+            steps: 0,
+            grid_valid: false,
+            penalty_fresh: false,
+        };
+        sys.check_domain()?;
+        sys.prepare();
+        Ok(sys)
+    }
+
+    pub fn len(&self) -> usize {
+        self.particles.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.particles.is_empty()
+    }
+
+    /// Sorts the particles by cell and lists their neighbours, if they moved since the last sort.
+    pub fn prepare(&mut self) {
+        if !self.grid_valid {
+            let order = self.grid.sort(&self.particles.position);
+            self.particles.permute(order);
+            let (pos, radius) = (&self.particles.position, self.grid.cell_size());
+            self.fluid_lists.build(pos, pos, &self.grid, radius, true);
+            if let Some(w) = &self.walls {
+                self.wall_lists.build(pos, &w.position, &w.grid, radius, false);
+                self.wall_fluid_lists.build(&w.position, pos, &self.grid, radius, false);
+            }
+            self.grid_valid = true;
+        }
+    }
+
+    /// Takes the moving blocks' poses and velocities.
+    pub fn read_geometry(&mut self, blocks: &[BlockState]) {
+        self.penalty.set_moving(blocks);
+        self.penalty_fresh = false;
+    }
+
+    /// Eq. 22 on the particles for the coming step, and its reaction on the moving blocks.
+    pub fn write_loads(&mut self, loads: &mut [BlockLoad]) {
+        self.prepare();
+        self.penalty.apply(&mut self.particles, &self.grid, Some(loads));
+        self.penalty_fresh = true;
+    }
+
+    /// Makes sure the grid and the Eq. 22 forces are current before a force evaluation (when
+    /// the solver runs without a coupler calling `write_loads`).
+    pub fn begin_step(&mut self) {
+        self.prepare();
+        if !self.penalty_fresh {
+            self.penalty.apply(&mut self.particles, &self.grid, None);
+            self.penalty_fresh = true;
+        }
+    }
+
+    /// After the particles moved by `dt`: re-sorts, checks stability and samples the instruments.
+    /// `check_low_density` is false for summed densities, which are low at a free surface by
+    /// construction: there only compression is an instability.
+    pub fn end_step<K: Kernel>(&mut self, dt: Real, kernel: &K, check_low_density: bool, reference_density: Real) -> Result<(), SolverError> {
+        self.time += dt;
+        self.steps += 1;
+        self.grid_valid = false;
+        self.penalty_fresh = false;
+        self.check_finite()?;
+        self.check_domain()?;
+        self.check_density(check_low_density, reference_density)?;
+        self.prepare();
+        let view = FluidView { particles: &self.particles, grid: &self.grid, kernel, mass: self.mass, dx: self.dx };
+        self.recorder.sample(self.time, &view)?;
+        Ok(())
+    }
+
+    fn check_finite(&self) -> Result<(), SolverError> {
+        let p = &self.particles;
+        let bad = (0..p.len()).into_par_iter().find_any(|&i| {
+            !(p.position[i].iter().all(|x| x.is_finite()) && p.velocity[i].iter().all(|x| x.is_finite()) && p.density[i].is_finite())
+        });
+        match bad {
+            Some(i) => Err(SolverError::Unstable(format!(
+                "{}: NaN/inf limit exceeded: particle {i} has position {:?}, velocity {:?}, density {}",
+                self.solver,
+                p.position[i].as_slice(),
+                p.velocity[i].as_slice(),
+                p.density[i]
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    fn check_domain(&self) -> Result<(), SolverError> {
+        let (lo, hi) = self.domain;
+        let pos = &self.particles.position;
+        match pos.par_iter().position_any(|x| (0..3).any(|k| x[k] < lo[k] || x[k] > hi[k])) {
+            Some(i) => Err(SolverError::Unstable(format!(
+                "{}: domain limit exceeded: particle {i} at ({:.4}, {:.4}, {:.4}) m left the domain [{:?}, {:?}]",
+                self.solver,
+                pos[i].x,
+                pos[i].y,
+                pos[i].z,
+                lo.as_slice(),
+                hi.as_slice()
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    fn check_density(&self, low: bool, reference: Real) -> Result<(), SolverError> {
+        let b = self.density_bound;
+        let rho = &self.particles.density;
+        let bad = rho.par_iter().position_any(|&r| {
+            let q = r / reference;
+            q > b || (low && q < 1.0 / b)
+        });
+        match bad {
+            Some(i) => {
+                let q = rho[i] / reference;
+                let (what, bound) = if q > b { ("exceeds", b) } else { ("is below", 1.0 / b) };
+                Err(SolverError::Unstable(format!(
+                    "{}: density ratio limit exceeded: ρ/ρ0 = {q:.4} {what} the bound {bound:.4} at particle {i}",
+                    self.solver
+                )))
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Largest speed and acceleration magnitude of the fluid particles.
+    pub fn extremes(&self) -> (Real, Real) {
+        let p = &self.particles;
+        let v = p.velocity.par_iter().map(|v| v.norm_squared()).reduce(|| 0.0, Real::max).sqrt();
+        let a = p.acceleration.par_iter().map(|a| a.norm_squared()).reduce(|| 0.0, Real::max).sqrt();
+        (v, a)
+    }
+
+    /// `particles_{frame:05}.vtp` with density, pressure and velocity.
+    pub fn write_frame(&mut self, frame: u32) -> Result<(), SolverError> {
+        self.recorder.flush()?;
+        let p = &self.particles;
+        let pos: Vec<[f64; 3]> = p.position.iter().map(|x| [x.x, x.y, x.z]).collect();
+        let vel: Vec<[f64; 3]> = p.velocity.iter().map(|x| [x.x, x.y, x.z]).collect();
+        let path = self.run_dir.join(format!("particles_{frame:05}.vtp"));
+        shared::vtk::write_particles(&path, &pos, &[("density", &p.density), ("pressure", &p.pressure)], &[("velocity", &vel)])?;
+        Ok(())
+    }
+
+    pub fn finish(&mut self) -> Result<(), SolverError> {
+        self.recorder.flush()?;
+        Ok(())
+    }
+}
