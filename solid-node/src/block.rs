@@ -69,8 +69,11 @@ impl Block {
         }
         let inv_inertia = inertia.try_inverse().unwrap_or_else(Matrix::zeros);
         let eig = inertia.symmetric_eigen();
-        let inv_sqrt = eig.eigenvalues.map(|l| if l > 0.0 { 1.0 / l.sqrt() } else { 0.0 });
-        let inv_sqrt_inertia = eig.eigenvectors * Matrix::from_diagonal(&inv_sqrt) * eig.eigenvectors.transpose();
+        let inv_sqrt = eig
+            .eigenvalues
+            .map(|l| if l > 0.0 { 1.0 / l.sqrt() } else { 0.0 });
+        let inv_sqrt_inertia =
+            eig.eigenvectors * Matrix::from_diagonal(&inv_sqrt) * eig.eigenvectors.transpose();
 
         let edge_faces = shape
             .edges
@@ -106,7 +109,8 @@ impl Block {
                 let p0 = shape.vertices[f.vertices[0] as usize];
                 let mut s = Vector::zeros();
                 for w in f.vertices[1..].windows(2) {
-                    s += (shape.vertices[w[0] as usize] - p0).cross(&(shape.vertices[w[1] as usize] - p0));
+                    s += (shape.vertices[w[0] as usize] - p0)
+                        .cross(&(shape.vertices[w[1] as usize] - p0));
                 }
                 0.5 * s.norm()
             })
@@ -225,7 +229,12 @@ impl Block {
             lo = lo.inf(w);
             hi = hi.sup(w);
         }
-        for ((n, o), f) in self.world_normals.iter_mut().zip(self.world_offsets.iter_mut()).zip(&self.shape.faces) {
+        for ((n, o), f) in self
+            .world_normals
+            .iter_mut()
+            .zip(self.world_offsets.iter_mut())
+            .zip(&self.shape.faces)
+        {
             *n = self.rotation * f.normal;
             *o = f.offset + n.dot(&self.position.coords);
         }
@@ -238,7 +247,12 @@ impl Block {
     #[inline]
     pub fn plane_distance(&self, p: &Point) -> (Real, usize) {
         let mut best = (Real::NEG_INFINITY, 0);
-        for (i, (n, o)) in self.world_normals.iter().zip(&self.world_offsets).enumerate() {
+        for (i, (n, o)) in self
+            .world_normals
+            .iter()
+            .zip(&self.world_offsets)
+            .enumerate()
+        {
             let d = n.dot(&p.coords) - o;
             if d > best.0 {
                 best = (d, i);
@@ -249,7 +263,9 @@ impl Block {
 
     /// Kinetic energy [J].
     pub fn kinetic_energy(&self) -> Real {
-        let w = self.rotation.inverse_transform_vector(&self.angular_velocity);
+        let w = self
+            .rotation
+            .inverse_transform_vector(&self.angular_velocity);
         0.5 * self.mass * self.velocity.norm_squared() + 0.5 * w.dot(&(self.inertia * w))
     }
 
@@ -271,7 +287,10 @@ mod tests {
         BlockSpec {
             name: "b".into(),
             kind,
-            shape: ShapeSpec::Box { min: [0.0, 0.0, 0.0], max: [2.0, 1.0, 0.5] },
+            shape: ShapeSpec::Box {
+                min: [0.0, 0.0, 0.0],
+                max: [2.0, 1.0, 0.5],
+            },
             density: 2000.0,
             velocity: [0.0; 3],
             angular_velocity: [0.0; 3],
@@ -286,10 +305,17 @@ mod tests {
         let b = Block::from_spec(0, &spec(BlockKind::Free)).unwrap();
         assert!((b.mass - 2000.0).abs() < 1e-9);
         assert!((b.inertia[(2, 2)] - 2000.0 * (4.0 + 1.0) / 12.0).abs() < 1e-9);
-        assert!(b.edge_faces.iter().all(|f| f[0] != u32::MAX && f[1] != u32::MAX && f[0] != f[1]));
+        assert!(
+            b.edge_faces
+                .iter()
+                .all(|f| f[0] != u32::MAX && f[1] != u32::MAX && f[0] != f[1])
+        );
         assert!(b.vertex_faces.iter().all(|f| f.len() == 3));
         let total: Real = b.face_area.iter().sum();
-        assert!((total - 2.0 * (2.0 + 1.0 + 0.5)).abs() < 1e-12, "surface {total}");
+        assert!(
+            (total - 2.0 * (2.0 + 1.0 + 0.5)).abs() < 1e-12,
+            "surface {total}"
+        );
         assert!((b.aabb_min - Point::new(0.0, 0.0, 0.0)).norm() < 1e-12);
         assert!((b.aabb_max - Point::new(2.0, 1.0, 0.5)).norm() < 1e-12);
     }
@@ -297,7 +323,10 @@ mod tests {
     #[test]
     fn plane_distance_follows_pose() {
         let mut b = Block::from_spec(0, &spec(BlockKind::Free)).unwrap();
-        b.displace(&Vector::new(10.0, 0.0, 0.0), &Vector::new(0.0, 0.0, std::f64::consts::FRAC_PI_2));
+        b.displace(
+            &Vector::new(10.0, 0.0, 0.0),
+            &Vector::new(0.0, 0.0, std::f64::consts::FRAC_PI_2),
+        );
         b.update_world_geometry();
         // After a quarter turn about z the 2 m side lies along y.
         let ext = b.aabb_max - b.aabb_min;

@@ -21,7 +21,8 @@ pub struct BroadPhase {
 #[inline]
 fn overlap(a: &Block, b: &Block, margin: Real) -> bool {
     // x overlap is guaranteed by the sweep; check y and z.
-    (1..3).all(|k| a.aabb_min[k] <= b.aabb_max[k] + margin && b.aabb_min[k] <= a.aabb_max[k] + margin)
+    (1..3)
+        .all(|k| a.aabb_min[k] <= b.aabb_max[k] + margin && b.aabb_min[k] <= a.aabb_max[k] + margin)
 }
 
 impl BroadPhase {
@@ -30,16 +31,22 @@ impl BroadPhase {
         if self.order.len() != blocks.len() {
             self.order = (0..blocks.len() as u32).collect();
         }
-        self.order
-            .sort_unstable_by(|&i, &j| blocks[i as usize].aabb_min.x.total_cmp(&blocks[j as usize].aabb_min.x));
+        self.order.sort_unstable_by(|&i, &j| {
+            blocks[i as usize]
+                .aabb_min
+                .x
+                .total_cmp(&blocks[j as usize].aabb_min.x)
+        });
         self.active_free.clear();
         self.active_other.clear();
         self.pairs.clear();
         for &i in &self.order {
             let bi = &blocks[i as usize];
             let lo = bi.aabb_min.x - margin;
-            self.active_free.retain(|&j| blocks[j as usize].aabb_max.x >= lo);
-            self.active_other.retain(|&j| blocks[j as usize].aabb_max.x >= lo);
+            self.active_free
+                .retain(|&j| blocks[j as usize].aabb_max.x >= lo);
+            self.active_other
+                .retain(|&j| blocks[j as usize].aabb_max.x >= lo);
             for &j in &self.active_free {
                 if overlap(bi, &blocks[j as usize], margin) {
                     self.pairs.push((i.min(j), i.max(j)));
@@ -69,7 +76,10 @@ mod tests {
         let spec = BlockSpec {
             name: "c".into(),
             kind,
-            shape: ShapeSpec::Box { min, max: [min[0] + size, min[1] + size, min[2] + size] },
+            shape: ShapeSpec::Box {
+                min,
+                max: [min[0] + size, min[1] + size, min[2] + size],
+            },
             density: 1000.0,
             velocity: [0.0; 3],
             angular_velocity: [0.0; 3],
@@ -85,7 +95,9 @@ mod tests {
     fn matches_brute_force_without_fixed_pairs() {
         let mut seed = 12345u64;
         let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         let blocks: Vec<Block> = (0..300)
@@ -103,13 +115,23 @@ mod tests {
                 if !a.is_free() && !b.is_free() {
                     continue;
                 }
-                if (0..3).all(|k| a.aabb_min[k] <= b.aabb_max[k] + 0.01 && b.aabb_min[k] <= a.aabb_max[k] + 0.01) {
+                if (0..3).all(|k| {
+                    a.aabb_min[k] <= b.aabb_max[k] + 0.01 && b.aabb_min[k] <= a.aabb_max[k] + 0.01
+                }) {
                     brute.push((i as u32, j as u32));
                 }
             }
         }
-        assert!(brute.len() > 100, "too few overlaps to mean anything: {}", brute.len());
+        assert!(
+            brute.len() > 100,
+            "too few overlaps to mean anything: {}",
+            brute.len()
+        );
         assert_eq!(bp.pairs, brute);
-        assert!(bp.pairs.iter().all(|&(i, j)| blocks[i as usize].is_free() || blocks[j as usize].is_free()));
+        assert!(
+            bp.pairs
+                .iter()
+                .all(|&(i, j)| blocks[i as usize].is_free() || blocks[j as usize].is_free())
+        );
     }
 }

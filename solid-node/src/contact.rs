@@ -105,7 +105,11 @@ impl Contact {
         let len = old.shear.norm();
         let t = old.shear - self.normal * self.normal.dot(&old.shear);
         let tl = t.norm();
-        self.shear = if tl > 1e-14 * (1.0 + len) { t * (len / tl) } else { Vector::zeros() };
+        self.shear = if tl > 1e-14 * (1.0 + len) {
+            t * (len / tl)
+        } else {
+            Vector::zeros()
+        };
     }
 }
 
@@ -118,7 +122,10 @@ pub fn pair_range(sorted: &[Contact], a: u32, b: u32) -> &[Contact] {
 
 /// The contact with this key in a list sorted by key.
 pub fn find<'a>(sorted: &'a [Contact], key: &ContactKey) -> Option<&'a Contact> {
-    sorted.binary_search_by(|c| c.key.cmp(key)).ok().map(|i| &sorted[i])
+    sorted
+        .binary_search_by(|c| c.key.cmp(key))
+        .ok()
+        .map(|i| &sorted[i])
 }
 
 #[cfg(test)]
@@ -126,7 +133,13 @@ mod tests {
     use super::*;
 
     fn key(a: u32, b: u32, i: u32) -> ContactKey {
-        ContactKey { a, b, feature: Feature::VertexOfA, i, j: 0 }
+        ContactKey {
+            a,
+            b,
+            feature: Feature::VertexOfA,
+            i,
+            j: 0,
+        }
     }
 
     #[test]

@@ -20,14 +20,24 @@ pub struct DdaSolver {
 }
 
 impl DdaSolver {
-    pub fn new(ctx: &SetupContext, mut integrator: Box<dyn Integrator>) -> Result<DdaSolver, SolverError> {
+    pub fn new(
+        ctx: &SetupContext,
+        mut integrator: Box<dyn Integrator>,
+    ) -> Result<DdaSolver, SolverError> {
         let mut world = World::new(ctx.scene)?;
         world.detect(world.penalty.margin);
         integrator.init(&mut world);
         let energy = EnergyMonitor::new(&world);
         let mut csv = KinematicsCsv::create(ctx.run_dir, ctx.scene.output.interval)?;
         csv.sample(&world, true)?;
-        Ok(DdaSolver { world, integrator, energy, run_dir: ctx.run_dir.to_path_buf(), csv, vtk: ctx.scene.output.vtk })
+        Ok(DdaSolver {
+            world,
+            integrator,
+            energy,
+            run_dir: ctx.run_dir.to_path_buf(),
+            csv,
+            vtk: ctx.scene.output.vtk,
+        })
     }
 
     /// Block `name`'s index in the scene.
@@ -47,7 +57,10 @@ impl Solver for DdaSolver {
 
     fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
         if !(dt > 0.0 && dt.is_finite()) {
-            return Err(SolverError::Failed(format!("{} solver: cannot advance by dt = {dt}", self.name())));
+            return Err(SolverError::Failed(format!(
+                "{} solver: cannot advance by dt = {dt}",
+                self.name()
+            )));
         }
         for &i in &self.world.moving {
             let (f, t) = (self.world.load_force[i], self.world.load_torque[i]);
@@ -62,7 +75,9 @@ impl Solver for DdaSolver {
                 )));
             }
         }
-        let report = self.integrator.advance(&mut self.world, dt, &mut self.energy)?;
+        let report = self
+            .integrator
+            .advance(&mut self.world, dt, &mut self.energy)?;
         self.csv.sample(&self.world, false)?;
         Ok(report)
     }
@@ -93,7 +108,11 @@ impl SolidSolver for DdaSolver {
     }
 
     fn vertex_count(&self) -> usize {
-        self.world.moving.iter().map(|&i| self.world.blocks[i].world_vertices.len()).sum()
+        self.world
+            .moving
+            .iter()
+            .map(|&i| self.world.blocks[i].world_vertices.len())
+            .sum()
     }
 
     fn write_geometry(&self, blocks: &mut [BlockState], vertices: &mut [[f64; 3]]) {

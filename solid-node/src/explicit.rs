@@ -67,16 +67,29 @@ impl Integrator for CentralDifference {
 
     fn init(&mut self, world: &mut World) {
         self.half_velocity = world.blocks.iter().map(|b| b.velocity).collect();
-        self.half_momentum = world.blocks.iter().map(|b| b.world_inertia() * b.angular_velocity).collect();
+        self.half_momentum = world
+            .blocks
+            .iter()
+            .map(|b| b.world_inertia() * b.angular_velocity)
+            .collect();
         self.dt_prev = 0.0;
         world.update_contact_forces_explicit();
         self.omega2_floor = stability::resting_floor(world);
         self.omega2_now = stability::current(world, &mut self.scratch);
     }
 
-    fn advance(&mut self, world: &mut World, dt: Real, energy: &mut EnergyMonitor) -> Result<StepReport, SolverError> {
+    fn advance(
+        &mut self,
+        world: &mut World,
+        dt: Real,
+        energy: &mut EnergyMonitor,
+    ) -> Result<StepReport, SolverError> {
         // ω·dt of the contacts present (the set-up floor only anticipates contacts to come).
-        let omega_now = if self.omega2_now > 0.0 { self.omega2_now.sqrt() } else { self.omega_max() };
+        let omega_now = if self.omega2_now > 0.0 {
+            self.omega2_now.sqrt()
+        } else {
+            self.omega_max()
+        };
         let omega_dt = omega_now * dt;
         if omega_dt > 2.0 && self.first_excess.is_none() {
             self.first_excess = Some(omega_dt);
@@ -138,11 +151,17 @@ impl Integrator for CentralDifference {
             let force = b.mass * world.gravity + world.load_force[i] + world.contact_force[i];
             let torque = world.load_torque[i] + world.contact_torque[i];
             b.velocity = self.half_velocity[i] + force * (0.5 * dt / b.mass);
-            b.angular_velocity = b.world_inv_inertia() * (self.half_momentum[i] + torque * (0.5 * dt));
+            b.angular_velocity =
+                b.world_inv_inertia() * (self.half_momentum[i] + torque * (0.5 * dt));
         }
         self.omega2_now = stability::current(world, &mut self.scratch);
         let reported = self.first_excess.unwrap_or(omega_dt);
-        energy.check(world, self.name(), || reported, "central difference is stable only below 2, paper Eq. 8")?;
+        energy.check(
+            world,
+            self.name(),
+            || reported,
+            "central difference is stable only below 2, paper Eq. 8",
+        )?;
         let warning = (self.omega_max() * dt > 2.0).then(|| {
             let omega_dt = self.omega_max() * dt;
             format!("explicit step dt = {dt:.3e} s exceeds the stability limit 2/ω_max = {:.3e} s (ω_max·dt = {omega_dt:.2})", 2.0 / self.omega_max())
@@ -152,6 +171,10 @@ impl Integrator for CentralDifference {
 
     fn dt_proposal(&self, world: &World) -> Real {
         let w = self.omega_max();
-        if w > 0.0 { self.safety * 2.0 / w } else { world.dt_max }
+        if w > 0.0 {
+            self.safety * 2.0 / w
+        } else {
+            world.dt_max
+        }
     }
 }

@@ -30,7 +30,10 @@ impl Joint {
             (None, None) => default,
         };
         let phi = smaller(phi, spec.friction_angle);
-        Joint { tan_phi: phi.to_radians().tan(), cohesion: smaller(cohesion, spec.cohesion) }
+        Joint {
+            tan_phi: phi.to_radians().tan(),
+            cohesion: smaller(cohesion, spec.cohesion),
+        }
     }
 
     /// Largest shear force [N] under normal force `n` ≥ 0 over tributary area `area`.
@@ -61,7 +64,11 @@ mod tests {
 
     #[test]
     fn pair_uses_smaller_override_else_default() {
-        let spec = ContactSpec { friction_angle: 30.0, cohesion: 100.0, ..Default::default() };
+        let spec = ContactSpec {
+            friction_angle: 30.0,
+            cohesion: 100.0,
+            ..Default::default()
+        };
         let j = Joint::of_pair(&spec, (None, None), (None, None));
         assert!((j.tan_phi - 30f64.to_radians().tan()).abs() < 1e-15);
         assert_eq!(j.cohesion, 100.0);
@@ -80,7 +87,10 @@ mod tests {
         assert_eq!(classify_and_clamp(&mut s, 1e6, limit), ContactState::Locked);
         assert!((s.norm() - 5e-5).abs() < 1e-18);
         let mut s = Vector::new(3e-4, 4e-4, 0.0);
-        assert_eq!(classify_and_clamp(&mut s, 1e6, limit), ContactState::Sliding);
+        assert_eq!(
+            classify_and_clamp(&mut s, 1e6, limit),
+            ContactState::Sliding
+        );
         assert!((1e6 * s.norm() - limit).abs() < 1e-9);
         assert!((s.normalize() - Vector::new(0.6, 0.8, 0.0)).norm() < 1e-12);
         // Tension carries nothing, not even cohesion times a negative force.

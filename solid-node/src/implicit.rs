@@ -90,13 +90,20 @@ fn point_displacement(d: &Vec6, r: &Vector) -> Vector {
 }
 
 fn tangents(n: &Vector) -> (Vector, Vector) {
-    let t1 = n.cross(&if n.x.abs() < 0.9 { Vector::x() } else { Vector::y() }).normalize();
+    let t1 = n
+        .cross(&if n.x.abs() < 0.9 {
+            Vector::x()
+        } else {
+            Vector::y()
+        })
+        .normalize();
     (t1, n.cross(&t1))
 }
 
 fn mass_matrix(b: &Block) -> Mat6 {
     let mut m = Mat6::zeros();
-    m.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Matrix::identity() * b.mass));
+    m.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&(Matrix::identity() * b.mass));
     m.fixed_view_mut::<3, 3>(3, 3).copy_from(&b.world_inertia());
     m
 }
@@ -122,7 +129,16 @@ impl Newmark {
     /// with the generalised force `f0` (acting on P along e, the opposite on Q) that does not
     /// depend on the unknowns. Known displacements of fixed/kinematic sides go into `f0`.
     #[allow(clippy::too_many_arguments)]
-    fn add_spring(&mut self, c: &Contact, rp: &Vector, rq: &Vector, e: &Vector, k: Real, f0: Real, world: &World) {
+    fn add_spring(
+        &mut self,
+        c: &Contact,
+        rp: &Vector,
+        rq: &Vector,
+        e: &Vector,
+        k: Real,
+        f0: Real,
+        world: &World,
+    ) {
         let (p, q) = (c.p as usize, c.q as usize);
         let (gp, gq) = (direction(rp, e), direction(rq, e));
         let (ip, iq) = (self.row[p], self.row[q]);
@@ -182,20 +198,40 @@ impl Newmark {
             let n = c.normal;
             // Normal spring with its dashpot: F = −k (g0 + u) − c (2u/h − v_n,old).
             let cn = pen.dashpot(pen.normal, mred);
-            self.add_spring(c, &rp, &rq, &n, pen.normal + 2.0 * cn / h, -pen.normal * c.gap + cn * n.dot(&dv), world);
+            self.add_spring(
+                c,
+                &rp,
+                &rq,
+                &n,
+                pen.normal + 2.0 * cn / h,
+                -pen.normal * c.gap + cn * n.dot(&dv),
+                world,
+            );
             let (t1, t2) = tangents(&n);
             match tr.state {
                 ContactState::Locked => {
                     let cs = pen.dashpot(pen.shear, mred);
                     for t in [t1, t2] {
-                        self.add_spring(c, &rp, &rq, &t, pen.shear + 2.0 * cs / h, -pen.shear * c.shear.dot(&t) + cs * t.dot(&dv), world);
+                        self.add_spring(
+                            c,
+                            &rp,
+                            &rq,
+                            &t,
+                            pen.shear + 2.0 * cs / h,
+                            -pen.shear * c.shear.dot(&t) + cs * t.dot(&dv),
+                            world,
+                        );
                     }
                 }
                 ContactState::Sliding => {
                     // Friction as a load along the slip of the last iteration (Shi 1993).
                     let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, tr.normal_force);
                     let s = tr.shear;
-                    let dir = if s.norm() > 0.0 { s.normalize() } else { Vector::zeros() };
+                    let dir = if s.norm() > 0.0 {
+                        s.normalize()
+                    } else {
+                        Vector::zeros()
+                    };
                     for (t, sign) in [(t1, 1.0), (t2, 1.0)] {
                         let f = -limit * dir.dot(&t) * sign;
                         self.add_spring(c, &rp, &rq, &t, 0.0, f, world);
@@ -227,7 +263,11 @@ impl Newmark {
                 let nf = -pen.normal * gap;
                 let shear = c.shear + (delta - n * n.dot(&delta));
                 let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, nf);
-                let state = if pen.shear * shear.norm() > limit { ContactState::Sliding } else { ContactState::Locked };
+                let state = if pen.shear * shear.norm() > limit {
+                    ContactState::Sliding
+                } else {
+                    ContactState::Locked
+                };
                 (state, nf, shear)
             };
             if state != tr.state {
@@ -237,7 +277,12 @@ impl Newmark {
             {
                 stale = true;
             }
-            *tr = Trial { state, normal_force, shear, gap };
+            *tr = Trial {
+                state,
+                normal_force,
+                shear,
+                gap,
+            };
         }
         (changed, stale)
     }
@@ -263,7 +308,11 @@ impl Newmark {
         self.trials.clear();
         self.trials.extend(world.contacts.iter().map(|c| Trial {
             // A contact already interpenetrating at the start is closed; others keep their state.
-            state: if c.state == ContactState::Open && c.gap < 0.0 { ContactState::Locked } else { c.state },
+            state: if c.state == ContactState::Open && c.gap < 0.0 {
+                ContactState::Locked
+            } else {
+                c.state
+            },
             normal_force: c.normal_force,
             shear: c.shear,
             gap: c.gap,
@@ -302,7 +351,8 @@ impl Newmark {
         for (r, &i) in world.free.iter().enumerate() {
             let b = &world.blocks[i];
             let d = &self.solution[r];
-            let moved = Vector::new(d[0], d[1], d[2]).norm() + Vector::new(d[3], d[4], d[5]).norm() * b.shape.radius;
+            let moved = Vector::new(d[0], d[1], d[2]).norm()
+                + Vector::new(d[3], d[4], d[5]).norm() * b.shape.radius;
             let ratio = moved / b.size();
             if ratio > self.displacement_limit {
                 return Err(Cut::Displacement { block: i, ratio });
@@ -342,7 +392,11 @@ impl Newmark {
                 ContactState::Sliding => {
                     let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, tr.normal_force);
                     let len = tr.shear.norm();
-                    c.shear = if len > 0.0 { tr.shear * (limit / (pen.shear * len)) } else { Vector::zeros() };
+                    c.shear = if len > 0.0 {
+                        tr.shear * (limit / (pen.shear * len))
+                    } else {
+                        Vector::zeros()
+                    };
                     c.force = c.normal * tr.normal_force - c.shear * pen.shear;
                 }
             }
@@ -370,7 +424,9 @@ impl Newmark {
         for &i in &world.free {
             let b = &world.blocks[i];
             let a = world.gravity.norm() + world.load_force[i].norm() / b.mass;
-            travel = travel.max((b.velocity.norm() + b.angular_velocity.norm() * b.shape.radius) * h + a * h * h);
+            travel = travel.max(
+                (b.velocity.norm() + b.angular_velocity.norm() * b.shape.radius) * h + a * h * h,
+            );
         }
         world.penalty.margin + 2.0 * travel
     }
@@ -398,7 +454,12 @@ impl Integrator for Newmark {
         self.known = vec![Vec6::zeros(); world.blocks.len()];
     }
 
-    fn advance(&mut self, world: &mut World, dt: Real, energy: &mut EnergyMonitor) -> Result<StepReport, SolverError> {
+    fn advance(
+        &mut self,
+        world: &mut World,
+        dt: Real,
+        energy: &mut EnergyMonitor,
+    ) -> Result<StepReport, SolverError> {
         let t_end = world.time + dt;
         let mut remaining = dt;
         let mut h = self.substep_hint.map_or(dt, |s| (3.0 * s).min(dt));
@@ -431,7 +492,9 @@ impl Integrator for Newmark {
                                     "block '{}' moves {ratio:.3e} of its size per step, above displacement_limit {}",
                                     world.blocks[block].name, self.displacement_limit
                                 ),
-                                Cut::Solve(e) => format!("the global equations could not be solved ({e:?})"),
+                                Cut::Solve(e) => {
+                                    format!("the global equations could not be solved ({e:?})")
+                                }
                             };
                             return Err(SolverError::Unstable(format!(
                                 "implicit solver: {why}, even with the step cut {cuts} times to {h:.3e} s (below dt_min) at t = {:.6} s",
@@ -462,7 +525,12 @@ impl Integrator for Newmark {
             || stability::current(world, scratch).sqrt() * dt,
             "Shi's β = ½, γ = 1 Newmark is unconditionally stable: growth means a wrong contact state",
         )?;
-        let warning = (cuts > 0).then(|| format!("implicit: step cut {cuts} time(s), {} sub-steps", self.last_substeps));
+        let warning = (cuts > 0).then(|| {
+            format!(
+                "implicit: step cut {cuts} time(s), {} sub-steps",
+                self.last_substeps
+            )
+        });
         Ok(StepReport { warning })
     }
 

@@ -12,7 +12,12 @@ pub trait Integrator: Send {
     /// Prepares the scheme's own state from the world at t = 0 (contacts already detected).
     fn init(&mut self, world: &mut World);
     /// Advances the world by exactly `dt`.
-    fn advance(&mut self, world: &mut World, dt: Real, energy: &mut EnergyMonitor) -> Result<StepReport, SolverError>;
+    fn advance(
+        &mut self,
+        world: &mut World,
+        dt: Real,
+        energy: &mut EnergyMonitor,
+    ) -> Result<StepReport, SolverError>;
     /// Step proposed for the next advance.
     fn dt_proposal(&self, world: &World) -> Real;
 }

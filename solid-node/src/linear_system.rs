@@ -50,7 +50,11 @@ impl BlockSystem {
     /// Adds `m` to block (i, j) of the matrix, i ≠ j. Consecutive additions to the same
     /// block are merged (contacts arrive grouped by pair).
     pub fn add_off(&mut self, i: usize, j: usize, m: &Mat6) {
-        let (a, b, m) = if i < j { (i as u32, j as u32, *m) } else { (j as u32, i as u32, m.transpose()) };
+        let (a, b, m) = if i < j {
+            (i as u32, j as u32, *m)
+        } else {
+            (j as u32, i as u32, m.transpose())
+        };
         match self.off.last_mut() {
             Some((x, y, acc)) if *x == a && *y == b => *acc += m,
             _ => self.off.push((a, b, m)),
@@ -71,11 +75,19 @@ impl BlockSystem {
 
     /// Solves A x = rhs by block-Jacobi preconditioned conjugate gradients, starting from the
     /// given `x`. Returns the number of iterations.
-    pub fn solve(&mut self, x: &mut [Vec6], rel_tol: Real, max_iter: usize) -> Result<usize, SolveError> {
+    pub fn solve(
+        &mut self,
+        x: &mut [Vec6],
+        rel_tol: Real,
+        max_iter: usize,
+    ) -> Result<usize, SolveError> {
         let n = self.diag.len();
         self.inv_diag.clear();
         for (i, d) in self.diag.iter().enumerate() {
-            let inv = d.cholesky().map(|c| c.inverse()).ok_or(SolveError::Singular(i))?;
+            let inv = d
+                .cholesky()
+                .map(|c| c.inverse())
+                .ok_or(SolveError::Singular(i))?;
             self.inv_diag.push(inv);
         }
         for v in [&mut self.r, &mut self.z, &mut self.p, &mut self.ap] {
@@ -85,15 +97,27 @@ impl BlockSystem {
         let mut r = std::mem::take(&mut self.r);
         let mut ap = std::mem::take(&mut self.ap);
         self.apply(x, &mut ap);
-        for i in 0..n {
-            r[i] = self.rhs[i] - ap[i];
+        for ((ri, bi), ai) in r.iter_mut().zip(&self.rhs).zip(&ap) {
+            *ri = bi - ai;
         }
-        let b_norm = self.rhs.iter().map(|v| v.norm_squared()).sum::<Real>().sqrt().max(Real::MIN_POSITIVE);
+        let b_norm = self
+            .rhs
+            .iter()
+            .map(|v| v.norm_squared())
+            .sum::<Real>()
+            .sqrt()
+            .max(Real::MIN_POSITIVE);
         let mut rz = 0.0;
-        for i in 0..n {
-            self.z[i] = self.inv_diag[i] * r[i];
-            self.p[i] = self.z[i];
-            rz += r[i].dot(&self.z[i]);
+        for (((zi, pi), di), ri) in self
+            .z
+            .iter_mut()
+            .zip(self.p.iter_mut())
+            .zip(&self.inv_diag)
+            .zip(&r)
+        {
+            *zi = di * ri;
+            *pi = *zi;
+            rz += ri.dot(zi);
         }
         let mut result = Err(SolveError::NoConvergence(Real::INFINITY));
         for it in 0..=max_iter {
@@ -108,22 +132,24 @@ impl BlockSystem {
             }
             self.apply(&self.p, &mut ap);
             let pap: Real = self.p.iter().zip(&ap).map(|(p, q)| p.dot(q)).sum();
-            if !(pap > 0.0) {
+            if pap.is_nan() || pap <= 0.0 {
                 result = Err(SolveError::NoConvergence(r_norm / b_norm));
                 break;
             }
             let alpha = rz / pap;
             let mut rz_new = 0.0;
-            for i in 0..n {
-                x[i] += self.p[i] * alpha;
-                r[i] -= ap[i] * alpha;
-                self.z[i] = self.inv_diag[i] * r[i];
-                rz_new += r[i].dot(&self.z[i]);
+            for (((xi, pi), ri), ai) in x.iter_mut().zip(&self.p).zip(r.iter_mut()).zip(&ap) {
+                *xi += pi * alpha;
+                *ri -= ai * alpha;
+            }
+            for ((zi, di), ri) in self.z.iter_mut().zip(&self.inv_diag).zip(&r) {
+                *zi = di * ri;
+                rz_new += ri.dot(zi);
             }
             let beta = rz_new / rz;
             rz = rz_new;
-            for i in 0..n {
-                self.p[i] = self.z[i] + self.p[i] * beta;
+            for (pi, zi) in self.p.iter_mut().zip(&self.z) {
+                *pi = zi + *pi * beta;
             }
         }
         self.r = r;
@@ -144,7 +170,9 @@ mod tests {
         sys.reset(n);
         let mut seed = 7u64;
         let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
         for i in 0..n {
@@ -165,16 +193,23 @@ mod tests {
         let mut dense = nalgebra::DMatrix::<f64>::zeros(6 * n, 6 * n);
         let mut b = nalgebra::DVector::<f64>::zeros(6 * n);
         for i in 0..n {
-            dense.view_mut((6 * i, 6 * i), (6, 6)).copy_from(&sys.diag[i]);
+            dense
+                .view_mut((6 * i, 6 * i), (6, 6))
+                .copy_from(&sys.diag[i]);
             b.rows_mut(6 * i, 6).copy_from(&sys.rhs[i]);
         }
         for (i, j, m) in &sys.off {
             let (i, j) = (*i as usize, *j as usize);
             dense.view_mut((6 * i, 6 * j), (6, 6)).copy_from(m);
-            dense.view_mut((6 * j, 6 * i), (6, 6)).copy_from(&m.transpose());
+            dense
+                .view_mut((6 * j, 6 * i), (6, 6))
+                .copy_from(&m.transpose());
         }
         let exact = dense.lu().solve(&b).unwrap();
-        let err: f64 = (0..n).map(|i| (x[i] - exact.rows(6 * i, 6)).norm_squared()).sum::<f64>().sqrt();
+        let err: f64 = (0..n)
+            .map(|i| (x[i] - exact.rows(6 * i, 6)).norm_squared())
+            .sum::<f64>()
+            .sqrt();
         assert!(err < 1e-9 * exact.norm(), "error {err:e}");
     }
 }

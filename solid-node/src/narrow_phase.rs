@@ -35,39 +35,40 @@ const EDGE_DEPTH_RATIO: Real = 3.9;
 
 /// Appends the contacts of blocks `a` < `b` to `out` in key order, inheriting state from `old`
 /// (the previous step's contacts of this pair, sorted by key).
-pub fn collide(
-    a: u32,
-    b: u32,
-    ba: &Block,
-    bb: &Block,
-    joint: Joint,
-    params: NarrowParams,
-    old: &[Contact],
-    out: &mut Vec<Contact>,
-) {
-    vertex_face(a, b, ba, bb, Feature::VertexOfA, joint, params, old, out);
-    vertex_face(a, b, bb, ba, Feature::VertexOfB, joint, params, old, out);
-    edge_edge(a, b, ba, bb, joint, params, old, out);
+pub fn collide(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<Contact>) {
+    vertex_face(pair, Feature::VertexOfA, params, old, out);
+    vertex_face(pair, Feature::VertexOfB, params, old, out);
+    edge_edge(pair, params, old, out);
+}
+
+/// Two blocks a < b (indices and blocks) and their joint.
+#[derive(Clone, Copy)]
+pub struct Pair<'a> {
+    pub a: u32,
+    pub b: u32,
+    pub ba: &'a Block,
+    pub bb: &'a Block,
+    pub joint: Joint,
 }
 
 fn inflated_contains(blk: &Block, p: &Point, margin: Real) -> bool {
     (0..3).all(|k| p[k] >= blk.aabb_min[k] - margin && p[k] <= blk.aabb_max[k] + margin)
 }
 
-/// Vertices of `pb` (the vertex owner, P) against faces of `qb` (Q).
-#[allow(clippy::too_many_arguments)]
+/// Vertices of one block of the pair (the vertex owner, P) against the faces of the other (Q).
 fn vertex_face(
-    a: u32,
-    b: u32,
-    pb: &Block,
-    qb: &Block,
+    pair: &Pair,
     feature: Feature,
-    joint: Joint,
     params: NarrowParams,
     old: &[Contact],
     out: &mut Vec<Contact>,
 ) {
-    let (p, q) = if feature == Feature::VertexOfA { (a, b) } else { (b, a) };
+    let Pair { a, b, joint, .. } = *pair;
+    let (p, q, pb, qb) = if feature == Feature::VertexOfA {
+        (a, b, pair.ba, pair.bb)
+    } else {
+        (b, a, pair.bb, pair.ba)
+    };
     for (vi, v) in pb.world_vertices.iter().enumerate() {
         if !inflated_contains(qb, v, params.margin) {
             continue;
@@ -76,7 +77,13 @@ fn vertex_face(
         if d > params.margin {
             continue;
         }
-        let key = ContactKey { a, b, feature, i: vi as u32, j: 0 };
+        let key = ContactKey {
+            a,
+            b,
+            feature,
+            i: vi as u32,
+            j: 0,
+        };
         let prev = contact::find(old, &key);
         // DDA's reference face: keep the face of the previous step while the vertex is about
         // as close to it as to the nearest one, so the normal does not flip between the two
@@ -98,7 +105,8 @@ fn vertex_face(
         let mut area = 0.0;
         for &pf in &pb.vertex_faces[vi] {
             if -pb.world_normals[pf as usize].dot(&normal) >= FACE_ALIGNMENT {
-                area += pb.face_area[pf as usize] / pb.shape.faces[pf as usize].vertices.len() as Real;
+                area +=
+                    pb.face_area[pf as usize] / pb.shape.faces[pf as usize].vertices.len() as Real;
             }
         }
         let mut c = Contact::new(key, p, q);
@@ -165,28 +173,34 @@ fn in_normal_cone(n: &Vector, n1: &Vector, n2: &Vector) -> bool {
     n.dot(n1) >= c12 && n.dot(n2) >= c12
 }
 
-#[allow(clippy::too_many_arguments)]
-fn edge_edge(
-    a: u32,
-    b: u32,
-    ba: &Block,
-    bb: &Block,
-    joint: Joint,
-    params: NarrowParams,
-    old: &[Contact],
-    out: &mut Vec<Contact>,
-) {
+fn edge_edge(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<Contact>) {
+    let Pair {
+        a,
+        b,
+        ba,
+        bb,
+        joint,
+    } = *pair;
     let m = params.margin;
     for (ia, ea) in ba.shape.edges.iter().enumerate() {
-        let (a0, a1) = (ba.world_vertices[ea[0] as usize], ba.world_vertices[ea[1] as usize]);
+        let (a0, a1) = (
+            ba.world_vertices[ea[0] as usize],
+            ba.world_vertices[ea[1] as usize],
+        );
         if clip_segment(bb, &a0, &a1, m).is_none() {
             continue;
         }
         let u = a1 - a0;
         let [fa1, fa2] = ba.edge_faces[ia];
-        let (na1, na2) = (ba.world_normals[fa1 as usize], ba.world_normals[fa2 as usize]);
+        let (na1, na2) = (
+            ba.world_normals[fa1 as usize],
+            ba.world_normals[fa2 as usize],
+        );
         for (ib, eb) in bb.shape.edges.iter().enumerate() {
-            let (b0, b1) = (bb.world_vertices[eb[0] as usize], bb.world_vertices[eb[1] as usize]);
+            let (b0, b1) = (
+                bb.world_vertices[eb[0] as usize],
+                bb.world_vertices[eb[1] as usize],
+            );
             let w = b1 - b0;
             let cross = u.cross(&w);
             let cn = cross.norm();
@@ -201,7 +215,10 @@ fn edge_edge(
             let pa = a0 + u * s;
             let pb = b0 + w * t;
             let [fb1, fb2] = bb.edge_faces[ib];
-            let (nb1, nb2) = (bb.world_normals[fb1 as usize], bb.world_normals[fb2 as usize]);
+            let (nb1, nb2) = (
+                bb.world_normals[fb1 as usize],
+                bb.world_normals[fb2 as usize],
+            );
             let mut n = cross / cn;
             if n.dot(&(nb1 + nb2)) < 0.0 {
                 n = -n;
@@ -224,10 +241,18 @@ fn edge_edge(
             // that face's plane at the distance between them, which is no contact (the face
             // carries it as vertex–face). A true crossing is at most 1/cos of the angle
             // between n and the nearest face normal deeper.
-            if -gap > EDGE_DEPTH_RATIO * (-da).max(0.0) + m || -gap > EDGE_DEPTH_RATIO * (-db).max(0.0) + m {
+            if -gap > EDGE_DEPTH_RATIO * (-da).max(0.0) + m
+                || -gap > EDGE_DEPTH_RATIO * (-db).max(0.0) + m
+            {
                 continue;
             }
-            let key = ContactKey { a, b, feature: Feature::EdgeEdge, i: ia as u32, j: ib as u32 };
+            let key = ContactKey {
+                a,
+                b,
+                feature: Feature::EdgeEdge,
+                i: ia as u32,
+                j: ib as u32,
+            };
             let mut c = Contact::new(key, a, b);
             c.point = Point::from((pa.coords + pb.coords) * 0.5);
             c.normal = n;
@@ -275,7 +300,20 @@ mod tests {
         block(BlockKind::Free, v)
     }
 
-    const JOINT: Joint = Joint { tan_phi: 0.5, cohesion: 0.0 };
+    const JOINT: Joint = Joint {
+        tan_phi: 0.5,
+        cohesion: 0.0,
+    };
+
+    fn pair<'a>(ba: &'a Block, bb: &'a Block) -> Pair<'a> {
+        Pair {
+            a: 0,
+            b: 1,
+            ba,
+            bb,
+            joint: JOINT,
+        }
+    }
     const P: NarrowParams = NarrowParams { margin: 1e-3 };
 
     #[test]
@@ -283,8 +321,11 @@ mod tests {
         let floor = cube([0.0, 0.0, -1.0], 1.0, 0.0);
         let top = cube([0.2, 0.1, 0.25 - 1e-4], 0.25, 0.3);
         let mut out = Vec::new();
-        collide(0, 1, &floor, &top, JOINT, P, &[], &mut out);
-        let vf: Vec<_> = out.iter().filter(|c| c.key.feature == Feature::VertexOfB).collect();
+        collide(&pair(&floor, &top), P, &[], &mut out);
+        let vf: Vec<_> = out
+            .iter()
+            .filter(|c| c.key.feature == Feature::VertexOfB)
+            .collect();
         assert_eq!(vf.len(), 4, "{out:#?}");
         for c in &vf {
             assert!((c.gap + 1e-4).abs() < 1e-12);
@@ -302,11 +343,18 @@ mod tests {
         let low = cube([0.0, 0.0, 0.0], 0.5, 0.0);
         let high = cube([0.0, 0.0, 1.0 - 2e-4], 0.5, std::f64::consts::FRAC_PI_4);
         let mut out = Vec::new();
-        collide(0, 1, &low, &high, JOINT, P, &[], &mut out);
-        let ee: Vec<_> = out.iter().filter(|c| c.key.feature == Feature::EdgeEdge).collect();
+        collide(&pair(&low, &high), P, &[], &mut out);
+        let ee: Vec<_> = out
+            .iter()
+            .filter(|c| c.key.feature == Feature::EdgeEdge)
+            .collect();
         assert_eq!(ee.len(), 8, "{out:#?}");
         for c in &ee {
-            assert!((c.normal + Vector::z()).norm() < 1e-9, "normal {}", c.normal);
+            assert!(
+                (c.normal + Vector::z()).norm() < 1e-9,
+                "normal {}",
+                c.normal
+            );
             assert!((c.gap + 2e-4).abs() < 1e-9, "gap {}", c.gap);
             assert!((c.point.z - 0.5).abs() < 2e-4);
         }
@@ -330,7 +378,7 @@ mod tests {
         }
         let (bl, bh) = (block(BlockKind::Fixed, lo), block(BlockKind::Free, hi));
         let mut out = Vec::new();
-        collide(0, 1, &bl, &bh, JOINT, P, &[], &mut out);
+        collide(&pair(&bl, &bh), P, &[], &mut out);
         assert_eq!(out.len(), 1, "{out:#?}");
         let c = &out[0];
         assert_eq!(c.key.feature, Feature::EdgeEdge);
@@ -345,7 +393,7 @@ mod tests {
         let a = cube([0.0, 0.0, 0.0], 0.5, 0.0);
         let b = cube([0.0, 0.0, 1.01], 0.5, 0.2);
         let mut out = Vec::new();
-        collide(0, 1, &a, &b, JOINT, P, &[], &mut out);
+        collide(&pair(&a, &b), P, &[], &mut out);
         assert!(out.is_empty(), "{out:#?}");
     }
 }

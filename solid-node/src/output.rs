@@ -23,14 +23,23 @@ impl KinematicsCsv {
     pub fn create(run_dir: &Path, output_interval: Real) -> std::io::Result<KinematicsCsv> {
         let mut out = BufWriter::new(File::create(run_dir.join("blocks.csv"))?);
         writeln!(out, "time,block,x,y,z,vx,vy,vz,qi,qj,qk,qw,wx,wy,wz")?;
-        Ok(KinematicsCsv { out, min_interval: output_interval / 20.0, last: None, rows: 0 })
+        Ok(KinematicsCsv {
+            out,
+            min_interval: output_interval / 20.0,
+            last: None,
+            rows: 0,
+        })
     }
 
     /// Writes the moving blocks' state if at least `output.interval / 20` passed since the last
     /// sample (or `force`).
     pub fn sample(&mut self, world: &World, force: bool) -> std::io::Result<()> {
         let t = world.time;
-        if !force && self.last.is_some_and(|l| t - l < self.min_interval * (1.0 - 1e-9)) {
+        if !force
+            && self
+                .last
+                .is_some_and(|l| t - l < self.min_interval * (1.0 - 1e-9))
+        {
             return Ok(());
         }
         if self.last == Some(t) {
@@ -39,7 +48,12 @@ impl KinematicsCsv {
         self.last = Some(t);
         for &i in &world.moving {
             let b = &world.blocks[i];
-            let (p, v, q, w) = (b.position, b.velocity, b.rotation.coords, b.angular_velocity);
+            let (p, v, q, w) = (
+                b.position,
+                b.velocity,
+                b.rotation.coords,
+                b.angular_velocity,
+            );
             writeln!(
                 self.out,
                 "{t:.9},{},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.12},{:.12},{:.12},{:.12},{:.9},{:.9},{:.9}",
@@ -59,6 +73,9 @@ impl KinematicsCsv {
     }
 }
 
+/// One block for the VTK writer: world corners and faces (vertex lists).
+type PolyRef<'a> = (&'a [[f64; 3]], &'a [Vec<u32>]);
+
 /// Path of frame `frame`'s block file.
 pub fn frame_path(run_dir: &Path, frame: u32) -> PathBuf {
     run_dir.join(format!("blocks_{frame:05}.vtp"))
@@ -67,12 +84,21 @@ pub fn frame_path(run_dir: &Path, frame: u32) -> PathBuf {
 /// Writes all blocks (fixed ones too) at their current pose as polygons, with per-block kind
 /// (0 fixed, 1 kinematic, 2 free), speed and contact-force magnitude as cell data.
 pub fn write_blocks_vtp(world: &World, path: &Path) -> std::io::Result<()> {
-    let verts: Vec<Vec<[f64; 3]>> =
-        world.blocks.iter().map(|b| b.world_vertices.iter().map(|p| [p.x, p.y, p.z]).collect()).collect();
-    let faces: Vec<Vec<Vec<u32>>> =
-        world.blocks.iter().map(|b| b.shape.faces.iter().map(|f| f.vertices.clone()).collect()).collect();
-    let blocks: Vec<(&[[f64; 3]], &[Vec<u32>])> =
-        verts.iter().zip(&faces).map(|(v, f)| (v.as_slice(), f.as_slice())).collect();
+    let verts: Vec<Vec<[f64; 3]>> = world
+        .blocks
+        .iter()
+        .map(|b| b.world_vertices.iter().map(|p| [p.x, p.y, p.z]).collect())
+        .collect();
+    let faces: Vec<Vec<Vec<u32>>> = world
+        .blocks
+        .iter()
+        .map(|b| b.shape.faces.iter().map(|f| f.vertices.clone()).collect())
+        .collect();
+    let blocks: Vec<PolyRef> = verts
+        .iter()
+        .zip(&faces)
+        .map(|(v, f)| (v.as_slice(), f.as_slice()))
+        .collect();
     let kind: Vec<f64> = world
         .blocks
         .iter()
@@ -84,5 +110,13 @@ pub fn write_blocks_vtp(world: &World, path: &Path) -> std::io::Result<()> {
         .collect();
     let speed: Vec<f64> = world.blocks.iter().map(|b| b.velocity.norm()).collect();
     let contact: Vec<f64> = world.contact_force.iter().map(|f| f.norm()).collect();
-    shared::vtk::write_polyhedra(path, &blocks, &[("kind", &kind), ("speed", &speed), ("contact_force", &contact)])
+    shared::vtk::write_polyhedra(
+        path,
+        &blocks,
+        &[
+            ("kind", &kind),
+            ("speed", &speed),
+            ("contact_force", &contact),
+        ],
+    )
 }

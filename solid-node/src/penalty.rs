@@ -43,9 +43,17 @@ impl PenaltyModel {
             .iter()
             .filter(|b| b.is_free())
             .min_by(|a, b| a.mass.total_cmp(&b.mass));
-        let smallest = blocks.iter().filter(|b| b.is_free()).map(Block::size).fold(Real::INFINITY, Real::min);
+        let smallest = blocks
+            .iter()
+            .filter(|b| b.is_free())
+            .map(Block::size)
+            .fold(Real::INFINITY, Real::min);
         let smallest = if smallest.is_finite() { smallest } else { 1.0 };
-        let g = if gravity.norm() > 0.0 { gravity.norm() } else { shared::math::STANDARD_GRAVITY };
+        let g = if gravity.norm() > 0.0 {
+            gravity.norm()
+        } else {
+            shared::math::STANDARD_GRAVITY
+        };
         let (normal, origin) = match (spec.normal_stiffness, lightest) {
             (Some(k), _) => (k, "[solid.contact].normal_stiffness".to_string()),
             (None, Some(b)) => {

@@ -46,7 +46,11 @@ mod tests {
     /// centroid to round-off, and the total angle is the sum of the increments.
     #[test]
     fn exact_rotation_does_not_grow_blocks() {
-        let corners = [Point::new(0.5, 0.25, 0.1), Point::new(-0.5, 0.25, -0.1), Point::new(0.2, -0.7, 0.3)];
+        let corners = [
+            Point::new(0.5, 0.25, 0.1),
+            Point::new(-0.5, 0.25, -0.1),
+            Point::new(0.2, -0.7, 0.3),
+        ];
         let axis = Vector::new(1.0, 2.0, -0.5).normalize();
         let dtheta = axis * 0.01;
         let mut q = Rotation::identity();
@@ -61,7 +65,11 @@ mod tests {
         }
         // 1000 rad in total: compare against the closed form rotation.
         let expected = exp(&(axis * (0.01 * steps as Real)));
-        assert!(q.angle_to(&expected) < 1e-9, "angle error {}", q.angle_to(&expected));
+        assert!(
+            q.angle_to(&expected) < 1e-9,
+            "angle error {}",
+            q.angle_to(&expected)
+        );
         // Shi's linearised update would have grown each length by (1 + θ²)^(n/2).
         let linear_growth = (1.0 + 0.01f64.powi(2)).powf(steps as Real / 2.0);
         assert!(linear_growth > 100.0, "reference growth {linear_growth}");

@@ -27,8 +27,22 @@ fn normalised_direction(b: &Block, r: &Vector, e: &Vector) -> Vector6<Real> {
 
 /// Adds the springs of one contact point (normal `n`, lever arm `r`) to a mass-normalised
 /// block stiffness, scaled by `share`.
-fn add_contact(k: &mut Matrix6<Real>, b: &Block, r: &Vector, n: &Vector, kn: Real, ks: Real, share: Real) {
-    let t1 = n.cross(&if n.x.abs() < 0.9 { Vector::x() } else { Vector::y() }).normalize();
+fn add_contact(
+    k: &mut Matrix6<Real>,
+    b: &Block,
+    r: &Vector,
+    n: &Vector,
+    kn: Real,
+    ks: Real,
+    share: Real,
+) {
+    let t1 = n
+        .cross(&if n.x.abs() < 0.9 {
+            Vector::x()
+        } else {
+            Vector::y()
+        })
+        .normalize();
     let t2 = n.cross(&t1);
     for (e, kk) in [(n, kn), (&t1, ks), (&t2, ks)] {
         let g = normalised_direction(b, r, e);
@@ -76,12 +90,36 @@ pub fn current(world: &World, scratch: &mut Vec<Matrix6<Real>>) -> Real {
     for c in &world.contacts {
         let (p, q) = (&world.blocks[c.p as usize], &world.blocks[c.q as usize]);
         if p.is_free() {
-            let share = if q.is_free() { 1.0 + p.mass / q.mass } else { 1.0 };
-            add_contact(&mut scratch[c.p as usize], p, &(c.point - p.position), &c.normal, kn, ks, share);
+            let share = if q.is_free() {
+                1.0 + p.mass / q.mass
+            } else {
+                1.0
+            };
+            add_contact(
+                &mut scratch[c.p as usize],
+                p,
+                &(c.point - p.position),
+                &c.normal,
+                kn,
+                ks,
+                share,
+            );
         }
         if q.is_free() {
-            let share = if p.is_free() { 1.0 + q.mass / p.mass } else { 1.0 };
-            add_contact(&mut scratch[c.q as usize], q, &(c.point - q.position), &c.normal, kn, ks, share);
+            let share = if p.is_free() {
+                1.0 + q.mass / p.mass
+            } else {
+                1.0
+            };
+            add_contact(
+                &mut scratch[c.q as usize],
+                q,
+                &(c.point - q.position),
+                &c.normal,
+                kn,
+                ks,
+                share,
+            );
         }
     }
     scratch
@@ -120,6 +158,10 @@ mod tests {
         let world = World::new(&scene).unwrap();
         let m = world.blocks[0].mass;
         let w2 = resting_floor(&world);
-        assert!((w2 / (6.0 * 1e6 / m) - 1.0).abs() < 1e-9, "ω² = {w2}, 6k/m = {}", 6e6 / m);
+        assert!(
+            (w2 / (6.0 * 1e6 / m) - 1.0).abs() < 1e-9,
+            "ω² = {w2}, 6k/m = {}",
+            6e6 / m
+        );
     }
 }

@@ -43,12 +43,23 @@ pub enum Tolerance {
 }
 
 impl Row {
-    pub fn numeric(case: &str, solver: &str, quantity: &str, reference: Real, measured: Real, tol: Tolerance) -> Row {
+    pub fn numeric(
+        case: &str,
+        solver: &str,
+        quantity: &str,
+        reference: Real,
+        measured: Real,
+        tol: Tolerance,
+    ) -> Row {
         let diff = (measured - reference).abs();
         let (error, tolerance, pass) = match tol {
             Tolerance::Relative(x) => {
                 let e = diff / reference.abs();
-                (format!("{:.3} %", 100.0 * e), format!("{:.3} %", 100.0 * x), e <= x)
+                (
+                    format!("{:.3} %", 100.0 * e),
+                    format!("{:.3} %", 100.0 * x),
+                    e <= x,
+                )
             }
             Tolerance::Absolute(x) => (format!("{diff:.3e}"), format!("{x:.1e}"), diff <= x),
             Tolerance::AtMost(x) => ("–".to_string(), format!("≤ {x}"), measured <= x),
@@ -65,7 +76,13 @@ impl Row {
         }
     }
 
-    pub fn categorical(case: &str, solver: &str, quantity: &str, reference: &str, measured: &str) -> Row {
+    pub fn categorical(
+        case: &str,
+        solver: &str,
+        quantity: &str,
+        reference: &str,
+        measured: &str,
+    ) -> Row {
         Row {
             case: case.into(),
             solver: solver.into(),
@@ -123,12 +140,23 @@ pub fn box_corners(min: [Real; 3], max: [Real; 3]) -> Vec<[Real; 3]> {
 /// Rotation by `alpha` about +y: x̂ goes to (cos α, 0, −sin α), i.e. downhill for a slope of α.
 pub fn rotate_y(v: &[[Real; 3]], alpha: Real) -> Vec<[Real; 3]> {
     let (s, c) = alpha.sin_cos();
-    v.iter().map(|p| [c * p[0] + s * p[2], p[1], -s * p[0] + c * p[2]]).collect()
+    v.iter()
+        .map(|p| [c * p[0] + s * p[2], p[1], -s * p[0] + c * p[2]])
+        .collect()
 }
 
 /// A `[[block]]` table of convex shape.
-pub fn block_toml(name: &str, kind: &str, density: Real, vertices: &[[Real; 3]], extra: &str) -> String {
-    let v: Vec<String> = vertices.iter().map(|p| format!("[{:.15e}, {:.15e}, {:.15e}]", p[0], p[1], p[2])).collect();
+pub fn block_toml(
+    name: &str,
+    kind: &str,
+    density: Real,
+    vertices: &[[Real; 3]],
+    extra: &str,
+) -> String {
+    let v: Vec<String> = vertices
+        .iter()
+        .map(|p| format!("[{:.15e}, {:.15e}, {:.15e}]", p[0], p[1], p[2]))
+        .collect();
     format!(
         "[[block]]\nname = \"{name}\"\nkind = \"{kind}\"\ndensity = {density:.6}\nshape = {{ type = \"convex\", vertices = [{}] }}\n{extra}\n",
         v.join(", ")
@@ -136,7 +164,14 @@ pub fn block_toml(name: &str, kind: &str, density: Real, vertices: &[[Real; 3]],
 }
 
 /// A whole scene: header, `[solid]` lines, `[solid.contact]` lines, blocks.
-pub fn scene(name: &str, gravity: [Real; 3], half_extent: Real, solid: &str, contact: &str, blocks: &[String]) -> Scene {
+pub fn scene(
+    name: &str,
+    gravity: [Real; 3],
+    half_extent: Real,
+    solid: &str,
+    contact: &str,
+    blocks: &[String],
+) -> Scene {
     let h = half_extent;
     let text = format!(
         "name = \"{name}\"\ngravity = [{:.15e}, {:.15e}, {:.15e}]\n[time]\nend = 10.0\ndt_max = 1e-3\ndt_min = 1e-12\n\
@@ -150,7 +185,8 @@ pub fn scene(name: &str, gravity: [Real; 3], half_extent: Real, solid: &str, con
         -h,
         blocks.join("\n")
     );
-    Scene::parse(&text, name).unwrap_or_else(|e| panic!("verification scene {name} is invalid: {e}\n{text}"))
+    Scene::parse(&text, name)
+        .unwrap_or_else(|e| panic!("verification scene {name} is invalid: {e}\n{text}"))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -169,7 +205,12 @@ impl Harness {
         let n = RUN_COUNTER.fetch_add(1, Ordering::Relaxed);
         let dir = std::env::temp_dir().join(format!("rockwave-solid-{}-{n}", std::process::id()));
         std::fs::create_dir_all(&dir)?;
-        let ctx = SetupContext { scene, run_dir: &dir, scheme: Scheme::Parallel, peer_present: false };
+        let ctx = SetupContext {
+            scene,
+            run_dir: &dir,
+            scheme: Scheme::Parallel,
+            peer_present: false,
+        };
         let solver = crate::build_dda(solver, &ctx)?;
         Ok(Harness { solver, dir })
     }
@@ -188,9 +229,15 @@ impl Harness {
 
     /// Advances to `t_end` the way the coupler does (dt = min(proposal, dt_max, time left)),
     /// or with a fixed `dt`; calls `each` after every step.
-    pub fn run_until(&mut self, t_end: Real, dt: Option<Real>, mut each: impl FnMut(&World)) -> Result<(), SolverError> {
+    pub fn run_until(
+        &mut self,
+        t_end: Real,
+        dt: Option<Real>,
+        mut each: impl FnMut(&World),
+    ) -> Result<(), SolverError> {
         while self.time() < t_end - 1e-12 {
-            let step = dt.unwrap_or_else(|| self.solver.dt_proposal().min(self.solver.world.dt_max));
+            let step =
+                dt.unwrap_or_else(|| self.solver.dt_proposal().min(self.solver.world.dt_max));
             let step = step.min(t_end - self.time());
             self.solver.advance(step)?;
             each(&self.solver.world);
@@ -222,7 +269,13 @@ pub fn free_fall(solver: &str) -> Row {
         20.0,
         "",
         "",
-        &[block_toml("rock", "free", 2500.0, &box_corners([-0.2, -0.2, -0.2], [0.2, 0.2, 0.2]), "")],
+        &[block_toml(
+            "rock",
+            "free",
+            2500.0,
+            &box_corners([-0.2, -0.2, -0.2], [0.2, 0.2, 0.2]),
+            "",
+        )],
     );
     let mut h = match Harness::new(&s, solver) {
         Ok(h) => h,
@@ -231,7 +284,14 @@ pub fn free_fall(solver: &str) -> Row {
     if let Err(e) = h.run_until(1.0, None, |_| {}) {
         return Row::failed(case, solver, "drop [m]", &e);
     }
-    Row::numeric(case, solver, "drop z(1 s) [m]", 0.5 * G, -h.block("rock").position.z, Tolerance::Relative(1e-9))
+    Row::numeric(
+        case,
+        solver,
+        "drop z(1 s) [m]",
+        0.5 * G,
+        -h.block("rock").position.z,
+        Tolerance::Relative(1e-9),
+    )
 }
 
 /// Contact damping (fraction of critical) of the incline scenes. A block set down at zero gap
@@ -265,8 +325,14 @@ impl Incline {
             [0.0, 0.0, -G],
             10.0,
             "",
-            &format!("friction_angle = {}\ncohesion = {}\ndamping_ratio = {INCLINE_DAMPING}", self.phi, self.cohesion),
-            &[block_toml("slope", "fixed", 2500.0, &slab, ""), block_toml("rock", "free", 2500.0, &block, "")],
+            &format!(
+                "friction_angle = {}\ncohesion = {}\ndamping_ratio = {INCLINE_DAMPING}",
+                self.phi, self.cohesion
+            ),
+            &[
+                block_toml("slope", "fixed", 2500.0, &slab, ""),
+                block_toml("rock", "free", 2500.0, &block, ""),
+            ],
         )
     }
 
@@ -286,21 +352,64 @@ impl Incline {
 }
 
 /// Runs an incline case for `duration` seconds; the downhill displacement of the centroid.
-pub fn incline_distance(inc: &Incline, solver: &str, duration: Real) -> Result<(Real, Real), SolverError> {
+pub fn incline_distance(
+    inc: &Incline,
+    solver: &str,
+    duration: Real,
+) -> Result<(Real, Real), SolverError> {
     let mut h = Harness::new(&inc.scene(), solver)?;
     let start = h.block("rock").position;
     h.run_until(duration, None, |_| {})?;
     let b = h.block("rock");
-    Ok(((b.position - start).dot(&inc.downhill()), b.rotation.angle()))
+    Ok((
+        (b.position - start).dot(&inc.downhill()),
+        b.rotation.angle(),
+    ))
 }
 
 /// The incline rows: a block that sticks (α < φ), one that slides, and both with cohesion.
 pub fn incline_rows(solver: &str) -> Vec<Row> {
     let cases = [
-        ("incline α=20° φ=30°: sticks", Incline { alpha: 20.0, phi: 30.0, cohesion: 0.0, b: 0.4, h: 0.2 }),
-        ("incline α=30° φ=20°: slides", Incline { alpha: 30.0, phi: 20.0, cohesion: 0.0, b: 0.4, h: 0.2 }),
-        ("incline α=30° φ=20° c=250 Pa: slides", Incline { alpha: 30.0, phi: 20.0, cohesion: 250.0, b: 0.4, h: 0.2 }),
-        ("incline α=30° φ=20° c=1500 Pa: sticks", Incline { alpha: 30.0, phi: 20.0, cohesion: 1500.0, b: 0.4, h: 0.2 }),
+        (
+            "incline α=20° φ=30°: sticks",
+            Incline {
+                alpha: 20.0,
+                phi: 30.0,
+                cohesion: 0.0,
+                b: 0.4,
+                h: 0.2,
+            },
+        ),
+        (
+            "incline α=30° φ=20°: slides",
+            Incline {
+                alpha: 30.0,
+                phi: 20.0,
+                cohesion: 0.0,
+                b: 0.4,
+                h: 0.2,
+            },
+        ),
+        (
+            "incline α=30° φ=20° c=250 Pa: slides",
+            Incline {
+                alpha: 30.0,
+                phi: 20.0,
+                cohesion: 250.0,
+                b: 0.4,
+                h: 0.2,
+            },
+        ),
+        (
+            "incline α=30° φ=20° c=1500 Pa: sticks",
+            Incline {
+                alpha: 30.0,
+                phi: 20.0,
+                cohesion: 1500.0,
+                b: 0.4,
+                h: 0.2,
+            },
+        ),
     ];
     cases
         .iter()
@@ -309,11 +418,25 @@ pub fn incline_rows(solver: &str) -> Vec<Row> {
             Ok((d, _)) => {
                 let reference = inc.reference_distance(1.0);
                 if reference > 0.0 {
-                    Row::numeric(case, solver, "d(1 s) [m]", reference, d, Tolerance::Relative(0.005))
+                    Row::numeric(
+                        case,
+                        solver,
+                        "d(1 s) [m]",
+                        reference,
+                        d,
+                        Tolerance::Relative(0.005),
+                    )
                 } else {
                     // Holding: the elastic shear deflection of the springs (tens of µm) and the
                     // slip while the normal springs load up from the zero-gap start.
-                    Row::numeric(case, solver, "d(1 s) [m]", 0.0, d, Tolerance::Absolute(1e-3))
+                    Row::numeric(
+                        case,
+                        solver,
+                        "d(1 s) [m]",
+                        0.0,
+                        d,
+                        Tolerance::Absolute(1e-3),
+                    )
                 }
             }
         })
@@ -326,14 +449,38 @@ pub fn incline_rows(solver: &str) -> Vec<Row> {
 /// block that has toppled lands on its side and may go on sliding: that is not the question).
 pub fn slide_or_topple(solver: &str) -> Vec<Row> {
     let cases = [
-        Incline { alpha: 20.0, phi: 30.0, cohesion: 0.0, b: 0.4, h: 0.4 },
-        Incline { alpha: 35.0, phi: 25.0, cohesion: 0.0, b: 0.4, h: 0.4 },
-        Incline { alpha: 35.0, phi: 45.0, cohesion: 0.0, b: 0.2, h: 0.4 },
+        Incline {
+            alpha: 20.0,
+            phi: 30.0,
+            cohesion: 0.0,
+            b: 0.4,
+            h: 0.4,
+        },
+        Incline {
+            alpha: 35.0,
+            phi: 25.0,
+            cohesion: 0.0,
+            b: 0.4,
+            h: 0.4,
+        },
+        Incline {
+            alpha: 35.0,
+            phi: 45.0,
+            cohesion: 0.0,
+            b: 0.2,
+            h: 0.4,
+        },
         // Toppling while sliding needs tan φ > b/h as well: in the frame of a block sliding at
         // g (sin α − cos α tan φ), gravity leans at φ, not α. And the pivot of a block
         // released from rest slides if the friction it needs, |R_t|/R_n = 0.447 here, is above
         // tan φ. φ = 20° with b/h = 1/3 satisfies the chart and both of these.
-        Incline { alpha: 40.0, phi: 20.0, cohesion: 0.0, b: 0.15, h: 0.45 },
+        Incline {
+            alpha: 40.0,
+            phi: 20.0,
+            cohesion: 0.0,
+            b: 0.15,
+            h: 0.45,
+        },
     ];
     let label = |slide: bool, topple: bool| match (slide, topple) {
         (false, false) => "rests",
@@ -356,7 +503,9 @@ pub fn slide_or_topple(solver: &str) -> Vec<Row> {
                 let a = inc.alpha.to_radians();
                 let corner_world = Vector::new(inc.b * a.cos(), 0.0, -inc.b * a.sin());
                 let b0 = &h.world().blocks[rock];
-                let local = b0.rotation.inverse_transform_vector(&(corner_world - b0.position.coords));
+                let local = b0
+                    .rotation
+                    .inverse_transform_vector(&(corner_world - b0.position.coords));
                 let start = corner_world;
                 let mut pivot_slip: Real = 0.0;
                 let downhill = inc.downhill();
@@ -367,13 +516,17 @@ pub fn slide_or_topple(solver: &str) -> Vec<Row> {
                         pivot_slip = pivot_slip.max((now - start).dot(&downhill).abs());
                     }
                 })?;
-                Ok((pivot_slip, h.world().blocks[rock].rotation.angle().to_degrees()))
+                Ok((
+                    pivot_slip,
+                    h.world().blocks[rock].rotation.angle().to_degrees(),
+                ))
             };
             match run() {
                 Err(e) => Row::failed(&case, solver, "motion", &e),
                 Ok((slip, angle)) => {
                     let measured = label(slip > 0.02, angle > 5.0);
-                    let mut row = Row::categorical(&case, solver, "motion in 1 s", reference, measured);
+                    let mut row =
+                        Row::categorical(&case, solver, "motion in 1 s", reference, measured);
                     row.measured = format!("{measured} (pivot slip {slip:.3} m, turn {angle:.1}°)");
                     row.pass = measured == reference;
                     row
@@ -403,8 +556,20 @@ pub fn bounce(solver: &str, omega_dt: Real, phase: Real) -> Result<Real, SolverE
         "displacement_limit = 10.0",
         &format!("normal_stiffness = {k}\nshear_ratio = 0.0"),
         &[
-            block_toml("floor", "fixed", 2500.0, &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]), ""),
-            block_toml("cube", "free", 2500.0, &box_corners([-0.1, -0.1, gap], [0.1, 0.1, gap + 0.4]), "velocity = [0.0, 0.0, -1.0]"),
+            block_toml(
+                "floor",
+                "fixed",
+                2500.0,
+                &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
+                "",
+            ),
+            block_toml(
+                "cube",
+                "free",
+                2500.0,
+                &box_corners([-0.1, -0.1, gap], [0.1, 0.1, gap + 0.4]),
+                "velocity = [0.0, 0.0, -1.0]",
+            ),
         ],
     );
     let mut h = Harness::new(&s, solver)?;
@@ -414,7 +579,9 @@ pub fn bounce(solver: &str, omega_dt: Real, phase: Real) -> Result<Real, SolverE
     let mut v_out = 0.0;
     h.run_until(t_end, Some(dt), |w| v_out = w.blocks[cube].velocity.z)?;
     if h.world().blocks[cube].aabb_min.z < 0.0 {
-        return Err(SolverError::Failed(format!("cube still in contact at t = {t_end} s")));
+        return Err(SolverError::Failed(format!(
+            "cube still in contact at t = {t_end} s"
+        )));
     }
     Ok(-v_out / v_in)
 }
@@ -426,10 +593,15 @@ pub const BOUNCE_PHASES: usize = 8;
 pub fn mean_restitution(solver: &str, omega_dt: Real) -> Result<(Real, Real), SolverError> {
     let mut e = Vec::with_capacity(BOUNCE_PHASES);
     for k in 0..BOUNCE_PHASES {
-        e.push(bounce(solver, omega_dt, (k as Real + 0.5) / BOUNCE_PHASES as Real)?);
+        e.push(bounce(
+            solver,
+            omega_dt,
+            (k as Real + 0.5) / BOUNCE_PHASES as Real,
+        )?);
     }
     let mean = e.iter().sum::<Real>() / e.len() as Real;
-    let spread = e.iter().cloned().fold(Real::NEG_INFINITY, Real::max) - e.iter().cloned().fold(Real::INFINITY, Real::min);
+    let spread = e.iter().cloned().fold(Real::NEG_INFINITY, Real::max)
+        - e.iter().cloned().fold(Real::INFINITY, Real::min);
     Ok((mean, spread))
 }
 
@@ -448,7 +620,11 @@ pub fn restitution_rows(solver: &str) -> Vec<Row> {
     // Central difference near Ω = 2 is left to the resting-block rows: a single contact
     // there lasts one or two steps and its restitution is whatever the touch-down phase makes
     // it (0.5 to 2.7 at Ω = 1.9).
-    let omegas: &[Real] = if solver == "explicit" { &[0.1, 0.5, 1.0, 1.5] } else { &[0.05, 0.1, 0.2, 0.5, 1.0] };
+    let omegas: &[Real] = if solver == "explicit" {
+        &[0.1, 0.5, 1.0, 1.5]
+    } else {
+        &[0.05, 0.1, 0.2, 0.5, 1.0]
+    };
     omegas
         .iter()
         .map(|&w| {
@@ -456,7 +632,8 @@ pub fn restitution_rows(solver: &str) -> Vec<Row> {
             match mean_restitution(solver, w) {
                 Err(e) => Row::failed(&case, solver, "restitution e", &e),
                 Ok((e, spread)) => {
-                    let quantity = format!("e, mean of {BOUNCE_PHASES} phases (spread {spread:.3})");
+                    let quantity =
+                        format!("e, mean of {BOUNCE_PHASES} phases (spread {spread:.3})");
                     if solver == "explicit" {
                         // Contact onset and release fall between steps: an energy error that
                         // depends on the phase and grows with Ω (bounded below 2).
@@ -465,7 +642,14 @@ pub fn restitution_rows(solver: &str) -> Vec<Row> {
                     } else {
                         let asymptote = (-PI * w / 4.0).exp();
                         let quantity = format!("{quantity}; exp(−πΩ/4) = {asymptote:.4}");
-                        Row::numeric(&case, solver, &quantity, newmark_restitution(w), e, Tolerance::Relative(0.03))
+                        Row::numeric(
+                            &case,
+                            solver,
+                            &quantity,
+                            newmark_restitution(w),
+                            e,
+                            Tolerance::Relative(0.03),
+                        )
                     }
                 }
             }
@@ -487,8 +671,20 @@ pub fn resting_block(omega_dt: Real, duration: Real) -> Result<Real, SolverError
         "",
         &format!("normal_stiffness = {k}\nshear_ratio = 0.0"),
         &[
-            block_toml("floor", "fixed", 2500.0, &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]), ""),
-            block_toml("block", "free", 2500.0, &box_corners([-0.1, -0.1, 0.0], [0.1, 0.1, 0.4]), ""),
+            block_toml(
+                "floor",
+                "fixed",
+                2500.0,
+                &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
+                "",
+            ),
+            block_toml(
+                "block",
+                "free",
+                2500.0,
+                &box_corners([-0.1, -0.1, 0.0], [0.1, 0.1, 0.4]),
+                "",
+            ),
         ],
     );
     let mut h = Harness::new(&s, "explicit")?;
@@ -507,20 +703,48 @@ pub fn explicit_limit_rows() -> Vec<Row> {
     let mut rows = Vec::new();
     let case = "block resting on springs, Ω = 1.9, 1 s";
     rows.push(match resting_block(1.9, 1.0) {
-        Ok(r) => Row::numeric(case, "explicit", "largest energy ratio (1 = all energy supplied)", 1.0, r, Tolerance::AtMost(1.05)),
+        Ok(r) => Row::numeric(
+            case,
+            "explicit",
+            "largest energy ratio (1 = all energy supplied)",
+            1.0,
+            r,
+            Tolerance::AtMost(1.05),
+        ),
         Err(e) => Row::failed(case, "explicit", "energy ratio", &e),
     });
     let case = "block resting on springs, Ω = 2.2 (past 2/ω_max)";
     rows.push(match resting_block(2.2, 1.0) {
-        Ok(r) => Row::categorical(case, "explicit", "outcome", "Unstable reported", &format!("completed, energy ratio {r:.3}")),
+        Ok(r) => Row::categorical(
+            case,
+            "explicit",
+            "outcome",
+            "Unstable reported",
+            &format!("completed, energy ratio {r:.3}"),
+        ),
         Err(SolverError::Unstable(msg)) => {
             let ok = msg.contains("explicit") && msg.contains("energy") && msg.contains("ω_max·dt");
-            let mut row = Row::categorical(case, "explicit", "outcome", "Unstable reported", "Unstable reported");
-            row.measured = format!("Unstable: {}", msg.split(" (central").next().unwrap_or(&msg));
+            let mut row = Row::categorical(
+                case,
+                "explicit",
+                "outcome",
+                "Unstable reported",
+                "Unstable reported",
+            );
+            row.measured = format!(
+                "Unstable: {}",
+                msg.split(" (central").next().unwrap_or(&msg)
+            );
             row.pass = ok;
             row
         }
-        Err(e) => Row::categorical(case, "explicit", "outcome", "Unstable reported", &format!("other error: {e}")),
+        Err(e) => Row::categorical(
+            case,
+            "explicit",
+            "outcome",
+            "Unstable reported",
+            &format!("other error: {e}"),
+        ),
     });
     rows
 }
@@ -529,17 +753,35 @@ pub fn explicit_limit_rows() -> Vec<Row> {
 /// displacement of any block between t = 2 s (settled onto its springs, ~0.1 mm) and
 /// `duration`.
 pub fn stack_drift(solver: &str, n: usize, duration: Real) -> Result<Real, SolverError> {
-    let mut blocks = vec![block_toml("floor", "fixed", 2500.0, &box_corners([-2.0, -2.0, -0.5], [2.0, 2.0, 0.0]), "")];
+    let mut blocks = vec![block_toml(
+        "floor",
+        "fixed",
+        2500.0,
+        &box_corners([-2.0, -2.0, -0.5], [2.0, 2.0, 0.0]),
+        "",
+    )];
     for i in 0..n {
         let s = if i % 2 == 0 { 0.03 } else { -0.03 };
         let z = 0.3 * i as Real;
         let v = box_corners([-0.2 + s, -0.2 - s, z], [0.2 + s, 0.2 - s, z + 0.3]);
         blocks.push(block_toml(&format!("box{i}"), "free", 2500.0, &v, ""));
     }
-    let s = scene("stack", [0.0, 0.0, -G], 10.0, "", "friction_angle = 30.0\ndamping_ratio = 0.1", &blocks);
+    let s = scene(
+        "stack",
+        [0.0, 0.0, -G],
+        10.0,
+        "",
+        "friction_angle = 30.0\ndamping_ratio = 0.1",
+        &blocks,
+    );
     let mut h = Harness::new(&s, solver)?;
     h.run_until(STACK_SETTLE, None, |_| {})?;
-    let settled: Vec<_> = h.world().free.iter().map(|&i| h.world().blocks[i].position).collect();
+    let settled: Vec<_> = h
+        .world()
+        .free
+        .iter()
+        .map(|&i| h.world().blocks[i].position)
+        .collect();
     let mut drift: Real = 0.0;
     h.run_until(duration, None, |w| {
         for (k, &i) in w.free.iter().enumerate() {
@@ -556,14 +798,24 @@ pub fn stack_row(solver: &str, duration: Real) -> Row {
     let case = format!("stack of 4 boxes at rest, {duration} s");
     match stack_drift(solver, 4, duration) {
         Err(e) => Row::failed(&case, solver, "drift [m]", &e),
-        Ok(d) => Row::numeric(&case, solver, "max drift after 2 s [m]", 0.0, d, Tolerance::Absolute(1e-4)),
+        Ok(d) => Row::numeric(
+            &case,
+            solver,
+            "max drift after 2 s [m]",
+            0.0,
+            d,
+            Tolerance::Absolute(1e-4),
+        ),
     }
 }
 
 /// The embedded default scene with no water: the wedge starts at zero gap on the 25° slope
 /// (friction 5°) and must slide smoothly: d(t) = ½ g (sin 25° − cos 25° tan 5°) t² until it
 /// reaches the floor (0.8 s here). Returns (distance, largest speed error, turn angle).
-pub fn default_wedge(solver: &str, duration: Real) -> Result<(Real, Real, Real, Real), SolverError> {
+pub fn default_wedge(
+    solver: &str,
+    duration: Real,
+) -> Result<(Real, Real, Real, Real), SolverError> {
     let scene = Scene::default_scene();
     let mut h = Harness::new(&scene, solver)?;
     let wedge = h.solver.block_index("wedge").unwrap();
@@ -577,7 +829,12 @@ pub fn default_wedge(solver: &str, duration: Real) -> Result<(Real, Real, Real, 
         speed_err = speed_err.max((b.velocity.dot(&downhill) - acc * w.time).abs());
     })?;
     let b = &h.world().blocks[wedge];
-    Ok(((b.position - start).dot(&downhill), 0.5 * acc * duration * duration, speed_err / (acc * duration), b.rotation.angle()))
+    Ok((
+        (b.position - start).dot(&downhill),
+        0.5 * acc * duration * duration,
+        speed_err / (acc * duration),
+        b.rotation.angle(),
+    ))
 }
 
 pub fn default_wedge_rows(solver: &str) -> Vec<Row> {
@@ -585,9 +842,30 @@ pub fn default_wedge_rows(solver: &str) -> Vec<Row> {
     match default_wedge(solver, 0.8) {
         Err(e) => vec![Row::failed(case, solver, "d(0.8 s) [m]", &e)],
         Ok((d, reference, speed_err, angle)) => vec![
-            Row::numeric(case, solver, "d(0.8 s) [m]", reference, d, Tolerance::Relative(0.005)),
-            Row::numeric(case, solver, "max |v − a t| / (a t_end)", 0.0, speed_err, Tolerance::Absolute(0.01)),
-            Row::numeric(case, solver, "turn [rad]", 0.0, angle, Tolerance::Absolute(1e-3)),
+            Row::numeric(
+                case,
+                solver,
+                "d(0.8 s) [m]",
+                reference,
+                d,
+                Tolerance::Relative(0.005),
+            ),
+            Row::numeric(
+                case,
+                solver,
+                "max |v − a t| / (a t_end)",
+                0.0,
+                speed_err,
+                Tolerance::Absolute(0.01),
+            ),
+            Row::numeric(
+                case,
+                solver,
+                "turn [rad]",
+                0.0,
+                angle,
+                Tolerance::Absolute(1e-3),
+            ),
         ],
     }
 }
@@ -602,11 +880,23 @@ pub fn spinning_block(solver: &str) -> Row {
         5.0,
         "displacement_limit = 10.0",
         "",
-        &[block_toml("rock", "free", 2500.0, &box_corners([-0.3, -0.2, -0.1], [0.3, 0.2, 0.1]), "angular_velocity = [3.0, 0.0, 9.539392014169456]")],
+        &[block_toml(
+            "rock",
+            "free",
+            2500.0,
+            &box_corners([-0.3, -0.2, -0.1], [0.3, 0.2, 0.1]),
+            "angular_velocity = [3.0, 0.0, 9.539392014169456]",
+        )],
     );
     let run = || -> Result<Real, SolverError> {
         let mut h = Harness::new(&s, solver)?;
-        let reference: Vec<Real> = h.block("rock").shape.vertices.iter().map(|v| v.coords.norm()).collect();
+        let reference: Vec<Real> = h
+            .block("rock")
+            .shape
+            .vertices
+            .iter()
+            .map(|v| v.coords.norm())
+            .collect();
         let mut growth: Real = 0.0;
         let rock = h.solver.block_index("rock").unwrap();
         h.run_until(2.0, Some(1e-3), |w| {
@@ -619,7 +909,14 @@ pub fn spinning_block(solver: &str) -> Row {
     };
     match run() {
         Err(e) => Row::failed(case, solver, "size change", &e),
-        Ok(g) => Row::numeric(case, solver, "max corner radius change (relative)", 0.0, g, Tolerance::Absolute(1e-12)),
+        Ok(g) => Row::numeric(
+            case,
+            solver,
+            "max corner radius change (relative)",
+            0.0,
+            g,
+            Tolerance::Absolute(1e-12),
+        ),
     }
 }
 

@@ -89,7 +89,10 @@ impl World {
 
     /// Size of the smallest free block [m].
     pub fn smallest_free_size(&self) -> Real {
-        self.free.iter().map(|&i| self.blocks[i].size()).fold(Real::INFINITY, Real::min)
+        self.free
+            .iter()
+            .map(|&i| self.blocks[i].size())
+            .fold(Real::INFINITY, Real::min)
     }
 
     /// Finds the contacts at the current poses (broad phase, then vertex–face and edge–edge
@@ -109,13 +112,32 @@ impl World {
         let work = |(slot, &(a, b)): (&mut Vec<Contact>, &(u32, u32))| {
             slot.clear();
             let (ba, bb) = (&blocks[a as usize], &blocks[b as usize]);
-            let joint = Joint::of_pair(spec, (ba.friction_angle, bb.friction_angle), (ba.cohesion, bb.cohesion));
+            let joint = Joint::of_pair(
+                spec,
+                (ba.friction_angle, bb.friction_angle),
+                (ba.cohesion, bb.cohesion),
+            );
             let old = contact::pair_range(previous, a, b);
-            narrow_phase::collide(a, b, ba, bb, joint, params, old, slot);
+            narrow_phase::collide(
+                &narrow_phase::Pair {
+                    a,
+                    b,
+                    ba,
+                    bb,
+                    joint,
+                },
+                params,
+                old,
+                slot,
+            );
         };
         let slots = &mut self.slots[..pairs.len()];
         if pairs.len() >= PARALLEL_MIN {
-            slots.par_iter_mut().zip(pairs.par_iter()).with_min_len(16).for_each(work);
+            slots
+                .par_iter_mut()
+                .zip(pairs.par_iter())
+                .with_min_len(16)
+                .for_each(work);
         } else {
             slots.iter_mut().zip(pairs.iter()).for_each(work);
         }
@@ -130,7 +152,9 @@ impl World {
     pub fn update_contact_forces_explicit(&mut self) {
         let blocks = &self.blocks;
         let penalty = &self.penalty;
-        let work = |c: &mut Contact| penalty.update_explicit(c, &blocks[c.p as usize], &blocks[c.q as usize]);
+        let work = |c: &mut Contact| {
+            penalty.update_explicit(c, &blocks[c.p as usize], &blocks[c.q as usize])
+        };
         if self.contacts.len() >= PARALLEL_MIN {
             self.contacts.par_iter_mut().with_min_len(64).for_each(work);
         } else {
@@ -141,8 +165,12 @@ impl World {
 
     /// Sums the committed contact forces into per-block force and torque.
     pub fn sum_contact_forces(&mut self) {
-        self.contact_force.iter_mut().for_each(|f| *f = Vector::zeros());
-        self.contact_torque.iter_mut().for_each(|t| *t = Vector::zeros());
+        self.contact_force
+            .iter_mut()
+            .for_each(|f| *f = Vector::zeros());
+        self.contact_torque
+            .iter_mut()
+            .for_each(|t| *t = Vector::zeros());
         for c in &self.contacts {
             if c.force == Vector::zeros() {
                 continue;
@@ -157,12 +185,18 @@ impl World {
 
     /// Kinetic energy of the free blocks [J].
     pub fn kinetic_energy(&self) -> Real {
-        self.free.iter().map(|&i| self.blocks[i].kinetic_energy()).sum()
+        self.free
+            .iter()
+            .map(|&i| self.blocks[i].kinetic_energy())
+            .sum()
     }
 
     /// Gravitational potential energy of the free blocks [J] (zero at the origin).
     pub fn potential_energy(&self) -> Real {
-        self.free.iter().map(|&i| -self.blocks[i].mass * self.gravity.dot(&self.blocks[i].position.coords)).sum()
+        self.free
+            .iter()
+            .map(|&i| -self.blocks[i].mass * self.gravity.dot(&self.blocks[i].position.coords))
+            .sum()
     }
 
     /// Energy stored in the contact springs [J].

@@ -5,21 +5,44 @@ use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::scene::{MotionSpec, Scene, Scheme, ShapeSpec};
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError};
-use solid_node::verification::{block_toml, box_corners, scene, Harness};
+use solid_node::verification::{Harness, block_toml, box_corners, scene};
 
 fn space_scene(extra_blocks: &[String]) -> Scene {
-    let mut blocks = vec![block_toml("rock", "free", 2000.0, &box_corners([-0.5, -0.25, -0.1], [0.5, 0.25, 0.1]), "")];
+    let mut blocks = vec![block_toml(
+        "rock",
+        "free",
+        2000.0,
+        &box_corners([-0.5, -0.25, -0.1], [0.5, 0.25, 0.1]),
+        "",
+    )];
     blocks.extend_from_slice(extra_blocks);
-    scene("space", [0.0, 0.0, 0.0], 20.0, "displacement_limit = 10.0", "", &blocks)
+    scene(
+        "space",
+        [0.0, 0.0, 0.0],
+        20.0,
+        "displacement_limit = 10.0",
+        "",
+        &blocks,
+    )
 }
 
 #[test]
 fn unknown_solver_is_refused_with_the_choices() {
     let s = space_scene(&[]);
     let dir = std::env::temp_dir();
-    let ctx = SetupContext { scene: &s, run_dir: &dir, scheme: Scheme::Parallel, peer_present: false };
-    let Err(SolverError::Failed(msg)) = solid_node::build("verlet", &ctx) else { panic!("accepted an unknown solver") };
-    assert!(msg.contains("explicit") && msg.contains("implicit"), "{msg}");
+    let ctx = SetupContext {
+        scene: &s,
+        run_dir: &dir,
+        scheme: Scheme::Parallel,
+        peer_present: false,
+    };
+    let Err(SolverError::Failed(msg)) = solid_node::build("verlet", &ctx) else {
+        panic!("accepted an unknown solver")
+    };
+    assert!(
+        msg.contains("explicit") && msg.contains("implicit"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -27,12 +50,28 @@ fn non_convex_block_is_rejected_by_name() {
     let mut s = space_scene(&[]);
     s.blocks[0].name = "dented".into();
     s.blocks[0].shape = ShapeSpec::Convex {
-        vertices: vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0.1, 0.1, 0.1]],
+        vertices: vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [0., 1., 0.],
+            [0., 0., 1.],
+            [0.1, 0.1, 0.1],
+        ],
     };
     let dir = std::env::temp_dir();
-    let ctx = SetupContext { scene: &s, run_dir: &dir, scheme: Scheme::Parallel, peer_present: false };
-    let Err(SolverError::Failed(msg)) = solid_node::build("explicit", &ctx) else { panic!("accepted a concave block") };
-    assert!(msg.contains("dented") && msg.contains("not convex"), "{msg}");
+    let ctx = SetupContext {
+        scene: &s,
+        run_dir: &dir,
+        scheme: Scheme::Parallel,
+        peer_present: false,
+    };
+    let Err(SolverError::Failed(msg)) = solid_node::build("explicit", &ctx) else {
+        panic!("accepted a concave block")
+    };
+    assert!(
+        msg.contains("dented") && msg.contains("not convex"),
+        "{msg}"
+    );
 }
 
 /// Constant force and torque from the "fluid" on a block in space: x = ½ F/m t², and about a
@@ -43,7 +82,12 @@ fn fluid_loads_move_the_block() {
         let s = space_scene(&[]);
         let mut h = Harness::new(&s, solver).unwrap();
         let (m, izz) = (h.block("rock").mass, h.block("rock").inertia[(2, 2)]);
-        let load = BlockLoad { block: 0, _reserved: 0, force: [3.0, -1.0, 2.0], torque: [0.0, 0.0, 0.5] };
+        let load = BlockLoad {
+            block: 0,
+            _reserved: 0,
+            force: [3.0, -1.0, 2.0],
+            torque: [0.0, 0.0, 0.5],
+        };
         let t = 0.5;
         while h.time() < t - 1e-12 {
             h.solver.read_loads(&[load]);
@@ -51,10 +95,22 @@ fn fluid_loads_move_the_block() {
         }
         let b = h.block("rock");
         let expect = Vector::from(load.force) * (0.5 * t * t / m);
-        assert!((b.position.coords - expect).norm() < 1e-9 * expect.norm(), "{solver}: {} vs {expect}", b.position);
+        assert!(
+            (b.position.coords - expect).norm() < 1e-9 * expect.norm(),
+            "{solver}: {} vs {expect}",
+            b.position
+        );
         let w = 0.5 / izz * t;
-        assert!((b.angular_velocity.z - w).abs() < 1e-9 * w, "{solver}: ω {} vs {w}", b.angular_velocity);
-        assert!((b.velocity - Vector::from(load.force) * (t / m)).norm() < 1e-9, "{solver}: v {}", b.velocity);
+        assert!(
+            (b.angular_velocity.z - w).abs() < 1e-9 * w,
+            "{solver}: ω {} vs {w}",
+            b.angular_velocity
+        );
+        assert!(
+            (b.velocity - Vector::from(load.force) * (t / m)).norm() < 1e-9,
+            "{solver}: v {}",
+            b.velocity
+        );
     }
 }
 
@@ -70,15 +126,29 @@ fn kinematic_piston_and_geometry_message() {
             &box_corners([3.0, -0.5, -0.5], [3.2, 0.5, 0.5]),
             "motion = { type = \"sine\", amplitude = [0.3, 0.0, 0.0], period = 2.0, ramp = 0.5 }",
         );
-        let wall = block_toml("wall", "fixed", 2000.0, &box_corners([-9.0, -9.0, -9.0], [-8.0, 9.0, 9.0]), "");
+        let wall = block_toml(
+            "wall",
+            "fixed",
+            2000.0,
+            &box_corners([-9.0, -9.0, -9.0], [-8.0, 9.0, 9.0]),
+            "",
+        );
         let s = space_scene(&[wall, piston]);
-        let motion = MotionSpec::Sine { amplitude: [0.3, 0.0, 0.0], period: 2.0, phase: 0.0, ramp: 0.5 };
+        let motion = MotionSpec::Sine {
+            amplitude: [0.3, 0.0, 0.0],
+            period: 2.0,
+            phase: 0.0,
+            ramp: 0.5,
+        };
         let mut h = Harness::new(&s, solver).unwrap();
         h.run_until(0.7, Some(1e-3), |_| {}).unwrap();
         let p = h.block("piston");
         let t = h.time();
         assert!((t - 0.7).abs() < 1e-12);
-        assert!((p.position.x - (3.1 + motion.displacement(t).x)).abs() < 1e-12, "{solver}");
+        assert!(
+            (p.position.x - (3.1 + motion.displacement(t).x)).abs() < 1e-12,
+            "{solver}"
+        );
         assert!((p.velocity - motion.velocity(t)).norm() < 1e-12, "{solver}");
 
         assert_eq!(s.moving_blocks(), vec![0, 2]);
@@ -88,10 +158,20 @@ fn kinematic_piston_and_geometry_message() {
         let mut verts = vec![[0.0; 3]; n];
         h.solver.write_geometry(&mut states, &mut verts);
         assert_eq!((states[0].block, states[1].block), (0, 2));
-        assert_eq!((states[0].first_vertex, states[1].first_vertex, states[1].vertex_count), (0, 8, 8));
+        assert_eq!(
+            (
+                states[0].first_vertex,
+                states[1].first_vertex,
+                states[1].vertex_count
+            ),
+            (0, 8, 8)
+        );
         let xs: Vec<Real> = verts[8..].iter().map(|v| v[0]).collect();
         let lo = xs.iter().cloned().fold(Real::INFINITY, Real::min);
-        assert!((lo - (3.0 + motion.displacement(t).x)).abs() < 1e-12, "{solver}: piston corners at {xs:?}");
+        assert!(
+            (lo - (3.0 + motion.displacement(t).x)).abs() < 1e-12,
+            "{solver}: piston corners at {xs:?}"
+        );
         assert_eq!(states[1].orientation, [0.0, 0.0, 0.0, 1.0]);
         assert!((states[1].velocity[0] - motion.velocity(t).x).abs() < 1e-12);
     }
@@ -101,7 +181,13 @@ fn kinematic_piston_and_geometry_message() {
 #[test]
 fn piston_pushes_a_block() {
     for solver in solid_node::SOLVERS {
-        let floor = block_toml("floor", "fixed", 2500.0, &box_corners([-2.0, -1.0, -0.5], [4.0, 1.0, 0.0]), "");
+        let floor = block_toml(
+            "floor",
+            "fixed",
+            2500.0,
+            &box_corners([-2.0, -1.0, -0.5], [4.0, 1.0, 0.0]),
+            "",
+        );
         let piston = block_toml(
             "piston",
             "kinematic",
@@ -109,8 +195,21 @@ fn piston_pushes_a_block() {
             &box_corners([-0.6, -0.5, 0.01], [-0.4, 0.5, 0.5]),
             "motion = { type = \"linear\", velocity = [0.5, 0.0, 0.0] }",
         );
-        let rock = block_toml("rock", "free", 2500.0, &box_corners([-0.2, -0.2, 0.0], [0.2, 0.2, 0.3]), "");
-        let s = scene("push", [0.0, 0.0, -9.81], 10.0, "", "friction_angle = 20.0\ndamping_ratio = 0.2", &[floor, piston, rock]);
+        let rock = block_toml(
+            "rock",
+            "free",
+            2500.0,
+            &box_corners([-0.2, -0.2, 0.0], [0.2, 0.2, 0.3]),
+            "",
+        );
+        let s = scene(
+            "push",
+            [0.0, 0.0, -9.81],
+            10.0,
+            "",
+            "friction_angle = 20.0\ndamping_ratio = 0.2",
+            &[floor, piston, rock],
+        );
         let mut h = Harness::new(&s, solver).unwrap();
         h.run_until(1.0, None, |_| {}).unwrap();
         // The piston face reaches the rock at t = 0.4 s and pushes it 0.3 m by t = 1 s.
@@ -128,13 +227,28 @@ fn leaving_the_domain_is_unstable() {
             1.0,
             "displacement_limit = 10.0",
             "",
-            &[block_toml("rock", "free", 2000.0, &box_corners([-0.1; 3], [0.1; 3]), "velocity = [5.0, 0.0, 0.0]")],
+            &[block_toml(
+                "rock",
+                "free",
+                2000.0,
+                &box_corners([-0.1; 3], [0.1; 3]),
+                "velocity = [5.0, 0.0, 0.0]",
+            )],
         );
         let mut h = Harness::new(&s, solver).unwrap();
         let err = h.run_until(1.0, Some(1e-3), |_| {}).unwrap_err();
-        let SolverError::Unstable(msg) = err else { panic!("{solver}: {err}") };
-        assert!(msg.contains(solver) && msg.contains("left the domain") && msg.contains("rock"), "{msg}");
-        assert!((h.time() - 0.2).abs() < 2e-3, "{solver}: left at {}", h.time());
+        let SolverError::Unstable(msg) = err else {
+            panic!("{solver}: {err}")
+        };
+        assert!(
+            msg.contains(solver) && msg.contains("left the domain") && msg.contains("rock"),
+            "{msg}"
+        );
+        assert!(
+            (h.time() - 0.2).abs() < 2e-3,
+            "{solver}: left at {}",
+            h.time()
+        );
     }
 }
 
@@ -142,9 +256,17 @@ fn leaving_the_domain_is_unstable() {
 fn non_finite_load_is_unstable_not_nan_output() {
     for solver in solid_node::SOLVERS {
         let mut h = Harness::new(&space_scene(&[]), solver).unwrap();
-        h.solver.read_loads(&[BlockLoad { block: 0, _reserved: 0, force: [f64::NAN, 0.0, 0.0], torque: [0.0; 3] }]);
+        h.solver.read_loads(&[BlockLoad {
+            block: 0,
+            _reserved: 0,
+            force: [f64::NAN, 0.0, 0.0],
+            torque: [0.0; 3],
+        }]);
         let err = h.solver.advance(1e-3).unwrap_err();
-        assert!(matches!(err, SolverError::Unstable(ref m) if m.contains("non-finite")), "{solver}: {err}");
+        assert!(
+            matches!(err, SolverError::Unstable(ref m) if m.contains("non-finite")),
+            "{solver}: {err}"
+        );
     }
 }
 
@@ -158,7 +280,13 @@ fn implicit_substeps_end_exactly_on_the_coupler_step() {
         50.0,
         "displacement_limit = 0.01",
         "",
-        &[block_toml("rock", "free", 2000.0, &box_corners([-0.1; 3], [0.1; 3]), "velocity = [20.0, 0.0, 0.0]")],
+        &[block_toml(
+            "rock",
+            "free",
+            2000.0,
+            &box_corners([-0.1; 3], [0.1; 3]),
+            "velocity = [20.0, 0.0, 0.0]",
+        )],
     );
     let mut h = Harness::new(&s, "implicit").unwrap();
     // 20 m/s × 1 ms = 0.02 m = 0.058 of the 0.35 m block: the step must be cut to a ninth.
@@ -167,7 +295,10 @@ fn implicit_substeps_end_exactly_on_the_coupler_step() {
     assert_eq!(h.time(), 1e-3);
     assert!((h.block("rock").position.x - 0.02).abs() < 1e-12);
     let proposal = h.solver.dt_proposal();
-    assert!(proposal < 1e-3 / 3.0 && proposal > 1e-4, "proposal {proposal}");
+    assert!(
+        proposal < 1e-3 / 3.0 && proposal > 1e-4,
+        "proposal {proposal}"
+    );
 }
 
 /// Default normal spring: the lightest free block resting on one face sinks ε·size/4 on its four
@@ -181,8 +312,20 @@ fn default_stiffness_and_dt_proposal() {
         "",
         "damping_ratio = 0.5",
         &[
-            block_toml("floor", "fixed", 2500.0, &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]), ""),
-            block_toml("rock", "free", 2500.0, &box_corners([-0.2, -0.2, 0.0], [0.2, 0.2, 0.4]), ""),
+            block_toml(
+                "floor",
+                "fixed",
+                2500.0,
+                &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
+                "",
+            ),
+            block_toml(
+                "rock",
+                "free",
+                2500.0,
+                &box_corners([-0.2, -0.2, 0.0], [0.2, 0.2, 0.4]),
+                "",
+            ),
         ],
     );
     let mut h = Harness::new(&s, "explicit").unwrap();
@@ -190,20 +333,35 @@ fn default_stiffness_and_dt_proposal() {
     let b = h.block("rock");
     let sink = -b.aabb_min.z;
     let expect = solid_node::penalty::ALLOWED_PENETRATION * b.size() / 4.0;
-    assert!((sink / expect - 1.0).abs() < 0.01, "sank {sink:e}, expected {expect:e}");
+    assert!(
+        (sink / expect - 1.0).abs() < 0.01,
+        "sank {sink:e}, expected {expect:e}"
+    );
     let k = h.world().penalty.normal;
-    assert!((k - b.mass * 9.81 / (solid_node::penalty::ALLOWED_PENETRATION * b.size())).abs() < 1e-6 * k);
+    assert!(
+        (k - b.mass * 9.81 / (solid_node::penalty::ALLOWED_PENETRATION * b.size())).abs()
+            < 1e-6 * k
+    );
     // dt = safety · 2/ω_max, with ω_max from the contact springs: at least the vertical mode
     // sqrt(4k/m) and, for this block, below the set-up floor's worst face (its side: rocking
     // about the short axis, ω² = k·4·0.2²/I = 9.6 k/m).
     let omega = 2.0 * s.solid.safety_factor / h.solver.dt_proposal();
     let w_vertical = (4.0 * k / b.mass).sqrt();
-    assert!(omega >= w_vertical && omega <= (9.6 * k / b.mass).sqrt() * 1.0001, "ω_max {omega} vs vertical {w_vertical}");
+    assert!(
+        omega >= w_vertical && omega <= (9.6 * k / b.mass).sqrt() * 1.0001,
+        "ω_max {omega} vs vertical {w_vertical}"
+    );
 }
 
 #[test]
 fn outputs_csv_and_vtp() {
-    let floor = block_toml("floor", "fixed", 2500.0, &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]), "");
+    let floor = block_toml(
+        "floor",
+        "fixed",
+        2500.0,
+        &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
+        "",
+    );
     let mut s = space_scene(&[floor]);
     s.output.vtk = true;
     s.output.interval = 0.02;
@@ -212,11 +370,20 @@ fn outputs_csv_and_vtp() {
     h.solver.write_frame(3, h.time()).unwrap();
     h.solver.finish().unwrap();
     let vtp = std::fs::read_to_string(h.run_dir().join("blocks_00003.vtp")).unwrap();
-    assert!(vtp.contains("PolyData") && vtp.contains("NumberOfPolys=\"12\""), "{}", &vtp[..vtp.len().min(600)]);
+    assert!(
+        vtp.contains("PolyData") && vtp.contains("NumberOfPolys=\"12\""),
+        "{}",
+        &vtp[..vtp.len().min(600)]
+    );
     let csv = std::fs::read_to_string(h.run_dir().join("blocks.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert!(lines[0].starts_with("time,block,x,y,z,vx,vy,vz,qi,qj,qk,qw,wx,wy,wz"));
     // 1000 steps of 0.1 ms, sampled at most every 1 ms (0.02/20): t = 0, 0.001, ..., 0.1.
     assert_eq!(lines.len() - 1, 101, "{} rows", lines.len() - 1);
-    assert!(lines.iter().skip(1).all(|l| l.split(',').nth(1) == Some("rock")));
+    assert!(
+        lines
+            .iter()
+            .skip(1)
+            .all(|l| l.split(',').nth(1) == Some("rock"))
+    );
 }

@@ -4,7 +4,11 @@ use solid_node::verification::{self as v, Row};
 
 fn check(rows: &[Row]) {
     let failed: Vec<&Row> = rows.iter().filter(|r| !r.pass).collect();
-    assert!(failed.is_empty(), "failed cases:\n{}", v::markdown(&rows.iter().filter(|r| !r.pass).cloned().collect::<Vec<_>>()));
+    assert!(
+        failed.is_empty(),
+        "failed cases:\n{}",
+        v::markdown(&rows.iter().filter(|r| !r.pass).cloned().collect::<Vec<_>>())
+    );
 }
 
 #[test]

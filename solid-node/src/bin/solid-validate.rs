@@ -8,6 +8,14 @@ fn main() -> std::process::ExitCode {
     let rows = solid_node::verification::run_all(quick);
     println!("{}", solid_node::verification::markdown(&rows));
     let failed = rows.iter().filter(|r| !r.pass).count();
-    println!("{} case(s), {failed} failed, {:.1} s", rows.len(), start.elapsed().as_secs_f64());
-    if failed == 0 { std::process::ExitCode::SUCCESS } else { std::process::ExitCode::FAILURE }
+    println!(
+        "{} case(s), {failed} failed, {:.1} s",
+        rows.len(),
+        start.elapsed().as_secs_f64()
+    );
+    if failed == 0 {
+        std::process::ExitCode::SUCCESS
+    } else {
+        std::process::ExitCode::FAILURE
+    }
 }
