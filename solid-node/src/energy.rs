@@ -64,8 +64,7 @@ impl EnergyMonitor {
             let omega_dt = omega_dt();
             return Err(SolverError::Unstable(format!(
                 "{solver} solver: energy grew {:.3e}-fold beyond what the loads supplied ({dynamic:.4e} J kinetic + contact \
-                 against {:.4e} J available) at t = {:.6} s, ω_max·dt = {omega_dt:.3} ({hint}); reduce dt or \
-                 [solid].safety_factor",
+                 against {:.4e} J available) at t = {:.6} s, ω_max·dt = {omega_dt:.3} ({hint})",
                 self.ratio,
                 available.max(self.floor),
                 world.time

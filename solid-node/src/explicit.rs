@@ -160,7 +160,7 @@ impl Integrator for CentralDifference {
             world,
             self.name(),
             || reported,
-            "central difference is stable only below 2, paper Eq. 8",
+            "central difference is stable only below 2, paper Eq. 8; reduce dt or [solid].safety_factor",
         )?;
         let warning = (self.omega_max() * dt > 2.0).then(|| {
             let omega_dt = self.omega_max() * dt;
