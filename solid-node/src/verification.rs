@@ -55,11 +55,14 @@ impl Row {
         let (error, tolerance, pass) = match tol {
             Tolerance::Relative(x) => {
                 let e = diff / reference.abs();
-                (
-                    format!("{:.3} %", 100.0 * e),
-                    format!("{:.3} %", 100.0 * x),
-                    e <= x,
-                )
+                let pct = |v: Real| {
+                    if v < 1e-4 {
+                        format!("{:.1e} %", 100.0 * v)
+                    } else {
+                        format!("{:.3} %", 100.0 * v)
+                    }
+                };
+                (pct(e), pct(x), e <= x)
             }
             Tolerance::Absolute(x) => (format!("{diff:.3e}"), format!("{x:.1e}"), diff <= x),
             Tolerance::AtMost(x) => ("–".to_string(), format!("≤ {x}"), measured <= x),
@@ -853,7 +856,7 @@ pub fn default_wedge_rows(solver: &str) -> Vec<Row> {
             Row::numeric(
                 case,
                 solver,
-                "max |v − a t| / (a t_end)",
+                "largest speed error / (a t_end)",
                 0.0,
                 speed_err,
                 Tolerance::Absolute(0.01),
