@@ -59,13 +59,31 @@ mod tests {
 
     #[test]
     fn each_limit_can_bind() {
-        let base = StepLimits { h: 0.01, sound_speed: 20.0, viscosity: 1e-6, penalty_stiffness: 1.0, mass: 1e-3, cfl: 0.2 };
+        let base = StepLimits {
+            h: 0.01,
+            sound_speed: 20.0,
+            viscosity: 1e-6,
+            penalty_stiffness: 1.0,
+            mass: 1e-3,
+            cfl: 0.2,
+        };
         let (dt, l) = base.propose(0.0, 9.81);
         assert_eq!(l, Limit::Cfl);
         assert!((dt - 0.2 * 0.01 / 20.0).abs() < 1e-15);
         assert_eq!(base.propose(0.0, 1e6).1, Limit::Force);
-        assert_eq!(StepLimits { viscosity: 1.0, ..base }.propose(0.0, 9.81).1, Limit::Viscous);
-        let stiff = StepLimits { penalty_stiffness: 1e6, ..base };
+        assert_eq!(
+            StepLimits {
+                viscosity: 1.0,
+                ..base
+            }
+            .propose(0.0, 9.81)
+            .1,
+            Limit::Viscous
+        );
+        let stiff = StepLimits {
+            penalty_stiffness: 1e6,
+            ..base
+        };
         let (dt, l) = stiff.propose(0.0, 9.81);
         assert_eq!(l, Limit::Penalty);
         // Half of 2/ω.

@@ -23,7 +23,12 @@ pub struct Fill {
 impl Fill {
     /// Height of the deepest water column [m], from the lowest to the highest particle plus dx.
     pub fn max_depth(&self, dx: Real) -> Real {
-        let (lo, hi) = self.positions.iter().fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), p| (lo.min(p.z), hi.max(p.z)));
+        let (lo, hi) = self
+            .positions
+            .iter()
+            .fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p.z), hi.max(p.z))
+            });
         if lo > hi { 0.0 } else { hi - lo + dx }
     }
 }
@@ -41,7 +46,9 @@ pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, Stri
         .water
         .iter()
         .enumerate()
-        .map(|(i, w)| Polyhedron::from_shape(&w.shape).map_err(|e| format!("fluid.water[{i}]: {e}")))
+        .map(|(i, w)| {
+            Polyhedron::from_shape(&w.shape).map_err(|e| format!("fluid.water[{i}]: {e}"))
+        })
         .collect::<Result<_, _>>()?;
     if volumes.is_empty() {
         return Ok(Fill::default());
@@ -54,7 +61,9 @@ pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, Stri
         hi = hi.sup(&b.coords);
     }
     let anchor = lo + Vector::repeat(0.5 * dx);
-    let n: Vec<usize> = (0..3).map(|k| (((hi[k] - lo[k]) / dx).round() as usize).max(1)).collect();
+    let n: Vec<usize> = (0..3)
+        .map(|k| (((hi[k] - lo[k]) / dx).round() as usize).max(1))
+        .collect();
     let tol = 1e-6 * dx;
 
     let mut positions = Vec::new();
@@ -63,7 +72,9 @@ pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, Stri
         for ky in 0..n[1] {
             for kx in 0..n[0] {
                 let p = anchor + Vector::new(kx as Real, ky as Real, kz as Real) * dx;
-                let Some(vol) = volumes.iter().position(|v| near_or_inside(v, &p, tol)) else { continue };
+                let Some(vol) = volumes.iter().position(|v| near_or_inside(v, &p, tol)) else {
+                    continue;
+                };
                 if blocks.iter().any(|b| near_or_inside(b, &p, 0.5 * dx - tol)) {
                     continue;
                 }
@@ -73,14 +84,27 @@ pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, Stri
         }
     }
     // The free surface of each lattice column is half a spacing above its highest particle.
-    let column = |p: &Vector| (((p.x - anchor.x) / dx).round() as i64, ((p.y - anchor.y) / dx).round() as i64);
+    let column = |p: &Vector| {
+        (
+            ((p.x - anchor.x) / dx).round() as i64,
+            ((p.y - anchor.y) / dx).round() as i64,
+        )
+    };
     let mut top: HashMap<(i64, i64), Real> = HashMap::new();
     for p in &positions {
         let t = top.entry(column(p)).or_insert(Real::NEG_INFINITY);
         *t = t.max(p.z + 0.5 * dx);
     }
-    let depth = positions.iter().zip(&hydro).map(|(p, &h)| if h { top[&column(p)] - p.z } else { 0.0 }).collect();
-    Ok(Fill { positions, depth, anchor })
+    let depth = positions
+        .iter()
+        .zip(&hydro)
+        .map(|(p, &h)| if h { top[&column(p)] - p.z } else { 0.0 })
+        .collect();
+    Ok(Fill {
+        positions,
+        depth,
+        anchor,
+    })
 }
 
 #[cfg(test)]
@@ -91,13 +115,25 @@ mod tests {
     fn spec(dx: f64, water: Vec<ShapeSpec>) -> FluidSpec {
         let text = format!("dx = {dx}\n");
         let mut f: FluidSpec = toml::from_str(&text).unwrap();
-        f.water = water.into_iter().map(|shape| WaterSpec { shape, hydrostatic: true }).collect();
+        f.water = water
+            .into_iter()
+            .map(|shape| WaterSpec {
+                shape,
+                hydrostatic: true,
+            })
+            .collect();
         f
     }
 
     #[test]
     fn box_fill_count_mass_and_depth() {
-        let f = spec(0.1, vec![ShapeSpec::Box { min: [0.0; 3], max: [1.0, 0.5, 0.3] }]);
+        let f = spec(
+            0.1,
+            vec![ShapeSpec::Box {
+                min: [0.0; 3],
+                max: [1.0, 0.5, 0.3],
+            }],
+        );
         let fill = fill_water(&f, &[]).unwrap();
         assert_eq!(fill.positions.len(), 10 * 5 * 3);
         // Total particle volume equals the water volume.
@@ -112,8 +148,14 @@ mod tests {
     #[test]
     fn blocks_are_left_dry_and_volumes_do_not_double() {
         let water = vec![
-            ShapeSpec::Box { min: [0.0; 3], max: [1.0, 1.0, 1.0] },
-            ShapeSpec::Box { min: [0.5, 0.0, 0.0], max: [1.0, 1.0, 1.0] },
+            ShapeSpec::Box {
+                min: [0.0; 3],
+                max: [1.0, 1.0, 1.0],
+            },
+            ShapeSpec::Box {
+                min: [0.5, 0.0, 0.0],
+                max: [1.0, 1.0, 1.0],
+            },
         ];
         let f = spec(0.1, water);
         let block = Polyhedron::from_shape(&ShapeSpec::Prism {
@@ -122,8 +164,12 @@ mod tests {
             extent: [-1.0, 2.0],
         })
         .unwrap();
-        let fill = fill_water(&f, &[block.clone()]).unwrap();
-        assert!(fill.positions.iter().all(|p| !near_or_inside(&block, p, 0.05 - 1e-9)));
+        let fill = fill_water(&f, std::slice::from_ref(&block)).unwrap();
+        assert!(
+            fill.positions
+                .iter()
+                .all(|p| !near_or_inside(&block, p, 0.05 - 1e-9))
+        );
         // Above the plane x + z = 1 with clearance dx/2: x + z ≥ 1 + 0.05·√2.
         let expected = (0..10)
             .flat_map(|i| (0..10).map(move |k| (0.05 + 0.1 * i as f64, 0.05 + 0.1 * k as f64)))

@@ -32,7 +32,10 @@ impl Series {
         }
         writeln!(file, "{header}")?;
         file.flush()?;
-        Ok(Self { file, row: Vec::new() })
+        Ok(Self {
+            file,
+            row: Vec::new(),
+        })
     }
 
     fn write(&mut self, time: Real) -> std::io::Result<()> {
@@ -57,16 +60,27 @@ pub struct Recorder {
 
 impl Recorder {
     /// Opens the files (only those the scene has instruments for).
-    pub fn new(run_dir: &Path, gauges: &[GaugeSpec], probes: &[ProbeSpec], output_interval: Real) -> std::io::Result<Self> {
+    pub fn new(
+        run_dir: &Path,
+        gauges: &[GaugeSpec],
+        probes: &[ProbeSpec],
+        output_interval: Real,
+    ) -> std::io::Result<Self> {
         let gauge_file = if gauges.is_empty() {
             None
         } else {
-            Some(Series::create(&run_dir.join("gauges.csv"), gauges.iter().map(|g| g.name.clone()))?)
+            Some(Series::create(
+                &run_dir.join("gauges.csv"),
+                gauges.iter().map(|g| g.name.clone()),
+            )?)
         };
         let probe_file = if probes.is_empty() {
             None
         } else {
-            Some(Series::create(&run_dir.join("probes.csv"), probes.iter().map(|p| p.name.clone()))?)
+            Some(Series::create(
+                &run_dir.join("probes.csv"),
+                probes.iter().map(|p| p.name.clone()),
+            )?)
         };
         Ok(Self {
             gauges: gauges.to_vec(),
@@ -80,7 +94,11 @@ impl Recorder {
     }
 
     /// Records one row if at least `output.interval/50` has passed since the last one.
-    pub fn sample<K: Kernel>(&mut self, time: Real, view: &FluidView<'_, K>) -> std::io::Result<()> {
+    pub fn sample<K: Kernel>(
+        &mut self,
+        time: Real,
+        view: &FluidView<'_, K>,
+    ) -> std::io::Result<()> {
         if self.gauge_file.is_none() && self.probe_file.is_none() {
             return Ok(());
         }
@@ -90,23 +108,31 @@ impl Recorder {
         self.last = time;
         if let Some(s) = &mut self.gauge_file {
             s.row.clear();
-            s.row.extend(self.gauges.iter().map(|g| view.surface_elevation(g.x, g.y)));
+            s.row
+                .extend(self.gauges.iter().map(|g| view.surface_elevation(g.x, g.y)));
             s.write(time)?;
         }
         if let Some(s) = &mut self.probe_file {
             s.row.clear();
-            s.row.extend(self.probes.iter().map(|p| view.pressure_at(&Vector::from(p.position))));
+            s.row.extend(
+                self.probes
+                    .iter()
+                    .map(|p| view.pressure_at(&Vector::from(p.position))),
+            );
             s.write(time)?;
         }
         self.rows += 1;
-        if self.rows % FLUSH_EVERY == 0 {
+        if self.rows.is_multiple_of(FLUSH_EVERY) {
             self.flush()?;
         }
         Ok(())
     }
 
     pub fn flush(&mut self) -> std::io::Result<()> {
-        for s in [&mut self.gauge_file, &mut self.probe_file].into_iter().flatten() {
+        for s in [&mut self.gauge_file, &mut self.probe_file]
+            .into_iter()
+            .flatten()
+        {
             s.file.flush()?;
         }
         Ok(())
@@ -139,7 +165,11 @@ impl<K: Kernel> FluidView<'_, K> {
             }
             top > Real::NEG_INFINITY
         });
-        if top.is_finite() { top + 0.5 * self.dx } else { Real::NAN }
+        if top.is_finite() {
+            top + 0.5 * self.dx
+        } else {
+            Real::NAN
+        }
     }
 
     /// Shepard-normalised SPH interpolation of pressure at a point (paper Eq. 11 divided by the

@@ -34,6 +34,9 @@ pub fn build(name: &str, ctx: &SetupContext) -> Result<Box<dyn FluidSolver>, Sol
     match name {
         "muller" => Ok(Box::new(muller::Muller::new(ctx)?)),
         "wcsph" => Ok(Box::new(wcsph::Wcsph::new(ctx)?)),
-        other => Err(SolverError::Failed(format!("unknown fluid solver '{other}': choose one of {}", SOLVERS.join(", ")))),
+        other => Err(SolverError::Failed(format!(
+            "unknown fluid solver '{other}': choose one of {}",
+            SOLVERS.join(", ")
+        ))),
     }
 }

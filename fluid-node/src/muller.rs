@@ -70,18 +70,29 @@ impl Muller {
         // resolve; ν_num = α·h·c/10 with α = 0.05 is the viscosity Monaghan's artificial term
         // with that α adds in 3D (Monaghan 2005, ν = αhc/(2(d+2))), enough to damp the
         // particle-scale noise of the explicit scheme.
-        let viscosity = spec.viscosity.unwrap_or(rho0 * init.fluid.kinematic_viscosity.max(0.05 * h * sound / 10.0));
+        let viscosity = spec
+            .viscosity
+            .unwrap_or(rho0 * init.fluid.kinematic_viscosity.max(0.05 * h * sound / 10.0));
         let poly6 = Poly6::new(h);
         let mass = rho0 * dx.powi(3);
         let rest_density = lattice_density(&poly6, dx, mass);
         let walls = WallMode::from_spec(&init.fluid)?;
         // Initial pressure for output and probes: hydrostatic where asked (Eq. 12 fixes density
         // from positions, so the lattice itself settles by ρ0gH/k, 0.5 % of H at the default k).
-        let density = init.fill.depth.iter().map(|d| rest_density + rho0 * init.gravity.norm() * d / stiffness).collect();
+        let density = init
+            .fill
+            .depth
+            .iter()
+            .map(|d| rest_density + rho0 * init.gravity.norm() * d / stiffness)
+            .collect();
         let mut sys = FluidSystem::new(ctx, "muller", &init, density, h, walls, sound)?;
         // The particles were sorted by cell: pressures from their own (permuted) densities.
         let k = stiffness;
-        sys.particles.pressure.par_iter_mut().zip(sys.particles.density.par_iter()).for_each(|(p, r)| *p = k * (r - rest_density));
+        sys.particles
+            .pressure
+            .par_iter_mut()
+            .zip(sys.particles.density.par_iter())
+            .for_each(|(p, r)| *p = k * (r - rest_density));
         let limits = StepLimits {
             h,
             sound_speed: sound,
@@ -117,29 +128,35 @@ impl Muller {
         let p = &mut sys.particles;
         let pos = &p.position;
         let walls = sys.walls.as_ref();
-        p.density.par_iter_mut().zip(p.pressure.par_iter_mut()).enumerate().for_each(|(i, (rho, pr))| {
-            let xi = pos[i];
-            let mut sum = self_weight;
-            for &j in lists.of(i) {
-                let r2 = (xi - pos[j as usize]).norm_squared();
-                if r2 < h2 {
-                    sum += poly6.value_r2(r2);
-                }
-            }
-            if let Some(w) = walls {
-                for &j in wall_lists.of(i) {
-                    let r2 = (xi - w.position[j as usize]).norm_squared();
+        p.density
+            .par_iter_mut()
+            .zip(p.pressure.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (rho, pr))| {
+                let xi = pos[i];
+                let mut sum = self_weight;
+                for &j in lists.of(i) {
+                    let r2 = (xi - pos[j as usize]).norm_squared();
                     if r2 < h2 {
                         sum += poly6.value_r2(r2);
                     }
                 }
-            }
-            *rho = m * sum;
-            let pressure = k * (*rho - rho_ref);
-            *pr = if clamp { pressure.max(0.0) } else { pressure };
-        });
+                if let Some(w) = walls {
+                    for &j in wall_lists.of(i) {
+                        let r2 = (xi - w.position[j as usize]).norm_squared();
+                        if r2 < h2 {
+                            sum += poly6.value_r2(r2);
+                        }
+                    }
+                }
+                *rho = m * sum;
+                let pressure = k * (*rho - rho_ref);
+                *pr = if clamp { pressure.max(0.0) } else { pressure };
+            });
         if let Some(w) = sys.walls.as_mut() {
-            w.update(&self.poly6, &sys.particles, &sys.wall_fluid_lists, &sys.gravity, rho_ref, |p| rho_ref + p / k);
+            w.update(&self.poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
+                rho_ref + p / k
+            });
         }
     }
 
@@ -151,37 +168,47 @@ impl Muller {
         let (spiky, visc) = (&self.spiky, &self.viscosity_kernel);
         let (lists, wall_lists) = (&sys.fluid_lists, &sys.wall_lists);
         let p = &mut sys.particles;
-        let (pos, vel, rho, pre, pen) = (&p.position, &p.velocity, &p.density, &p.pressure, &p.penalty);
+        let (pos, vel, rho, pre, pen) = (
+            &p.position,
+            &p.velocity,
+            &p.density,
+            &p.pressure,
+            &p.penalty,
+        );
         let walls = sys.walls.as_ref();
-        p.acceleration.par_iter_mut().enumerate().for_each(|(i, a)| {
-            let (xi, vi, pi) = (pos[i], vel[i], pre[i]);
-            let mut f_pressure = Vector::zeros();
-            let mut f_visc = Vector::zeros();
-            for &j in lists.of(i) {
-                let j = j as usize;
-                let rij = xi - pos[j];
-                let r2 = rij.norm_squared();
-                if r2 >= h2 {
-                    continue;
-                }
-                let r = r2.sqrt();
-                // Eq. 14 with Müller's symmetric (p_i + p_j)/2.
-                f_pressure -= spiky.gradient(&rij, r) * (m * (pi + pre[j]) / (2.0 * rho[j]));
-                // Eq. 18, Müller's sign: damps the velocity difference.
-                f_visc += (vel[j] - vi) * (mu * m / rho[j] * visc.laplacian(r));
-            }
-            if let Some(w) = walls {
-                for &j in wall_lists.of(i) {
+        p.acceleration
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, a)| {
+                let (xi, vi, pi) = (pos[i], vel[i], pre[i]);
+                let mut f_pressure = Vector::zeros();
+                let mut f_visc = Vector::zeros();
+                for &j in lists.of(i) {
                     let j = j as usize;
-                    let rij = xi - w.position[j];
+                    let rij = xi - pos[j];
                     let r2 = rij.norm_squared();
-                    if r2 < h2 {
-                        f_pressure -= spiky.gradient(&rij, r2.sqrt()) * (m * (pi + w.pressure[j]) / (2.0 * w.density[j]));
+                    if r2 >= h2 {
+                        continue;
+                    }
+                    let r = r2.sqrt();
+                    // Eq. 14 with Müller's symmetric (p_i + p_j)/2.
+                    f_pressure -= spiky.gradient(&rij, r) * (m * (pi + pre[j]) / (2.0 * rho[j]));
+                    // Eq. 18, Müller's sign: damps the velocity difference.
+                    f_visc += (vel[j] - vi) * (mu * m / rho[j] * visc.laplacian(r));
+                }
+                if let Some(w) = walls {
+                    for &j in wall_lists.of(i) {
+                        let j = j as usize;
+                        let rij = xi - w.position[j];
+                        let r2 = rij.norm_squared();
+                        if r2 < h2 {
+                            f_pressure -= spiky.gradient(&rij, r2.sqrt())
+                                * (m * (pi + w.pressure[j]) / (2.0 * w.density[j]));
+                        }
                     }
                 }
-            }
-            *a = (f_pressure + f_visc) / rho[i] + g + pen[i] / m;
-        });
+                *a = (f_pressure + f_visc) / rho[i] + g + pen[i] / m;
+            });
     }
 
     /// Mean compression: the average of max(ρ/ρ0 − 1, 0) over all particles (a free surface's
@@ -209,14 +236,20 @@ impl Solver for Muller {
         self.accelerations();
         // Eq. 21: symplectic Euler, velocity first, then position with the new velocity.
         let p = &mut self.sys.particles;
-        p.velocity.par_iter_mut().zip(p.position.par_iter_mut()).zip(p.acceleration.par_iter()).for_each(|((v, x), a)| {
-            *v += a * dt;
-            *x += *v * dt;
-        });
+        p.velocity
+            .par_iter_mut()
+            .zip(p.position.par_iter_mut())
+            .zip(p.acceleration.par_iter())
+            .for_each(|((v, x), a)| {
+                *v += a * dt;
+                *x += *v * dt;
+            });
         let mut report = StepReport::default();
         let compression = self.mean_compression();
         let steps = self.sys.steps + 1;
-        if compression > COMPRESSION_WARNING && self.last_warning.is_none_or(|s| steps >= s + WARNING_EVERY) {
+        if compression > COMPRESSION_WARNING
+            && self.last_warning.is_none_or(|s| steps >= s + WARNING_EVERY)
+        {
             self.last_warning = Some(steps);
             report.warning = Some(format!(
                 "muller: mean compression {:.2} % exceeds {:.0} %: the Eq. 17 stiffness k = {:.4e} m²/s² is too soft for this flow; raise [fluid.muller] stiffness",
@@ -226,7 +259,8 @@ impl Solver for Muller {
             ));
         }
         let (v, a) = self.sys.extremes();
-        self.sys.end_step(dt, &self.poly6, false, self.rest_density)?;
+        self.sys
+            .end_step(dt, &self.poly6, false, self.rest_density)?;
         self.dt_next = self.limits.propose(v, a).0;
         Ok(report)
     }

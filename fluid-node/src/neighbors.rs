@@ -83,14 +83,17 @@ impl CellGrid {
         self.cell_of.resize(n, 0);
         self.order.resize(n, 0);
         let (dims, origin, inv) = (self.dims, self.origin, self.inv_cell);
-        self.cell_of.par_iter_mut().zip(positions.par_iter()).for_each(|(c, p)| {
-            let mut ix = [0usize; 3];
-            for k in 0..3 {
-                let f = ((p[k] - origin[k]) * inv).floor();
-                ix[k] = (f.max(0.0) as usize).min(dims[k] - 1);
-            }
-            *c = (ix[0] + dims[0] * (ix[1] + dims[1] * ix[2])) as u32;
-        });
+        self.cell_of
+            .par_iter_mut()
+            .zip(positions.par_iter())
+            .for_each(|(c, p)| {
+                let mut ix = [0usize; 3];
+                for k in 0..3 {
+                    let f = ((p[k] - origin[k]) * inv).floor();
+                    ix[k] = (f.max(0.0) as usize).min(dims[k] - 1);
+                }
+                *c = (ix[0] + dims[0] * (ix[1] + dims[1] * ix[2])) as u32;
+            });
         self.start.iter_mut().for_each(|s| *s = 0);
         for &c in &self.cell_of {
             self.start[c as usize + 1] += 1;
@@ -155,7 +158,9 @@ impl CellGrid {
                     let c = self.index([x, y, z]);
                     let (s, e) = (self.start[c] as usize, self.start[c + 1] as usize);
                     if e > s {
-                        let centre = self.origin + Vector::new(x as Real + 0.5, y as Real + 0.5, z as Real + 0.5) * self.cell;
+                        let centre = self.origin
+                            + Vector::new(x as Real + 0.5, y as Real + 0.5, z as Real + 0.5)
+                                * self.cell;
                         f(&centre, s..e);
                     }
                 }
@@ -211,7 +216,14 @@ struct ChunkLists {
 impl NeighborLists {
     /// Lists, for each point of `from`, the points of `to` (sorted in `to_grid`) closer than
     /// `radius`; with `same` the point itself is left out (`from` and `to` are the same set).
-    pub fn build(&mut self, from: &[Vector], to: &[Vector], to_grid: &CellGrid, radius: Real, same: bool) {
+    pub fn build(
+        &mut self,
+        from: &[Vector],
+        to: &[Vector],
+        to_grid: &CellGrid,
+        radius: Real,
+        same: bool,
+    ) {
         let n_chunks = from.len().div_ceil(CHUNK);
         self.chunks.resize_with(n_chunks, ChunkLists::default);
         let r2 = radius * radius;
@@ -221,8 +233,7 @@ impl NeighborLists {
             ch.start.clear();
             ch.index.clear();
             ch.start.push(0);
-            for i in lo..hi {
-                let xi = from[i];
+            for (i, &xi) in from.iter().enumerate().take(hi).skip(lo) {
                 to_grid.neighbor_rows(&xi, |range| {
                     for j in range {
                         if (xi - to[j]).norm_squared() < r2 && !(same && j == i) {
@@ -254,7 +265,9 @@ mod tests {
     use super::*;
 
     fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (*seed >> 11) as f64 / (1u64 << 53) as f64
     }
 
@@ -262,8 +275,9 @@ mod tests {
     fn finds_exactly_the_brute_force_neighbours() {
         let mut seed = 7;
         let h = 0.13;
-        let pts: Vec<Vector> =
-            (0..2000).map(|_| Vector::new(lcg(&mut seed), 0.5 * lcg(&mut seed), 0.8 * lcg(&mut seed))).collect();
+        let pts: Vec<Vector> = (0..2000)
+            .map(|_| Vector::new(lcg(&mut seed), 0.5 * lcg(&mut seed), 0.8 * lcg(&mut seed)))
+            .collect();
         let mut grid = CellGrid::new(Vector::zeros(), Vector::new(1.0, 0.5, 0.8), h).unwrap();
         let order = grid.sort(&pts).to_vec();
         let sorted: Vec<Vector> = order.iter().map(|&i| pts[i as usize]).collect();
@@ -287,7 +301,9 @@ mod tests {
             listed.push(i);
             listed.sort();
             assert_eq!(listed, found, "lists of particle {i}");
-            let brute: Vec<usize> = (0..sorted.len()).filter(|&j| (sorted[j] - sorted[i]).norm() < h).collect();
+            let brute: Vec<usize> = (0..sorted.len())
+                .filter(|&j| (sorted[j] - sorted[i]).norm() < h)
+                .collect();
             assert_eq!(found, brute, "particle {i}");
         }
     }

@@ -58,7 +58,10 @@ impl Particles {
     /// scratch buffers that are swapped in: no allocation.
     pub fn permute(&mut self, order: &[u32]) {
         fn gather<T: Copy + Send + Sync>(data: &mut Vec<T>, scratch: &mut Vec<T>, order: &[u32]) {
-            scratch.par_iter_mut().zip(order.par_iter()).for_each(|(s, &o)| *s = data[o as usize]);
+            scratch
+                .par_iter_mut()
+                .zip(order.par_iter())
+                .for_each(|(s, &o)| *s = data[o as usize]);
             std::mem::swap(data, scratch);
         }
         let (sv, ss) = (&mut self.scratch_v, &mut self.scratch_s);
@@ -72,7 +75,12 @@ impl Particles {
         ] {
             gather(v, sv, order);
         }
-        for s in [&mut self.density, &mut self.pressure, &mut self.density_rate, &mut self.density0] {
+        for s in [
+            &mut self.density,
+            &mut self.pressure,
+            &mut self.density_rate,
+            &mut self.density0,
+        ] {
             gather(s, ss, order);
         }
     }
@@ -87,7 +95,10 @@ mod tests {
         let pos: Vec<Vector> = (0..5).map(|i| Vector::new(i as f64, 0.0, 0.0)).collect();
         let rho: Vec<f64> = (0..5).map(|i| 1000.0 + i as f64).collect();
         let mut p = Particles::new(pos, rho);
-        p.velocity.iter_mut().enumerate().for_each(|(i, v)| v.y = i as f64);
+        p.velocity
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| v.y = i as f64);
         p.permute(&[4, 2, 0, 1, 3]);
         for k in 0..5 {
             let i = p.position[k].x;

@@ -31,7 +31,13 @@ pub struct Obstacle {
 impl Obstacle {
     pub fn new(shape: Polyhedron, state: BlockState, moving: Option<usize>, margin: Real) -> Self {
         let pose = pose_of(&state);
-        Self { shape, state, moving, margin, pose }
+        Self {
+            shape,
+            state,
+            moving,
+            margin,
+            pose,
+        }
     }
 
     pub fn set_state(&mut self, state: BlockState) {
@@ -51,13 +57,19 @@ impl Obstacle {
             hi = hi.sup(&w);
         }
         // Never larger than the bounding sphere (cheap clamp against degenerate inputs).
-        (lo.sup(&(c - Vector::repeat(r))) - Vector::repeat(self.margin), hi.inf(&(c + Vector::repeat(r))) + Vector::repeat(self.margin))
+        (
+            lo.sup(&(c - Vector::repeat(r))) - Vector::repeat(self.margin),
+            hi.inf(&(c + Vector::repeat(r))) + Vector::repeat(self.margin),
+        )
     }
 
     /// Signed distance of a world point to the block's planes and the world normal of that face.
     #[inline]
     fn distance(&self, x: &Vector) -> (Real, Vector) {
-        let local = self.pose.rotation.inverse_transform_vector(&(x - self.pose.translation.vector));
+        let local = self
+            .pose
+            .rotation
+            .inverse_transform_vector(&(x - self.pose.translation.vector));
         let (d, f) = self.shape.plane_distance(&Point::from(local));
         (d, self.pose.rotation * self.shape.faces[f].normal)
     }
@@ -85,7 +97,12 @@ fn pose_of(s: &BlockState) -> Isometry {
 
 /// A block at rest at its scene pose.
 pub fn resting_state(block: u32, shape: &Polyhedron) -> BlockState {
-    BlockState { block, centroid: shape.centroid.coords.into(), orientation: [0.0, 0.0, 0.0, 1.0], ..Default::default() }
+    BlockState {
+        block,
+        centroid: shape.centroid.coords.into(),
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        ..Default::default()
+    }
 }
 
 /// Eq. 22 coupling between the particles and every block.
@@ -101,7 +118,13 @@ pub struct Penalty {
 
 impl Penalty {
     pub fn new(stiffness: Real, damping: Real, obstacles: Vec<Obstacle>) -> Self {
-        Self { stiffness, damping, obstacles, candidates: Vec::new(), forces: Vec::new() }
+        Self {
+            stiffness,
+            damping,
+            obstacles,
+            candidates: Vec::new(),
+            forces: Vec::new(),
+        }
     }
 
     /// Takes the moving blocks' states (in loads order).
@@ -117,12 +140,27 @@ impl Penalty {
 
     /// Writes the Eq. 22 force of all blocks on each particle into `particles.penalty`, and the
     /// opposite force and its torque about the centroid, summed per moving block, into `loads`.
-    pub fn apply(&mut self, particles: &mut Particles, grid: &CellGrid, mut loads: Option<&mut [BlockLoad]>) {
-        particles.penalty.par_iter_mut().for_each(|f| *f = Vector::zeros());
+    pub fn apply(
+        &mut self,
+        particles: &mut Particles,
+        grid: &CellGrid,
+        mut loads: Option<&mut [BlockLoad]>,
+    ) {
+        particles
+            .penalty
+            .par_iter_mut()
+            .for_each(|f| *f = Vector::zeros());
         if let Some(l) = loads.as_deref_mut() {
             for (k, load) in l.iter_mut().enumerate() {
-                let block = self.obstacles.iter().find(|o| o.moving == Some(k)).map_or(0, |o| o.state.block);
-                *load = BlockLoad { block, ..Default::default() };
+                let block = self
+                    .obstacles
+                    .iter()
+                    .find(|o| o.moving == Some(k))
+                    .map_or(0, |o| o.state.block);
+                *load = BlockLoad {
+                    block,
+                    ..Default::default()
+                };
             }
         }
         let half_diag = 0.5 * 3f64.sqrt() * grid.cell_size();
@@ -137,12 +175,18 @@ impl Penalty {
                 }
             });
             // Narrow phase in parallel, then a sequential scatter over the few candidates.
-            self.forces.resize(self.candidates.len(), (Vector::zeros(), Vector::zeros()));
+            self.forces
+                .resize(self.candidates.len(), (Vector::zeros(), Vector::zeros()));
             let (pos, vel) = (&particles.position, &particles.velocity);
-            self.forces.par_iter_mut().zip(self.candidates.par_iter()).for_each(|(out, &i)| {
-                let i = i as usize;
-                *out = o.force(&pos[i], &vel[i], ks, kd).unwrap_or((Vector::zeros(), pos[i]));
-            });
+            self.forces
+                .par_iter_mut()
+                .zip(self.candidates.par_iter())
+                .for_each(|(out, &i)| {
+                    let i = i as usize;
+                    *out = o
+                        .force(&pos[i], &vel[i], ks, kd)
+                        .unwrap_or((Vector::zeros(), pos[i]));
+                });
             let mut load = (Vector::zeros(), Vector::zeros());
             let c = o.pose.translation.vector;
             for (&i, (f, at)) in self.candidates.iter().zip(&self.forces) {
@@ -166,7 +210,11 @@ mod tests {
     use shared::scene::ShapeSpec;
 
     fn cube() -> Polyhedron {
-        Polyhedron::from_shape(&ShapeSpec::Box { min: [0.0; 3], max: [1.0; 3] }).unwrap()
+        Polyhedron::from_shape(&ShapeSpec::Box {
+            min: [0.0; 3],
+            max: [1.0; 3],
+        })
+        .unwrap()
     }
 
     #[test]
@@ -181,7 +229,11 @@ mod tests {
         let ob = Obstacle::new(shape, state, Some(0), margin);
         let mut pen = Penalty::new(ks, kd, vec![ob]);
         // Two particles above the top face (one inside the margin, one outside), one far away.
-        let pos = vec![Vector::new(0.8, 0.5, 1.02), Vector::new(0.5, 0.5, 1.2), Vector::new(3.0, 3.0, 3.0)];
+        let pos = vec![
+            Vector::new(0.8, 0.5, 1.02),
+            Vector::new(0.5, 0.5, 1.2),
+            Vector::new(3.0, 3.0, 3.0),
+        ];
         let mut p = Particles::new(pos, vec![1000.0; 3]);
         p.velocity[0] = Vector::new(0.0, 0.0, -2.0);
         let mut grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(4.0), 0.1).unwrap();
@@ -189,11 +241,25 @@ mod tests {
         p.permute(&order);
         let mut loads = vec![BlockLoad::default()];
         pen.apply(&mut p, &grid, Some(&mut loads));
-        let i = p.position.iter().position(|x| (x.z - 1.02).abs() < 1e-12).unwrap();
+        let i = p
+            .position
+            .iter()
+            .position(|x| (x.z - 1.02).abs() < 1e-12)
+            .unwrap();
         // d = margin − 0.02; relative normal velocity −2 − 1 = −3 m/s.
         let expected = ks * 0.03 + 3.0 * kd;
-        assert!((p.penalty[i] - Vector::new(0.0, 0.0, expected)).norm() < 1e-9, "{}", p.penalty[i]);
-        let others: Real = p.penalty.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, f)| f.norm()).sum();
+        assert!(
+            (p.penalty[i] - Vector::new(0.0, 0.0, expected)).norm() < 1e-9,
+            "{}",
+            p.penalty[i]
+        );
+        let others: Real = p
+            .penalty
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .map(|(_, f)| f.norm())
+            .sum();
         assert_eq!(others, 0.0);
         assert_eq!(loads[0].block, 3);
         assert!((Vector::from(loads[0].force) + p.penalty[i]).norm() < 1e-9);

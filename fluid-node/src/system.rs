@@ -32,9 +32,9 @@ impl WallMode {
         match fluid.walls.as_deref() {
             None | Some("particles") => Ok(WallMode::Particles),
             Some("penalty") => Ok(WallMode::Penalty),
-            Some(other) => {
-                Err(SolverError::Failed(format!("fluid.walls = \"{other}\" is not a wall treatment: use \"particles\" or \"penalty\"")))
-            }
+            Some(other) => Err(SolverError::Failed(format!(
+                "fluid.walls = \"{other}\" is not a wall treatment: use \"particles\" or \"penalty\""
+            ))),
         }
     }
 }
@@ -52,11 +52,17 @@ pub struct Initial {
 
 impl Initial {
     pub fn from_scene(scene: &Scene) -> Result<Self, SolverError> {
-        let fluid = scene.fluid.clone().ok_or_else(|| SolverError::Failed("the scene has no [fluid] table".into()))?;
+        let fluid = scene
+            .fluid
+            .clone()
+            .ok_or_else(|| SolverError::Failed("the scene has no [fluid] table".into()))?;
         let blocks = scene
             .blocks
             .iter()
-            .map(|b| Polyhedron::from_shape(&b.shape).map_err(|e| SolverError::Failed(format!("block '{}': {e}", b.name))))
+            .map(|b| {
+                Polyhedron::from_shape(&b.shape)
+                    .map_err(|e| SolverError::Failed(format!("block '{}': {e}", b.name)))
+            })
             .collect::<Result<Vec<_>, _>>()?;
         let fill = fill_water(&fluid, &blocks).map_err(SolverError::Failed)?;
         if fill.positions.is_empty() {
@@ -66,7 +72,13 @@ impl Initial {
             )));
         }
         let depth = fill.max_depth(fluid.dx);
-        Ok(Self { fluid, fill, blocks, depth, gravity: Vector::from(scene.gravity) })
+        Ok(Self {
+            fluid,
+            fill,
+            blocks,
+            depth,
+            gravity: Vector::from(scene.gravity),
+        })
     }
 
     /// The default numerical speed of sound, 10·sqrt(2 g H): ten times the largest free-fall
@@ -82,11 +94,10 @@ pub struct FluidSystem {
     pub particles: Particles,
     pub grid: CellGrid,
     pub walls: Option<WallParticles>,
-    /// Fluid neighbours of each fluid particle (itself excluded), wall neighbours of each fluid
-    /// particle, fluid neighbours of each wall particle: rebuilt at every sort.
+    /// Fluid neighbours of each fluid particle (itself excluded) and wall neighbours of each
+    /// fluid particle: rebuilt at every sort.
     pub fluid_lists: NeighborLists,
     pub wall_lists: NeighborLists,
-    pub wall_fluid_lists: NeighborLists,
     pub penalty: Penalty,
     recorder: Recorder,
     pub dx: Real,
@@ -127,12 +138,22 @@ impl FluidSystem {
         // particle's face dx² over its spacing dx, halved), so a wall yields no more than the
         // water does; the damper is critical for that spring and the particle mass; the margin is
         // half a spacing, the clearance of the initial lattice.
-        let ks = scene.coupling.penalty_stiffness.unwrap_or(0.5 * fluid.density * sound_speed * sound_speed * dx);
-        let kd = scene.coupling.penalty_damping.unwrap_or(2.0 * (ks * mass).sqrt());
+        let ks = scene
+            .coupling
+            .penalty_stiffness
+            .unwrap_or(0.5 * fluid.density * sound_speed * sound_speed * dx);
+        let kd = scene
+            .coupling
+            .penalty_damping
+            .unwrap_or(2.0 * (ks * mass).sqrt());
         let margin = scene.coupling.margin.unwrap_or(0.5 * dx);
         // With boundary particles the fixed blocks hold the water by pressure; Eq. 22 is then a
         // backstop that acts only closer than half the margin, so it does not bear the load.
-        let fixed_margin = if walls == WallMode::Particles { 0.5 * margin } else { margin };
+        let fixed_margin = if walls == WallMode::Particles {
+            0.5 * margin
+        } else {
+            margin
+        };
         let moving = scene.moving_blocks();
         let obstacles = scene
             .blocks
@@ -164,12 +185,24 @@ impl FluidSystem {
                     .map(|(_, p)| p.clone())
                     .collect();
                 let reach = Vector::repeat(cell);
-                let pts = WallParticles::sample(&fixed, &init.fill.anchor, dx, cell, &(lo - reach), &(hi + reach));
+                let pts = WallParticles::sample(
+                    &fixed,
+                    &init.fill.anchor,
+                    dx,
+                    cell,
+                    &(lo - reach),
+                    &(hi + reach),
+                );
                 Some(WallParticles::new(pts, grid.clone()))
             }
         };
 
-        let recorder = Recorder::new(ctx.run_dir, &scene.gauges, &scene.probes, scene.output.interval)?;
+        let recorder = Recorder::new(
+            ctx.run_dir,
+            &scene.gauges,
+            &scene.probes,
+            scene.output.interval,
+        )?;
         let mut sys = Self {
             solver,
             particles: Particles::new(init.fill.positions.clone(), density),
@@ -177,7 +210,6 @@ impl FluidSystem {
             walls,
             fluid_lists: NeighborLists::default(),
             wall_lists: NeighborLists::default(),
-            wall_fluid_lists: NeighborLists::default(),
             penalty,
             recorder,
             dx,
@@ -212,9 +244,10 @@ impl FluidSystem {
             self.particles.permute(order);
             let (pos, radius) = (&self.particles.position, self.grid.cell_size());
             self.fluid_lists.build(pos, pos, &self.grid, radius, true);
-            if let Some(w) = &self.walls {
-                self.wall_lists.build(pos, &w.position, &w.grid, radius, false);
-                self.wall_fluid_lists.build(&w.position, pos, &self.grid, radius, false);
+            if let Some(w) = &mut self.walls {
+                self.wall_lists
+                    .build(pos, &w.position, &w.grid, radius, false);
+                w.activate(&self.wall_lists, pos, &self.grid, radius);
             }
             self.grid_valid = true;
         }
@@ -229,7 +262,8 @@ impl FluidSystem {
     /// Eq. 22 on the particles for the coming step, and its reaction on the moving blocks.
     pub fn write_loads(&mut self, loads: &mut [BlockLoad]) {
         self.prepare();
-        self.penalty.apply(&mut self.particles, &self.grid, Some(loads));
+        self.penalty
+            .apply(&mut self.particles, &self.grid, Some(loads));
         self.penalty_fresh = true;
     }
 
@@ -246,7 +280,13 @@ impl FluidSystem {
     /// After the particles moved by `dt`: re-sorts, checks stability and samples the instruments.
     /// `check_low_density` is false for summed densities, which are low at a free surface by
     /// construction: there only compression is an instability.
-    pub fn end_step<K: Kernel>(&mut self, dt: Real, kernel: &K, check_low_density: bool, reference_density: Real) -> Result<(), SolverError> {
+    pub fn end_step<K: Kernel>(
+        &mut self,
+        dt: Real,
+        kernel: &K,
+        check_low_density: bool,
+        reference_density: Real,
+    ) -> Result<(), SolverError> {
         self.time += dt;
         self.steps += 1;
         self.grid_valid = false;
@@ -255,7 +295,13 @@ impl FluidSystem {
         self.check_domain()?;
         self.check_density(check_low_density, reference_density)?;
         self.prepare();
-        let view = FluidView { particles: &self.particles, grid: &self.grid, kernel, mass: self.mass, dx: self.dx };
+        let view = FluidView {
+            particles: &self.particles,
+            grid: &self.grid,
+            kernel,
+            mass: self.mass,
+            dx: self.dx,
+        };
         self.recorder.sample(self.time, &view)?;
         Ok(())
     }
@@ -263,7 +309,9 @@ impl FluidSystem {
     fn check_finite(&self) -> Result<(), SolverError> {
         let p = &self.particles;
         let bad = (0..p.len()).into_par_iter().find_any(|&i| {
-            !(p.position[i].iter().all(|x| x.is_finite()) && p.velocity[i].iter().all(|x| x.is_finite()) && p.density[i].is_finite())
+            !(p.position[i].iter().all(|x| x.is_finite())
+                && p.velocity[i].iter().all(|x| x.is_finite())
+                && p.density[i].is_finite())
         });
         match bad {
             Some(i) => Err(SolverError::Unstable(format!(
@@ -280,7 +328,10 @@ impl FluidSystem {
     fn check_domain(&self) -> Result<(), SolverError> {
         let (lo, hi) = self.domain;
         let pos = &self.particles.position;
-        match pos.par_iter().position_any(|x| (0..3).any(|k| x[k] < lo[k] || x[k] > hi[k])) {
+        match pos
+            .par_iter()
+            .position_any(|x| (0..3).any(|k| x[k] < lo[k] || x[k] > hi[k]))
+        {
             Some(i) => Err(SolverError::Unstable(format!(
                 "{}: domain limit exceeded: particle {i} at ({:.4}, {:.4}, {:.4}) m left the domain [{:?}, {:?}]",
                 self.solver,
@@ -304,7 +355,11 @@ impl FluidSystem {
         match bad {
             Some(i) => {
                 let q = rho[i] / reference;
-                let (what, bound) = if q > b { ("exceeds", b) } else { ("is below", 1.0 / b) };
+                let (what, bound) = if q > b {
+                    ("exceeds", b)
+                } else {
+                    ("is below", 1.0 / b)
+                };
                 Err(SolverError::Unstable(format!(
                     "{}: density ratio limit exceeded: ρ/ρ0 = {q:.4} {what} the bound {bound:.4} at particle {i}",
                     self.solver
@@ -317,8 +372,18 @@ impl FluidSystem {
     /// Largest speed and acceleration magnitude of the fluid particles.
     pub fn extremes(&self) -> (Real, Real) {
         let p = &self.particles;
-        let v = p.velocity.par_iter().map(|v| v.norm_squared()).reduce(|| 0.0, Real::max).sqrt();
-        let a = p.acceleration.par_iter().map(|a| a.norm_squared()).reduce(|| 0.0, Real::max).sqrt();
+        let v = p
+            .velocity
+            .par_iter()
+            .map(|v| v.norm_squared())
+            .reduce(|| 0.0, Real::max)
+            .sqrt();
+        let a = p
+            .acceleration
+            .par_iter()
+            .map(|a| a.norm_squared())
+            .reduce(|| 0.0, Real::max)
+            .sqrt();
         (v, a)
     }
 
@@ -329,7 +394,12 @@ impl FluidSystem {
         let pos: Vec<[f64; 3]> = p.position.iter().map(|x| [x.x, x.y, x.z]).collect();
         let vel: Vec<[f64; 3]> = p.velocity.iter().map(|x| [x.x, x.y, x.z]).collect();
         let path = self.run_dir.join(format!("particles_{frame:05}.vtp"));
-        shared::vtk::write_particles(&path, &pos, &[("density", &p.density), ("pressure", &p.pressure)], &[("velocity", &vel)])?;
+        shared::vtk::write_particles(
+            &path,
+            &pos,
+            &[("density", &p.density), ("pressure", &p.pressure)],
+            &[("velocity", &vel)],
+        )?;
         Ok(())
     }
 

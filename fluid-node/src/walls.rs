@@ -25,14 +25,33 @@ pub struct WallParticles {
     pub pressure: Vec<Real>,
     pub density: Vec<Real>,
     pub grid: CellGrid,
+    /// Wall particles with a fluid neighbour this step, and their positions: only these need a
+    /// pressure (a tall side wall holds many particles no water reaches).
+    pub active: Vec<u32>,
+    active_position: Vec<Vector>,
+    mark: Vec<bool>,
+    active_position_out: Vec<(Real, Real)>,
+    /// Fluid neighbours of each active wall particle.
+    pub lists: NeighborLists,
 }
 
 impl WallParticles {
     /// Lattice points (`anchor + k·dx`) inside the fixed blocks, at most `depth` below the
     /// surface of the block they are in and within `[lo, hi]`.
-    pub fn sample(fixed: &[Polyhedron], anchor: &Vector, dx: Real, depth: Real, lo: &Vector, hi: &Vector) -> Vec<Vector> {
-        let kmin: Vec<i64> = (0..3).map(|k| ((lo[k] - anchor[k]) / dx).floor() as i64).collect();
-        let kmax: Vec<i64> = (0..3).map(|k| ((hi[k] - anchor[k]) / dx).ceil() as i64).collect();
+    pub fn sample(
+        fixed: &[Polyhedron],
+        anchor: &Vector,
+        dx: Real,
+        depth: Real,
+        lo: &Vector,
+        hi: &Vector,
+    ) -> Vec<Vector> {
+        let kmin: Vec<i64> = (0..3)
+            .map(|k| ((lo[k] - anchor[k]) / dx).floor() as i64)
+            .collect();
+        let kmax: Vec<i64> = (0..3)
+            .map(|k| ((hi[k] - anchor[k]) / dx).ceil() as i64)
+            .collect();
         let zs: Vec<i64> = (kmin[2]..=kmax[2]).collect();
         zs.par_iter()
             .flat_map_iter(|&kz| {
@@ -64,7 +83,17 @@ impl WallParticles {
         let order = grid.sort(&position).to_vec();
         position = order.iter().map(|&i| position[i as usize]).collect();
         let n = position.len();
-        Self { position, pressure: vec![0.0; n], density: vec![0.0; n], grid }
+        Self {
+            position,
+            pressure: vec![0.0; n],
+            density: vec![0.0; n],
+            grid,
+            active: Vec::new(),
+            active_position: Vec::new(),
+            mark: vec![false; n],
+            active_position_out: Vec::new(),
+            lists: NeighborLists::default(),
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -75,20 +104,49 @@ impl WallParticles {
         self.position.is_empty()
     }
 
+    /// Finds the wall particles near water from the fluid's wall lists and lists their fluid
+    /// neighbours. Called at every sort.
+    pub fn activate(
+        &mut self,
+        fluid_to_wall: &NeighborLists,
+        fluid: &[Vector],
+        fluid_grid: &CellGrid,
+        radius: Real,
+    ) {
+        self.mark.iter_mut().for_each(|m| *m = false);
+        for i in 0..fluid.len() {
+            for &w in fluid_to_wall.of(i) {
+                self.mark[w as usize] = true;
+            }
+        }
+        self.active.clear();
+        self.active_position.clear();
+        for (w, &m) in self.mark.iter().enumerate() {
+            if m {
+                self.active.push(w as u32);
+                self.active_position.push(self.position[w]);
+            }
+        }
+        self.lists
+            .build(&self.active_position, fluid, fluid_grid, radius, false);
+    }
+
     /// Adami's pressure extrapolation, then ρ_w from the solver's inverse equation of state.
     /// Negative wall pressure is clipped to zero so walls never pull water (no sticking).
     pub fn update<K: Kernel>(
         &mut self,
         kernel: &K,
         fluid: &Particles,
-        lists: &NeighborLists,
         gravity: &Vector,
         rest_density: Real,
         density_of: impl Fn(Real) -> Real + Sync,
     ) {
         let s2 = kernel.support() * kernel.support();
-        let pos = &self.position;
-        self.pressure.par_iter_mut().zip(self.density.par_iter_mut()).enumerate().for_each(|(w, (pw, rw))| {
+        let (pos, lists) = (&self.active_position, &self.lists);
+        // Computed per active particle, then scattered (the active list is short).
+        let mut out = std::mem::take(&mut self.active_position_out);
+        out.resize(self.active.len(), (0.0, 0.0));
+        out.par_iter_mut().enumerate().for_each(|(w, (pw, rw))| {
             let xw = pos[w];
             let (mut sum_w, mut sum_p, mut sum_rho_r) = (0.0, 0.0, Vector::zeros());
             for &f in lists.of(w) {
@@ -102,9 +160,22 @@ impl WallParticles {
                     sum_rho_r += r * (fluid.density[f] * wv);
                 }
             }
-            *pw = if sum_w > 0.0 { ((sum_p + gravity.dot(&sum_rho_r)) / sum_w).max(0.0) } else { 0.0 };
-            *rw = if sum_w > 0.0 { density_of(*pw) } else { rest_density };
+            *pw = if sum_w > 0.0 {
+                ((sum_p + gravity.dot(&sum_rho_r)) / sum_w).max(0.0)
+            } else {
+                0.0
+            };
+            *rw = if sum_w > 0.0 {
+                density_of(*pw)
+            } else {
+                rest_density
+            };
         });
+        for (&w, &(p, r)) in self.active.iter().zip(&out) {
+            self.pressure[w as usize] = p;
+            self.density[w as usize] = r;
+        }
+        self.active_position_out = out;
     }
 }
 
@@ -115,7 +186,11 @@ mod tests {
 
     #[test]
     fn samples_fill_the_floor_to_the_requested_depth() {
-        let floor = Polyhedron::from_shape(&ShapeSpec::Box { min: [-1.0, -1.0, -1.0], max: [2.0, 2.0, 0.0] }).unwrap();
+        let floor = Polyhedron::from_shape(&ShapeSpec::Box {
+            min: [-1.0, -1.0, -1.0],
+            max: [2.0, 2.0, 0.0],
+        })
+        .unwrap();
         let anchor = Vector::repeat(0.05);
         let lo = Vector::new(0.0, 0.0, -0.5);
         let hi = Vector::new(1.0, 1.0, 1.0);

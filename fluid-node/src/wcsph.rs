@@ -58,12 +58,18 @@ impl Wcsph {
         let dx = init.fluid.dx;
         let rho0 = init.fluid.density;
         let h = spec.smoothing_ratio.unwrap_or(1.3) * dx;
-        let c0 = spec.sound_speed.unwrap_or_else(|| init.default_sound_speed());
+        let c0 = spec
+            .sound_speed
+            .unwrap_or_else(|| init.default_sound_speed());
         let gamma = spec.gamma.unwrap_or(7.0);
         let integrator = match spec.integrator.as_deref() {
             None | Some("symplectic") => Integrator::Symplectic,
             Some("verlet") => Integrator::Verlet,
-            Some(other) => return Err(SolverError::Failed(format!("fluid.wcsph.integrator = \"{other}\": use symplectic or verlet"))),
+            Some(other) => {
+                return Err(SolverError::Failed(format!(
+                    "fluid.wcsph.integrator = \"{other}\": use symplectic or verlet"
+                )));
+            }
         };
         let params = WcsphParams {
             sound_speed: c0,
@@ -76,12 +82,20 @@ impl Wcsph {
         };
         let g = init.gravity.norm();
         // Hydrostatic start: the Tait density of the pressure ρ0·g·depth.
-        let density = init.fill.depth.iter().map(|d| rho0 * (1.0 + rho0 * g * d / params.b).powf(1.0 / gamma)).collect();
+        let density = init
+            .fill
+            .depth
+            .iter()
+            .map(|d| rho0 * (1.0 + rho0 * g * d / params.b).powf(1.0 / gamma))
+            .collect();
         let kernel = WendlandC2::new(h);
         let walls = WallMode::from_spec(&init.fluid)?;
         let mut sys = FluidSystem::new(ctx, "wcsph", &init, density, kernel.support(), walls, c0)?;
         let p = &mut sys.particles;
-        p.pressure.par_iter_mut().zip(p.density.par_iter()).for_each(|(pr, r)| *pr = tait(&params, rho0, *r));
+        p.pressure
+            .par_iter_mut()
+            .zip(p.density.par_iter())
+            .for_each(|(pr, r)| *pr = tait(&params, rho0, *r));
         let limits = StepLimits {
             h,
             sound_speed: c0,
@@ -91,17 +105,27 @@ impl Wcsph {
             cfl: spec.cfl.unwrap_or(0.2),
         };
         let dt_next = limits.propose(0.0, g).0;
-        Ok(Self { sys, kernel, params, limits, dt_next, verlet_step: 0 })
+        Ok(Self {
+            sys,
+            kernel,
+            params,
+            limits,
+            dt_next,
+            verlet_step: 0,
+        })
     }
 
     /// Pressure of every fluid particle from its density, then the wall pressures (Adami).
     fn pressures(&mut self) {
         let (prm, rho0) = (self.params, self.sys.rest_density);
         let p = &mut self.sys.particles;
-        p.pressure.par_iter_mut().zip(p.density.par_iter()).for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
+        p.pressure
+            .par_iter_mut()
+            .zip(p.density.par_iter())
+            .for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
         let sys = &mut self.sys;
         if let Some(w) = sys.walls.as_mut() {
-            w.update(&self.kernel, &sys.particles, &sys.wall_fluid_lists, &sys.gravity, rho0, |pw| {
+            w.update(&self.kernel, &sys.particles, &sys.gravity, rho0, |pw| {
                 rho0 * (1.0 + pw / prm.b).powf(1.0 / prm.gamma)
             });
         }
@@ -120,16 +144,25 @@ impl Wcsph {
         let inv_c2 = 1.0 / (prm.sound_speed * prm.sound_speed);
         let (lists, wall_lists) = (&sys.fluid_lists, &sys.wall_lists);
         let p = &mut sys.particles;
-        let (pos, vel, rho, pre, pen) = (&p.position, &p.velocity, &p.density, &p.pressure, &p.penalty);
+        let (pos, vel, rho, pre, pen) = (
+            &p.position,
+            &p.velocity,
+            &p.density,
+            &p.pressure,
+            &p.penalty,
+        );
         let walls = sys.walls.as_ref();
-        p.acceleration.par_iter_mut().zip(p.density_rate.par_iter_mut()).enumerate().for_each(|(i, (a, d))| {
-            let (xi, vi, ri) = (pos[i], vel[i], rho[i]);
-            let pi_term = pre[i] / (ri * ri);
-            let mut ai = Vector::zeros();
-            let mut di = 0.0;
-            for &j in lists.of(i) {
-                let j = j as usize;
-                {
+        p.acceleration
+            .par_iter_mut()
+            .zip(p.density_rate.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (a, d))| {
+                let (xi, vi, ri) = (pos[i], vel[i], rho[i]);
+                let pi_term = pre[i] / (ri * ri);
+                let mut ai = Vector::zeros();
+                let mut di = 0.0;
+                for &j in lists.of(i) {
+                    let j = j as usize;
                     let rij = xi - pos[j];
                     let r2 = rij.norm_squared();
                     if r2 >= s2 {
@@ -159,11 +192,9 @@ impl Wcsph {
                         di += delta_coef * psi * m / rj;
                     }
                 }
-            }
-            if let Some(w) = walls {
-                for &j in wall_lists.of(i) {
-                    let j = j as usize;
-                    {
+                if let Some(w) = walls {
+                    for &j in wall_lists.of(i) {
+                        let j = j as usize;
                         let rij = xi - w.position[j];
                         let r2 = rij.norm_squared();
                         if r2 >= s2 {
@@ -176,10 +207,9 @@ impl Wcsph {
                         di += m * vi.dot(&grad);
                     }
                 }
-            }
-            *a = ai + g + pen[i] / m;
-            *d = di;
-        });
+                *a = ai + g + pen[i] / m;
+                *d = di;
+            });
     }
 
     fn symplectic(&mut self, dt: Real) {
@@ -190,11 +220,18 @@ impl Wcsph {
         p.position0.copy_from_slice(&p.position);
         p.velocity0.copy_from_slice(&p.velocity);
         p.density0.copy_from_slice(&p.density);
-        p.position.par_iter_mut().zip(p.velocity.par_iter_mut()).zip(p.acceleration.par_iter()).for_each(|((x, v), a)| {
-            *x += *v * half;
-            *v += a * half;
-        });
-        p.density.par_iter_mut().zip(p.density_rate.par_iter()).for_each(|(r, d)| *r += d * half);
+        p.position
+            .par_iter_mut()
+            .zip(p.velocity.par_iter_mut())
+            .zip(p.acceleration.par_iter())
+            .for_each(|((x, v), a)| {
+                *x += *v * half;
+                *v += a * half;
+            });
+        p.density
+            .par_iter_mut()
+            .zip(p.density_rate.par_iter())
+            .for_each(|(r, d)| *r += d * half);
         // Corrector from the rates at n + 1/2 (neighbour cells of t^n; particles moved < 0.1h).
         self.rates();
         let p = &mut self.sys.particles;
@@ -207,15 +244,19 @@ impl Wcsph {
                 *v = v0 + a * dt;
                 *x = x0 + (*v + v0) * half;
             });
-        p.density.par_iter_mut().zip(p.density0.par_iter()).zip(p.density_rate.par_iter()).for_each(|((r, r0), d)| {
-            let eps = -d / *r * dt;
-            *r = r0 * (2.0 - eps) / (2.0 + eps);
-        });
+        p.density
+            .par_iter_mut()
+            .zip(p.density0.par_iter())
+            .zip(p.density_rate.par_iter())
+            .for_each(|((r, r0), d)| {
+                let eps = -d / *r * dt;
+                *r = r0 * (2.0 - eps) / (2.0 + eps);
+            });
     }
 
     fn verlet(&mut self, dt: Real) {
         self.rates();
-        let euler = self.verlet_step % VERLET_EULER_EVERY == 0;
+        let euler = self.verlet_step.is_multiple_of(VERLET_EULER_EVERY);
         self.verlet_step += 1;
         let p = &mut self.sys.particles;
         // velocity0/density0 hold the values one step back.
@@ -227,14 +268,26 @@ impl Wcsph {
             .for_each(|(((x, v), vprev), a)| {
                 let vn = *v;
                 *x += vn * dt + a * (0.5 * dt * dt);
-                *v = if euler { vn + a * dt } else { *vprev + a * (2.0 * dt) };
+                *v = if euler {
+                    vn + a * dt
+                } else {
+                    *vprev + a * (2.0 * dt)
+                };
                 *vprev = vn;
             });
-        p.density.par_iter_mut().zip(p.density0.par_iter_mut()).zip(p.density_rate.par_iter()).for_each(|((r, rprev), d)| {
-            let rn = *r;
-            *r = if euler { rn + d * dt } else { *rprev + d * (2.0 * dt) };
-            *rprev = rn;
-        });
+        p.density
+            .par_iter_mut()
+            .zip(p.density0.par_iter_mut())
+            .zip(p.density_rate.par_iter())
+            .for_each(|((r, rprev), d)| {
+                let rn = *r;
+                *r = if euler {
+                    rn + d * dt
+                } else {
+                    *rprev + d * (2.0 * dt)
+                };
+                *rprev = rn;
+            });
     }
 }
 
@@ -261,7 +314,10 @@ impl Solver for Wcsph {
         }
         let (prm, rho0) = (self.params, self.sys.rest_density);
         let p = &mut self.sys.particles;
-        p.pressure.par_iter_mut().zip(p.density.par_iter()).for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
+        p.pressure
+            .par_iter_mut()
+            .zip(p.density.par_iter())
+            .for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
         let (v, a) = self.sys.extremes();
         self.sys.end_step(dt, &self.kernel, true, rho0)?;
         self.dt_next = self.limits.propose(v, a).0;

@@ -57,11 +57,17 @@ mod tests {
                 let d2 = (k.value(r + e) - 2.0 * k.value(r) + k.value(r - e)) / (e * e);
                 let lap_fd = d2 + 2.0 * d1 / r;
                 let g = k.gradient_factor(r) * r;
-                assert!((g - d1).abs() <= 1e-5 * d1.abs().max(1.0), "{name} W'({r}) = {g}, FD {d1}");
+                assert!(
+                    (g - d1).abs() <= 1e-5 * d1.abs().max(1.0),
+                    "{name} W'({r}) = {g}, FD {d1}"
+                );
                 let lap = k.laplacian(r);
                 // The viscosity kernel's Laplacian is Müller's closed form, exact only for the
                 // kernel's own value; FD of a second derivative loses ~6 digits.
-                assert!((lap - lap_fd).abs() <= 1e-3 * lap_fd.abs().max(1.0), "{name} ∇²W({r}) = {lap}, FD {lap_fd}");
+                assert!(
+                    (lap - lap_fd).abs() <= 1e-3 * lap_fd.abs().max(1.0),
+                    "{name} ∇²W({r}) = {lap}, FD {lap_fd}"
+                );
             }
             assert_eq!(k.value(s * 1.0001), 0.0, "{name} outside support");
             assert_eq!(k.gradient_factor(s * 1.0001), 0.0, "{name} outside support");

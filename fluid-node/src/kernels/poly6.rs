@@ -14,7 +14,11 @@ pub struct Poly6 {
 
 impl Poly6 {
     pub fn new(h: Real) -> Self {
-        Self { h, h2: h * h, c: 315.0 / (64.0 * PI * h.powi(9)) }
+        Self {
+            h,
+            h2: h * h,
+            c: 315.0 / (64.0 * PI * h.powi(9)),
+        }
     }
 
     /// W from the squared distance, saving the square root in the density loop.

@@ -15,7 +15,10 @@ pub struct Spiky {
 
 impl Spiky {
     pub fn new(h: Real) -> Self {
-        Self { h, c: 15.0 / (PI * h.powi(6)) }
+        Self {
+            h,
+            c: 15.0 / (PI * h.powi(6)),
+        }
     }
 }
 

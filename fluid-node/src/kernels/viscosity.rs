@@ -14,7 +14,11 @@ pub struct ViscosityKernel {
 
 impl ViscosityKernel {
     pub fn new(h: Real) -> Self {
-        Self { h, c: 15.0 / (2.0 * PI * h.powi(3)), lap: 45.0 / (PI * h.powi(6)) }
+        Self {
+            h,
+            c: 15.0 / (2.0 * PI * h.powi(3)),
+            lap: 45.0 / (PI * h.powi(6)),
+        }
     }
 }
 

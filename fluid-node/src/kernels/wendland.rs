@@ -15,7 +15,11 @@ pub struct WendlandC2 {
 impl WendlandC2 {
     /// `h` is the smoothing length; the support is 2h.
     pub fn new(h: Real) -> Self {
-        Self { h, inv_h: 1.0 / h, alpha: 21.0 / (16.0 * PI * h.powi(3)) }
+        Self {
+            h,
+            inv_h: 1.0 / h,
+            alpha: 21.0 / (16.0 * PI * h.powi(3)),
+        }
     }
     pub fn smoothing_length(&self) -> Real {
         self.h

@@ -1,0 +1,106 @@
+//! `fluid-bench [--sizes 10000,100000,1000000] [--threads 1,2] [--solvers wcsph,muller]`:
+//! particle-steps per second on a 3D dam break (a water column a × a × 2a at one end of a
+//! 4a × a tank) at about the given particle counts, with each thread count. The timed steps are
+//! the full coupling step as the node runtime drives it (`write_loads` + `advance`), after
+//! warm-up steps that let the reused buffers reach their size.
+
+use fluid_node::validation::{SphSolver, TempRunDir, build_sph};
+use shared::protocol::BlockLoad;
+use shared::scene::{Scene, Scheme};
+use shared::solver::SetupContext;
+use std::time::Instant;
+
+fn scene(solver: &str, particles: usize) -> Scene {
+    // N = 2·(a/dx)³ with a = 1 m.
+    let dx = (2.0 / particles as f64).cbrt();
+    let blk = |name: &str, min: [f64; 3], max: [f64; 3]| {
+        format!(
+            "[[block]]\nname = \"{name}\"\nkind = \"fixed\"\nshape = {{ type = \"box\", min = {min:?}, max = {max:?} }}\n\n"
+        )
+    };
+    let t = 0.2;
+    let walls = [
+        blk("floor", [-t, -t, -t], [4.0 + t, 1.0 + t, 0.0]),
+        blk("left", [-t, -t, -t], [0.0, 1.0 + t, 3.0]),
+        blk("right", [4.0, -t, -t], [4.0 + t, 1.0 + t, 3.0]),
+        blk("south", [-t, -t, -t], [4.0 + t, 0.0, 3.0]),
+        blk("north", [-t, 1.0, -t], [4.0 + t, 1.0 + t, 3.0]),
+    ]
+    .concat();
+    let text = format!(
+        "name = \"bench\"\n[time]\nend = 1.0\n[domain]\nmin = [0.0, 0.0, 0.0]\nmax = [4.0, 1.0, 3.0]\n\
+         [fluid]\nsolver = \"{solver}\"\ndx = {dx}\n[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 2.0] }}\n\n{walls}"
+    );
+    Scene::parse(&text, "bench (generated)").expect("bench scene is valid")
+}
+
+fn list(args: &[String], flag: &str, default: &str) -> Vec<String> {
+    let v = args
+        .iter()
+        .position(|a| a == flag)
+        .and_then(|i| args.get(i + 1))
+        .map_or(default, |s| s.as_str());
+    v.split(',').map(str::to_string).collect()
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let sizes: Vec<usize> = list(&args, "--sizes", "10000,100000,1000000")
+        .iter()
+        .map(|s| s.parse().expect("--sizes"))
+        .collect();
+    let threads: Vec<usize> = list(&args, "--threads", "1,2")
+        .iter()
+        .map(|s| s.parse().expect("--threads"))
+        .collect();
+    let solvers = list(&args, "--solvers", "wcsph,muller");
+    println!(
+        "| solver | particles | threads | steps timed | s/step | particle-steps/s | µs per particle-step |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for solver in &solvers {
+        for &n in &sizes {
+            for &t in &threads {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(t)
+                    .build()
+                    .expect("thread pool");
+                pool.install(|| {
+                    let sc = scene(solver, n);
+                    let dir = TempRunDir::new("bench").expect("temp dir");
+                    let ctx = SetupContext {
+                        scene: &sc,
+                        run_dir: dir.path(),
+                        scheme: Scheme::Parallel,
+                        peer_present: false,
+                    };
+                    let mut s: Box<dyn SphSolver> = build_sph(solver, &ctx).expect("solver");
+                    let count = s.system().len();
+                    let mut loads: Vec<BlockLoad> = Vec::new();
+                    let mut step = |s: &mut Box<dyn SphSolver>| {
+                        s.write_loads(&mut loads);
+                        let dt = s.dt_proposal();
+                        s.advance(dt).expect("stable");
+                    };
+                    for _ in 0..3 {
+                        step(&mut s);
+                    }
+                    // About 3·10⁶ particle-steps per measurement, at least 3 steps.
+                    let steps = (3_000_000 / count).clamp(3, 200);
+                    let start = Instant::now();
+                    for _ in 0..steps {
+                        step(&mut s);
+                    }
+                    let secs = start.elapsed().as_secs_f64();
+                    let rate = (count * steps) as f64 / secs;
+                    println!(
+                        "| {solver} | {count} | {t} | {steps} | {:.4} | {:.3e} | {:.2} |",
+                        secs / steps as f64,
+                        rate,
+                        1e6 / rate
+                    );
+                });
+            }
+        }
+    }
+}

@@ -1,0 +1,56 @@
+//! `fluid-validate [--quick] [--out FILE]`: runs the fluid validation cases (still water, Martin &
+//! Moyce dam break n² = 2 and 1 with self-convergence) for both solvers in-process and prints a
+//! markdown table; `--out` also writes it to a file. Exits non-zero when a row fails.
+
+use fluid_node::validation::{Plan, markdown, validate_solver};
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let out = args
+        .iter()
+        .position(|a| a == "--out")
+        .and_then(|i| args.get(i + 1))
+        .cloned();
+    if let Some(bad) = args
+        .iter()
+        .find(|a| a.starts_with("--") && *a != "--quick" && *a != "--out")
+    {
+        eprintln!(
+            "fluid-validate: unknown option {bad}; usage: fluid-validate [--quick] [--out FILE]"
+        );
+        return ExitCode::from(2);
+    }
+    let plan = if quick { Plan::QUICK } else { Plan::FULL };
+    eprintln!(
+        "fluid-validate: {} plan {plan:?}",
+        if quick { "quick" } else { "full" }
+    );
+    let start = std::time::Instant::now();
+    let mut rows = Vec::new();
+    // The paper's solver also with its own walls (Eq. 22 only), to show what boundary particles buy.
+    for (solver, walls) in [
+        ("wcsph", None),
+        ("muller", None),
+        ("muller", Some("penalty")),
+    ] {
+        rows.extend(validate_solver(solver, &plan, walls, |l| {
+            eprintln!("  {l}")
+        }));
+    }
+    let table = markdown(&rows);
+    println!("{table}");
+    eprintln!("fluid-validate: {:.0} s", start.elapsed().as_secs_f64());
+    if let Some(path) = out
+        && let Err(e) = std::fs::write(&path, &table)
+    {
+        eprintln!("fluid-validate: cannot write {path}: {e}");
+        return ExitCode::FAILURE;
+    }
+    if rows.iter().all(|r| r.pass) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
+}

@@ -1,0 +1,195 @@
+//! The fluid solvers through the `FluidSolver` interface, at coarse resolutions: validation cases
+//! with tolerances (the same code `fluid-validate` runs finer), output files, failure messages.
+
+use fluid_node::validation::*;
+use shared::scene::Scheme;
+use shared::solver::{SetupContext, SolverError};
+
+#[test]
+fn wcsph_still_water_is_hydrostatic() {
+    let (depth, dx) = (0.1, 0.1 / 8.0);
+    let s = still_water("wcsph", depth, dx, 0.3, None).unwrap();
+    assert!(
+        s.max_error <= HYDROSTATIC_TOLERANCE,
+        "pressure error {:.3} of ρgH: {:?}",
+        s.max_error,
+        s.probes
+    );
+    assert!(
+        (s.surface - depth).abs() <= dx,
+        "surface {} for depth {depth}",
+        s.surface
+    );
+}
+
+#[test]
+fn muller_still_water_holds_the_column() {
+    // The paper's symmetric (p_i + p_j)/2 form carries about half the pressure gradient of the
+    // consistent form, so pressure is not hydrostatic (see docs/validation-fluid.md); the column
+    // must still stand: surface in place, pressure rising with depth.
+    let (depth, dx) = (0.1, 0.1 / 8.0);
+    let s = still_water("muller", depth, dx, 0.3, None).unwrap();
+    assert!(
+        (s.surface - depth).abs() <= dx,
+        "surface {} for depth {depth}",
+        s.surface
+    );
+    let p: Vec<f64> = s.probes.iter().map(|x| x.1).collect();
+    assert!(
+        p[0] < p[1] && p[1] < p[2],
+        "pressure does not rise with depth: {p:?}"
+    );
+}
+
+fn check_front(r: &DamBreak) {
+    let mean = r.mean_deviation();
+    assert!(
+        mean >= FRONT_MEAN_BAND.0 && mean <= FRONT_MEAN_BAND.1,
+        "mean front deviation {mean:+.3}: {:?}",
+        r.deviations()
+    );
+    let worst = r.deviations().iter().fold(0.0f64, |m, d| m.max(d.abs()));
+    assert!(
+        worst <= FRONT_MAX_DEVIATION,
+        "worst front deviation {worst:.3}"
+    );
+}
+
+#[test]
+fn wcsph_dam_break_front_follows_martin_moyce() {
+    check_front(&dam_break("wcsph", 2, 8, None).unwrap());
+}
+
+#[test]
+fn muller_dam_break_fronts_and_self_convergence() {
+    let runs: Vec<DamBreak> = [4, 8, 16]
+        .iter()
+        .map(|&n| dam_break("muller", 2, n, None).unwrap())
+        .collect();
+    check_front(&runs[2]);
+    let three: [DamBreak; 3] = runs.try_into().unwrap();
+    let (e1, e2, order) = self_convergence(&three);
+    assert!(
+        e2 < e1,
+        "no self-convergence: |ΔZ| {e1:.3} then {e2:.3} (order {order:.2})"
+    );
+    check_front(&dam_break("muller", 1, 8, None).unwrap());
+}
+
+fn ctx_for<'a>(scene: &'a shared::scene::Scene, dir: &'a TempRunDir) -> SetupContext<'a> {
+    SetupContext {
+        scene,
+        run_dir: dir.path(),
+        scheme: Scheme::Parallel,
+        peer_present: false,
+    }
+}
+
+#[test]
+fn unknown_solver_and_wall_treatment_are_named() {
+    let scene = still_water_scene("wcsph", 0.1, 0.025, 0.1, Some("magic"));
+    let dir = TempRunDir::new("t").unwrap();
+    let e = fluid_node::build("wcsph", &ctx_for(&scene, &dir))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("walls") && e.contains("magic"), "{e}");
+    let e = fluid_node::build("dfsph", &ctx_for(&scene, &dir))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("dfsph") && e.contains("muller"), "{e}");
+}
+
+#[test]
+fn a_step_far_beyond_the_proposal_stops_with_the_limit_named() {
+    for solver in fluid_node::SOLVERS {
+        let scene = dam_break_scene(solver, 2, 0.1, 6, None);
+        let dir = TempRunDir::new("t").unwrap();
+        let mut s = build_sph(solver, &ctx_for(&scene, &dir)).unwrap();
+        let dt = 50.0 * s.dt_proposal();
+        let mut err = None;
+        for _ in 0..200 {
+            if let Err(e) = s.advance(dt) {
+                err = Some(e);
+                break;
+            }
+        }
+        match err {
+            Some(SolverError::Unstable(m)) => {
+                assert!(
+                    m.starts_with(&format!("{solver}:")) && m.contains("limit exceeded"),
+                    "{m}"
+                );
+            }
+            other => panic!("{solver}: expected an instability, got {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn too_soft_muller_stiffness_warns_with_the_compression() {
+    let mut scene = still_water_scene("muller", 0.1, 0.0125, 0.1, None);
+    // A hundredth of the default k: the column compresses by several per cent.
+    let c2 = 100.0 * 2.0 * 9.81 * 0.1;
+    scene.fluid.as_mut().unwrap().muller.stiffness = Some(0.01 * c2);
+    let dir = TempRunDir::new("t").unwrap();
+    let mut s = build_sph("muller", &ctx_for(&scene, &dir)).unwrap();
+    let mut warning = None;
+    for _ in 0..400 {
+        let dt = s.dt_proposal();
+        let r = s.advance(dt).unwrap();
+        if r.warning.is_some() {
+            warning = r.warning;
+            break;
+        }
+    }
+    let w = warning.expect("a too-soft EOS must warn");
+    assert!(w.contains("compression") && w.contains('%'), "{w}");
+}
+
+#[test]
+fn frames_gauges_and_probes_are_written() {
+    let scene = still_water_scene("wcsph", 0.1, 0.025, 0.05, None);
+    let dir = TempRunDir::new("t").unwrap();
+    let mut s = build_sph("wcsph", &ctx_for(&scene, &dir)).unwrap();
+    let steps = run(s.as_mut(), &scene, 0.05, |_, _| {}).unwrap();
+    s.write_frame(3, 0.05).unwrap();
+    let vtp = std::fs::read_to_string(dir.path().join("particles_00003.vtp")).unwrap();
+    for name in ["density", "pressure", "velocity"] {
+        assert!(
+            vtp.contains(&format!("Name=\"{name}\"")),
+            "{name} missing from the frame"
+        );
+    }
+    let gauges = std::fs::read_to_string(dir.path().join("gauges.csv")).unwrap();
+    assert_eq!(gauges.lines().next().unwrap(), "time,centre");
+    // At most one row per step and per output.interval/50 (here 0.001 s) of simulated time.
+    let times: Vec<f64> = gauges
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(
+        times.len() >= 20 && times.len() as u64 <= steps,
+        "{} gauge rows for {steps} steps",
+        times.len()
+    );
+    assert!(
+        times.windows(2).all(|w| w[1] - w[0] >= 0.001 - 1e-6),
+        "rows closer than interval/50: {times:?}"
+    );
+    let probes = std::fs::read_to_string(dir.path().join("probes.csv")).unwrap();
+    assert_eq!(probes.lines().next().unwrap(), "time,p25,p50,p75");
+    let last: Vec<f64> = probes
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!(
+        last[1] > 0.0 && last[3] > last[1],
+        "probe pressures {last:?}"
+    );
+}
