@@ -283,4 +283,48 @@ mod tests {
         let (f, _) = ob.force(&x, &Vector::zeros(), 100.0, 0.0).unwrap();
         assert!((f - n * (100.0 * 0.04)).norm() < 1e-9, "{f}");
     }
+
+    #[test]
+    fn broad_phase_finds_what_brute_force_finds() {
+        let shape = cube();
+        let mut state = resting_state(0, &shape);
+        let rot = Rotation::from_euler_angles(0.3, -0.5, 0.9);
+        state.orientation = [rot.i, rot.j, rot.k, rot.w];
+        state.centroid = [1.0, 1.0, 1.0];
+        let ob = Obstacle::new(shape, state, Some(0), 0.04);
+        let mut pen = Penalty::new(500.0, 1.0, vec![ob.clone()]);
+        let mut seed = 11u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let pos: Vec<Vector> = (0..20_000)
+            .map(|_| Vector::new(3.0 * rnd(), 3.0 * rnd(), 3.0 * rnd()))
+            .collect();
+        let mut p = Particles::new(pos, vec![1000.0; 20_000]);
+        let mut grid = CellGrid::new(Vector::zeros(), Vector::repeat(3.0), 0.1).unwrap();
+        let order = grid.sort(&p.position).to_vec();
+        p.permute(&order);
+        let mut loads = vec![BlockLoad::default()];
+        pen.apply(&mut p, &grid, Some(&mut loads));
+        let mut touched = 0;
+        let mut total = Vector::zeros();
+        for i in 0..p.len() {
+            let brute = ob
+                .force(&p.position[i], &p.velocity[i], 500.0, 1.0)
+                .map_or(Vector::zeros(), |f| f.0);
+            assert!(
+                (brute - p.penalty[i]).norm() < 1e-9,
+                "particle {i}: {brute} vs {}",
+                p.penalty[i]
+            );
+            touched += usize::from(brute.norm() > 0.0);
+            total += brute;
+        }
+        // Inside the block or within the margin: a sizeable sample, and the load balances it.
+        assert!(touched > 500, "{touched}");
+        assert!((Vector::from(loads[0].force) + total).norm() < 1e-6 * total.norm().max(1.0));
+    }
 }
