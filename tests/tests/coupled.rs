@@ -38,7 +38,7 @@ fn wedge_at(dir: &Path, t: f64) -> (f64, f64) {
     let (h, rows) = csv(&dir.join("blocks.csv"));
     let col = |n: &str| h.iter().position(|c| c == n).unwrap();
     let (ct, cx, cz) = (col("time"), col("x"), col("z"));
-    let r = rows.iter().filter(|r| r[ct] <= t + 1e-9).last().unwrap();
+    let r = rows.iter().rfind(|r| r[ct] <= t + 1e-9).unwrap();
     (r[cx], r[cz])
 }
 
