@@ -2,8 +2,8 @@
 //! with shear springs at each contact (Shi 1993), instead of exact non-penetration constraints.
 //!
 //! Default normal stiffness (when `[solid.contact].normal_stiffness` is unset): the spring under
-//! which the lightest free block, resting on one contact, sinks [`ALLOWED_PENETRATION`] times its
-//! own size under its own weight, `k_n = m g / (ε L)`. Its contact frequency is then
+//! which the lightest free block, resting on one contact, sinks `[solid.contact].allowed_penetration`
+//! (ε, default 1e-4) times its own size under its own weight, `k_n = m g / (ε L)`. Its contact frequency is then
 //! `sqrt(k_n/m) = sqrt(g/(ε L))`, independent of the rock density, and the explicit step
 //! 2/ω_max follows from it (see [`crate::stability`]). Heavier blocks sink proportionally more
 //! (still ≪ their size for piles of a few hundred blocks). With no gravity, 9.81 m/s² is used.
@@ -13,9 +13,6 @@ use crate::contact::{Contact, ContactState};
 use crate::friction::{self, Joint};
 use shared::math::{Real, Vector};
 use shared::scene::ContactSpec;
-
-/// Penetration under self weight on one contact, as a fraction of the block size (ε above).
-pub const ALLOWED_PENETRATION: Real = 1e-4;
 
 /// Contact margin as a fraction of the smallest free block size: contacts this close are kept
 /// (open) so that their history survives a momentary separation.
@@ -57,7 +54,7 @@ impl PenaltyModel {
         let (normal, origin) = match (spec.normal_stiffness, lightest) {
             (Some(k), _) => (k, "[solid.contact].normal_stiffness".to_string()),
             (None, Some(b)) => {
-                let k = b.mass * g / (ALLOWED_PENETRATION * b.size());
+                let k = b.mass * g / (spec.allowed_penetration * b.size());
                 (
                     k,
                     format!(
@@ -65,7 +62,7 @@ impl PenaltyModel {
                         b.name,
                         b.mass,
                         b.size(),
-                        ALLOWED_PENETRATION
+                        spec.allowed_penetration
                     ),
                 )
             }

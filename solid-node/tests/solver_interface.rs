@@ -332,15 +332,14 @@ fn default_stiffness_and_dt_proposal() {
     h.run_until(0.5, None, |_| {}).unwrap();
     let b = h.block("rock");
     let sink = -b.aabb_min.z;
-    let expect = solid_node::penalty::ALLOWED_PENETRATION * b.size() / 4.0;
+    let expect = s.solid.contact.allowed_penetration * b.size() / 4.0;
     assert!(
         (sink / expect - 1.0).abs() < 0.01,
         "sank {sink:e}, expected {expect:e}"
     );
     let k = h.world().penalty.normal;
     assert!(
-        (k - b.mass * 9.81 / (solid_node::penalty::ALLOWED_PENETRATION * b.size())).abs()
-            < 1e-6 * k
+        (k - b.mass * 9.81 / (s.solid.contact.allowed_penetration * b.size())).abs() < 1e-6 * k
     );
     // dt = safety · 2/ω_max, with ω_max from the contact springs: at least the vertical mode
     // sqrt(4k/m) and, for this block, below the set-up floor's worst face (its side: rocking

@@ -240,6 +240,11 @@ pub struct ContactSpec {
     /// Viscous contact damping as a fraction of critical; 0 keeps bounces elastic.
     #[serde(default)]
     pub damping_ratio: f64,
+    /// When `normal_stiffness` is unset it is derived so that the lightest free block, resting
+    /// on one contact, sinks this fraction of its own size under its weight (k_n = m g / (ε L)).
+    /// Smaller is stiffer and needs a smaller explicit step (2/ω_max ∝ sqrt(ε)).
+    #[serde(default = "default_allowed_penetration")]
+    pub allowed_penetration: f64,
 }
 
 impl Default for ContactSpec {
@@ -250,10 +255,14 @@ impl Default for ContactSpec {
             friction_angle: default_friction(),
             cohesion: 0.0,
             damping_ratio: 0.0,
+            allowed_penetration: default_allowed_penetration(),
         }
     }
 }
 
+fn default_allowed_penetration() -> f64 {
+    1e-4
+}
 fn default_shear_ratio() -> f64 {
     0.4
 }

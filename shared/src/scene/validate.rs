@@ -299,6 +299,14 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                     "give cohesion in Pa, 0 for a clean joint",
                 );
             }
+            if !(k.allowed_penetration > 0.0 && k.allowed_penetration < 0.1) {
+                c.fail(
+                    "allowed_penetration",
+                    k.allowed_penetration,
+                    "must be in (0, 0.1)",
+                    "e.g. allowed_penetration = 1e-4",
+                );
+            }
             if !(0.0..=1.0).contains(&k.damping_ratio) {
                 c.fail(
                     "damping_ratio",
