@@ -301,3 +301,43 @@ fn nodes_started_by_hand_are_attached() {
     assert!(leftovers(&id).is_empty(), "{:?}", leftovers(&id));
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+#[test]
+fn killed_coupler_takes_its_nodes_down_and_they_tidy_up() {
+    let (id, out) = fresh("coupler-kill");
+    let scene = scene("toy_hover.toml");
+    let mut cmd = coupler(
+        &id,
+        &out,
+        &[
+            scene.to_str().unwrap(),
+            "--end",
+            "1000",
+            "--fluid-cmd",
+            &toy_fluid("hover"),
+            "--solid-cmd",
+            &toy_solid(),
+        ],
+    );
+    let child = cmd.stderr(Stdio::piped()).spawn().unwrap();
+    let pid = child.id();
+    assert!(eventually(Duration::from_secs(10), || children(pid).len() == 2));
+    std::thread::sleep(Duration::from_millis(300));
+    let nodes = children(pid);
+    unsafe_kill(pid, 9);
+    let _ = wait_output(child, Duration::from_secs(5));
+    // Orphaned, the nodes notice within a wait slice, stop, and the last one out removes the
+    // run's shared memory.
+    assert!(
+        eventually(Duration::from_secs(3), || nodes
+            .iter()
+            .all(|&n| !shared::transport::process_alive(n))),
+        "nodes outlived their coupler"
+    );
+    assert!(
+        eventually(Duration::from_secs(2), || leftovers(&id).is_empty()),
+        "{:?}",
+        leftovers(&id)
+    );
+    std::fs::remove_dir_all(&out).unwrap();
+}
