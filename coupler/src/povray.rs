@@ -11,6 +11,8 @@ use std::path::{Path, PathBuf};
 pub struct PolyData {
     pub points: Vec<[f64; 3]>,
     pub polys: Vec<Vec<usize>>,
+    /// Block kind of each polygon when the file has it (0 fixed, 1 kinematic, 2 free).
+    pub kind: Vec<f64>,
 }
 
 /// Reads the ASCII PolyData that `shared::vtk` writes.
@@ -44,7 +46,12 @@ pub fn read_vtp(path: &Path) -> Result<PolyData, String> {
             start = end;
         }
     }
-    Ok(PolyData { points, polys })
+    let kind = array("CellData", "kind").unwrap_or_default();
+    Ok(PolyData {
+        points,
+        polys,
+        kind,
+    })
 }
 
 /// Writes the .pov scene of one frame: camera framing the domain from the front-left, water
@@ -65,9 +72,9 @@ pub fn scene_file(
     // POV-Ray is y-up and left-handed: write <x, z, y>.
     let v = |p: [f64; 3]| format!("<{:.5},{:.5},{:.5}>", p[0], p[2], p[1]);
     let eye = [
-        centre[0] - 0.35 * size,
-        centre[1] - 1.1 * size,
-        centre[2] + 0.55 * size,
+        centre[0] - 0.25 * size,
+        centre[1] - 0.9 * size,
+        centre[2] + 0.7 * size,
     ];
     let mut s = String::new();
     let _ = writeln!(
@@ -106,19 +113,36 @@ pub fn scene_file(
         s.push_str("texture { Water } }\n");
     }
     if let Some(b) = blocks {
-        s.push_str("mesh {\n");
-        for poly in &b.polys {
-            for k in 1..poly.len().saturating_sub(1) {
-                let _ = writeln!(
-                    s,
-                    "triangle {{ {}, {}, {} }}",
-                    v(b.points[poly[0]]),
-                    v(b.points[poly[k]]),
-                    v(b.points[poly[k + 1]])
-                );
+        // Walls, slopes and beaches are drawn as faint glass so they do not hide the water;
+        // moving rock is drawn solid.
+        let fixed = |i: usize| b.kind.get(i).is_none_or(|&k| k == 0.0);
+        for (want_fixed, texture) in [
+            (
+                true,
+                "texture { pigment { rgbt <0.7, 0.68, 0.64, 0.8> } finish { diffuse 0.6 } }",
+            ),
+            (
+                false,
+                "texture { pigment { rgb <0.55, 0.35, 0.25> } finish { diffuse 0.8 } }",
+            ),
+        ] {
+            let mut mesh = String::new();
+            for (_, poly) in b
+                .polys
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| fixed(*i) == want_fixed)
+            {
+                for k in 1..poly.len().saturating_sub(1) {
+                    let (p0, p1, p2) =
+                        (b.points[poly[0]], b.points[poly[k]], b.points[poly[k + 1]]);
+                    let _ = writeln!(mesh, "triangle {{ {}, {}, {} }}", v(p0), v(p1), v(p2));
+                }
+            }
+            if !mesh.is_empty() {
+                let _ = writeln!(s, "mesh {{\n{mesh}{texture} }}");
             }
         }
-        s.push_str("texture { pigment { rgb <0.55, 0.5, 0.45> } finish { diffuse 0.8 } } }\n");
     }
     s
 }
