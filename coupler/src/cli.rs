@@ -27,6 +27,11 @@ pub struct RunArgs {
     /// Particle spacing [m] (overrides the scene's fluid.dx), for quick coarse runs.
     #[arg(long)]
     pub dx: Option<f64>,
+    /// Pick the particle spacing for this relative error of the dam-break surge front, from
+    /// the convergence curve `coupler chart` measured (docs/charts/fluid_convergence.csv,
+    /// compiled in); prints the spacing chosen and why. Exclusive with --dx.
+    #[arg(long, conflicts_with = "dx")]
+    pub target_error: Option<f64>,
     /// Simulated end time [s] (overrides the scene's time.end).
     #[arg(long)]
     pub end: Option<f64>,
@@ -87,6 +92,17 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             return Err(format!("--dx {dx}: must be a positive length in metres"));
         }
         scene.set_dx(dx);
+    }
+    if let Some(target) = args.target_error {
+        let fits = crate::resolution::parse_csv(crate::resolution::EMBEDDED_FIT)?;
+        let solver = args
+            .fluid_solver
+            .clone()
+            .or_else(|| scene.fluid.as_ref().map(|f| f.solver.clone()))
+            .ok_or("--target-error: the scene has no water, so there is no spacing to choose")?;
+        let choice = crate::resolution::choose_dx(&fits, &solver, &scene, target)?;
+        eprintln!("coupler: {}", choice.explanation);
+        scene.set_dx(choice.dx);
     }
     if let Some(end) = args.end {
         scene.time.end = end;

@@ -3,8 +3,15 @@
 
 pub mod chart;
 pub mod cli;
+pub mod coupled_sweep;
+pub mod fluid_sweep;
 pub mod launch;
 pub mod output;
 pub mod povray;
 pub mod progress;
+pub mod resolution;
+pub mod runner;
 pub mod session;
+pub mod solid_sweep;
+pub mod speed_accuracy;
+pub mod stability;

@@ -24,6 +24,12 @@ enum Cmd {
     },
     /// Remove shared memory left behind by runs whose processes were all killed.
     Clean,
+    /// Speed against accuracy: run the validation cases over solvers, resolutions, dt factors
+    /// and coupling schemes; write CSV, SVG and PNG charts with the Pareto front.
+    Chart(coupler::speed_accuracy::ChartArgs),
+    /// Push each method past its limits (dt factor, contact stiffness, density ratio) and draw
+    /// stability maps naming how each failure was detected.
+    Stability(coupler::stability::StabilityArgs),
     /// Write POV-Ray scene files for every frame of a run directory (and render them).
     Povray {
         /// A run directory written by `coupler run`.
@@ -42,6 +48,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Cmd::Run(args) => ExitCode::from(coupler::cli::run(*args)),
+        Cmd::Chart(args) => ExitCode::from(coupler::speed_accuracy::run(args)),
+        Cmd::Stability(args) => ExitCode::from(coupler::stability::run(args)),
         Cmd::Check { scene } => {
             let loaded = match &scene {
                 Some(p) => shared::scene::Scene::load(p),

@@ -1,0 +1,290 @@
+//! `coupler chart`: speed against accuracy. Each validation case with a known reference is run
+//! over solvers × resolutions × dt factors (× coupling schemes for the coupled case); the error
+//! against the reference and the wall time go into a CSV and a log–log chart with the Pareto
+//! front marked (`chart::error_vs_time`):
+//!
+//! - fluid: the dam-break surge front against Martin & Moyce (in-process, `fluid_sweep`);
+//! - solid: the block sliding down an incline against the closed form (in-process);
+//! - coupled: the floating block's draft against (ρ_b/ρ_w)·h (real processes, `coupler run`).
+//!
+//! The fluid runs at dt factor 1 also give the convergence curve `--target-error` inverts
+//! (`fluid_convergence.csv`, see `resolution`).
+
+use crate::chart::{self, Sample};
+use crate::coupled_sweep::{self, Config};
+use crate::fluid_sweep::{self, DamRun};
+use crate::resolution::{self, ConvergenceFit};
+use crate::runner::Scratch;
+use crate::solid_sweep;
+use clap::Args;
+use shared::scene::Scheme;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Args)]
+pub struct ChartArgs {
+    /// Fewer, coarser runs (a few minutes instead of ~20).
+    #[arg(long)]
+    pub quick: bool,
+    /// Where the CSV, SVG and PNG files go.
+    #[arg(long, default_value = "docs/charts")]
+    pub out: PathBuf,
+    /// Only these charts (fluid, solid, coupled); default all three.
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
+}
+
+/// The sweep sizes of one mode.
+struct Plan {
+    fluid_per_a: &'static [usize],
+    fluid_dt: &'static [f64],
+    solid_k: &'static [f64],
+    solid_dt: &'static [f64],
+    coupled_dx: &'static [f64],
+    coupled_fluid: &'static [&'static str],
+    coupled_solid: &'static [&'static str],
+    coupled_end: f64,
+}
+
+const FULL: Plan = Plan {
+    fluid_per_a: &[4, 8, 16, 32],
+    fluid_dt: &[0.5, 1.0, 2.0],
+    solid_k: &[1e6, 1e7, 1e8, 1e9],
+    solid_dt: &[0.25, 0.5, 1.0, 1.5],
+    coupled_dx: &[0.04, 0.02, 0.01],
+    coupled_fluid: &["wcsph", "muller"],
+    coupled_solid: &["explicit", "implicit"],
+    coupled_end: 1.5,
+};
+
+const QUICK: Plan = Plan {
+    fluid_per_a: &[4, 8, 16],
+    fluid_dt: &[1.0, 2.0],
+    solid_k: &[1e6, 1e7, 1e8],
+    solid_dt: &[0.5, 1.0],
+    coupled_dx: &[0.04, 0.02],
+    coupled_fluid: &["wcsph"],
+    coupled_solid: &["explicit"],
+    coupled_end: 1.5,
+};
+
+/// Runs `coupler chart`; returns the exit code.
+pub fn run(args: ChartArgs) -> u8 {
+    match run_inner(&args) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("coupler chart: error: {e}");
+            1
+        }
+    }
+}
+
+fn wanted(args: &ChartArgs, what: &str) -> bool {
+    args.only.is_empty() || args.only.iter().any(|o| o == what)
+}
+
+fn run_inner(args: &ChartArgs) -> Result<(), String> {
+    let plan = if args.quick { &QUICK } else { &FULL };
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+    let mode = if args.quick { "quick" } else { "full" };
+    if wanted(args, "fluid") {
+        fluid(plan, &args.out, mode)?;
+    }
+    if wanted(args, "solid") {
+        solid(plan, &args.out, mode)?;
+    }
+    if wanted(args, "coupled") {
+        coupled(plan, &args.out, mode)?;
+    }
+    Ok(())
+}
+
+fn print_front(samples: &[Sample], unit: &str) {
+    println!("  Pareto front (fastest first):");
+    for i in chart::pareto_front(samples) {
+        let s = &samples[i];
+        println!(
+            "    {:<22} {:<28} {:>8.2} s  error {:.4}{unit}",
+            s.series, s.params, s.wall_seconds, s.error
+        );
+    }
+}
+
+fn fluid(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
+    println!("fluid: dam break n² = 2, a = 0.1 m, against Martin & Moyce ({mode} sweep)");
+    let mut samples = Vec::new();
+    let mut fits = Vec::new();
+    for solver in ["wcsph", "muller"] {
+        let mut at_one: Vec<DamRun> = Vec::new();
+        for &per_a in plan.fluid_per_a {
+            for &f in plan.fluid_dt {
+                let r = fluid_sweep::dam_break(solver, per_a, f);
+                let err = r.experiment_error();
+                println!(
+                    "  {solver:<7} a/dx = {per_a:>3}  dt×{f:<4} {:>8.2} s  {}",
+                    r.wall_seconds,
+                    match &r.result {
+                        Ok(_) => format!("mean |Z − Z_ref|/Z_ref = {err:.4}"),
+                        Err(e) => format!("FAILED: {e}"),
+                    }
+                );
+                samples.push(Sample {
+                    series: solver.to_string(),
+                    params: format!(
+                        "a/dx={per_a} dt×{f}{}",
+                        if r.result.is_err() { " unstable" } else { "" }
+                    ),
+                    wall_seconds: r.wall_seconds,
+                    error: err,
+                });
+                if f == 1.0 && r.result.is_ok() {
+                    at_one.push(r);
+                }
+            }
+        }
+        // Successive doublings at dt factor 1 give the convergence curve.
+        let mut deltas = Vec::new();
+        for w in at_one.windows(2) {
+            if let (Ok(a), Ok(b)) = (&w[0].result, &w[1].result)
+                && w[1].per_a == 2 * w[0].per_a
+            {
+                deltas.push((w[0].per_depth(), fluid_sweep::front_difference(a, b)));
+            }
+        }
+        match ConvergenceFit::from_doublings(solver, &deltas) {
+            Ok(fit) => {
+                println!(
+                    "  {solver}: discretisation error e ≈ {:.3}·N^-{:.2} (N = depth/dx; changes between doublings {:?})",
+                    fit.c, fit.p, deltas
+                );
+                fits.push(fit);
+            }
+            Err(e) => println!("  {solver}: no convergence fit: {e}"),
+        }
+    }
+    let stem = out.join("fluid_speed_accuracy");
+    chart::error_vs_time(
+        &stem,
+        "Dam break (Martin & Moyce, n² = 2): front error against wall time",
+        "mean |Z − Z_ref| / Z_ref",
+        &samples,
+    )?;
+    print_front(&samples, "");
+    if !fits.is_empty() {
+        let path = out.join("fluid_convergence.csv");
+        std::fs::write(&path, resolution::to_csv(&fits))
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        println!("  convergence curve written to {}", path.display());
+    }
+    println!("  chart: {}.{{csv,svg,png}}", stem.display());
+    Ok(())
+}
+
+fn solid(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
+    let inc = solid_sweep::INCLINE;
+    println!(
+        "solid: block sliding down an incline (α = {}°, φ = {}°), d(1 s) against ½ g (sin α − cos α tan φ) t² ({mode} sweep)",
+        inc.alpha, inc.phi
+    );
+    let mut samples = Vec::new();
+    for solver in ["explicit", "implicit"] {
+        for &k in plan.solid_k {
+            for &f in plan.solid_dt {
+                let r = solid_sweep::incline(solver, k, f);
+                let err = r.result.clone().unwrap_or(f64::NAN);
+                println!(
+                    "  {solver:<8} k = {k:.0e} N/m  dt×{f:<4} {:>8.4} s  {} steps  {}",
+                    r.wall_seconds,
+                    r.steps,
+                    match &r.result {
+                        Ok(e) => format!("|d − d_ref|/d_ref = {e:.2e}"),
+                        Err(e) => format!("FAILED: {e}"),
+                    }
+                );
+                samples.push(Sample {
+                    series: solver.into(),
+                    params: format!(
+                        "k={k:.0e} dt×{f}{}",
+                        if r.result.is_err() { " unstable" } else { "" }
+                    ),
+                    wall_seconds: r.wall_seconds,
+                    error: err,
+                });
+            }
+        }
+    }
+    let stem = out.join("solid_speed_accuracy");
+    chart::error_vs_time(
+        &stem,
+        "Block on a 30° incline (φ = 20°): sliding distance error against wall time",
+        "|d(1 s) − d_ref| / d_ref",
+        &samples,
+    )?;
+    print_front(&samples, "");
+    println!("  chart: {}.{{csv,svg,png}}", stem.display());
+    Ok(())
+}
+
+fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
+    println!(
+        "coupled: floating block (density 500) draft against (ρ_b/ρ_w)·h = 0.1 m, real processes ({mode} sweep)"
+    );
+    let scratch = Scratch::new("chart")?;
+    let mut samples = Vec::new();
+    for &fluid in plan.coupled_fluid {
+        for &solid in plan.coupled_solid {
+            for scheme in [Scheme::Parallel, Scheme::Serial] {
+                for &dx in plan.coupled_dx {
+                    let config = Config {
+                        fluid: fluid.into(),
+                        solid: solid.into(),
+                        scheme,
+                        dx,
+                        dt_factor: 1.0,
+                        density: None,
+                        penalty_stiffness: None,
+                        end: plan.coupled_end,
+                    };
+                    let r = coupled_sweep::floating(None, &scratch, &config);
+                    let err = r.error();
+                    println!(
+                        "  {:<28} dx = {dx:<5} {:>8.2} s  {}",
+                        config.label(),
+                        r.outcome.wall_seconds,
+                        match &r.draft {
+                            Ok((d, v)) if r.outcome.completed() => format!(
+                                "draft {d:.4} m (reference {:.4}), error {:.2} %, |vz| ≤ {v:.3} m/s",
+                                r.reference,
+                                100.0 * err
+                            ),
+                            _ => format!("{}: {}", r.outcome.status, r.outcome.detail()),
+                        }
+                    );
+                    samples.push(Sample {
+                        series: config.label(),
+                        params: format!(
+                            "dx={dx}{}",
+                            if err.is_nan() {
+                                format!(" {}", r.outcome.status)
+                            } else {
+                                String::new()
+                            }
+                        ),
+                        wall_seconds: r.outcome.wall_seconds,
+                        error: err,
+                    });
+                }
+            }
+        }
+    }
+    let stem = out.join("coupled_speed_accuracy");
+    chart::error_vs_time(
+        &stem,
+        "Floating block (ρ_b/ρ_w = 0.5): draft error against wall time",
+        "|draft − (ρ_b/ρ_w) h| / ((ρ_b/ρ_w) h)",
+        &samples,
+    )?;
+    print_front(&samples, "");
+    println!("  chart: {}.{{csv,svg,png}}", stem.display());
+    Ok(())
+}

@@ -1,0 +1,350 @@
+//! `coupler stability`: pushes each method past its limits and records, for every trial, stable
+//! or unstable and how the instability was detected (the solver's or the run's own message).
+//! Three stability maps (`chart::stability_map`), each CSV + SVG + PNG:
+//!
+//! - `stability_dt_factor`: every step × 0.1 … 10 of what the method proposes: explicit DDA
+//!   and Shi's implicit DDA on a block resting on undamped springs, Müller SPH and WCSPH on the
+//!   dam break, and the coupled floating block under both schemes;
+//! - `stability_stiffness`: the contact spring over decades at a fixed dt = 1 ms (explicit DDA
+//!   must fail once ω·dt = dt·sqrt(4k/m) passes 2, i.e. k > m/dt²; the implicit scheme must not);
+//! - `stability_density`: block-to-water density ratio 0.3 … 3 under each coupling scheme (the
+//!   added-mass limit of explicit partitioned coupling concerns light blocks).
+//!
+//! It also measures the numerical damping of Shi's scheme (restitution of an undamped bounce
+//! against exp(−πΩ/4)), written to `stability_implicit_damping.csv`.
+
+use crate::chart::{self, Trial};
+use crate::coupled_sweep::{self, Config};
+use crate::fluid_sweep;
+use crate::runner::Scratch;
+use crate::solid_sweep;
+use clap::Args;
+use shared::scene::Scheme;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Args)]
+pub struct StabilityArgs {
+    /// Fewer trials (a few minutes instead of ~20).
+    #[arg(long)]
+    pub quick: bool,
+    /// Where the CSV, SVG and PNG files go.
+    #[arg(long, default_value = "docs/charts")]
+    pub out: PathBuf,
+    /// Only these maps (dt, stiffness, density, damping); default all.
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
+}
+
+struct Plan {
+    dt_factors: &'static [f64],
+    coupled_dt_factors: &'static [f64],
+    stiffness: &'static [f64],
+    density: &'static [f64],
+    damping_omegas: &'static [f64],
+    coupled_end: f64,
+    dam_per_a: usize,
+}
+
+const FULL: Plan = Plan {
+    dt_factors: &[0.1, 0.3, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 5.0, 10.0],
+    coupled_dt_factors: &[0.5, 1.0, 2.0, 3.0, 5.0, 10.0],
+    stiffness: &[1e4, 1e5, 1e6, 3e6, 1e7, 3e7, 1e8, 3e8, 1e9, 1e10],
+    density: &[0.3, 0.5, 0.8, 1.2, 2.0, 3.0],
+    damping_omegas: &[0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0],
+    coupled_end: 0.6,
+    dam_per_a: 8,
+};
+
+const QUICK: Plan = Plan {
+    dt_factors: &[0.1, 0.5, 1.0, 2.0, 3.0, 10.0],
+    coupled_dt_factors: &[1.0, 3.0, 10.0],
+    stiffness: &[1e5, 1e6, 1e7, 3e7, 1e8, 1e9],
+    density: &[0.3, 1.2, 3.0],
+    damping_omegas: &[0.1, 0.5, 1.0, 2.0],
+    coupled_end: 0.4,
+    dam_per_a: 6,
+};
+
+/// Fixed step of the stiffness map [s].
+pub const STIFFNESS_DT: f64 = 1e-3;
+
+/// Runs `coupler stability`; returns the exit code.
+pub fn run(args: StabilityArgs) -> u8 {
+    match run_inner(&args) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("coupler stability: error: {e}");
+            1
+        }
+    }
+}
+
+fn wanted(args: &StabilityArgs, what: &str) -> bool {
+    args.only.is_empty() || args.only.iter().any(|o| o == what)
+}
+
+fn run_inner(args: &StabilityArgs) -> Result<(), String> {
+    let plan = if args.quick { &QUICK } else { &FULL };
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+    let scratch = Scratch::new("stability")?;
+    if wanted(args, "dt") {
+        dt_map(plan, &args.out, &scratch)?;
+    }
+    if wanted(args, "stiffness") {
+        stiffness_map(plan, &args.out)?;
+    }
+    if wanted(args, "density") {
+        density_map(plan, &args.out, &scratch)?;
+    }
+    if wanted(args, "damping") {
+        damping(plan, &args.out)?;
+    }
+    Ok(())
+}
+
+fn report(t: &Trial) {
+    println!(
+        "  {:<34} {:>8}  {:<8} {}",
+        t.method,
+        format!("{}", t.value),
+        if t.stable { "stable" } else { "UNSTABLE" },
+        t.detail
+    );
+}
+
+/// The first value at which a row went unstable, for the summary lines.
+fn first_unstable(trials: &[Trial], method: &str) -> Option<f64> {
+    trials
+        .iter()
+        .filter(|t| t.method == method && !t.stable)
+        .map(|t| t.value)
+        .reduce(f64::min)
+}
+
+fn summarise(trials: &[Trial]) {
+    let mut methods: Vec<&str> = Vec::new();
+    for t in trials {
+        if !methods.contains(&t.method.as_str()) {
+            methods.push(&t.method);
+        }
+    }
+    for m in methods {
+        let last_stable = trials
+            .iter()
+            .filter(|t| t.method == m && t.stable)
+            .map(|t| t.value)
+            .reduce(f64::max);
+        match first_unstable(trials, m) {
+            Some(u) => println!(
+                "  → {m}: stable up to {}, first failure at {u}",
+                last_stable.map_or("none".into(), |v| v.to_string())
+            ),
+            None => println!("  → {m}: stable everywhere tried"),
+        }
+    }
+}
+
+fn coupled_trial(scratch: &Scratch, method: &str, value: f64, config: &Config) -> Trial {
+    let r = coupled_sweep::floating(None, scratch, config);
+    let stable = r.outcome.completed();
+    let detail = if stable {
+        match &r.draft {
+            Ok((d, v)) => format!(
+                "completed; mean draft {d:.4} m (reference {:.4}), |vz| ≤ {v:.3} m/s",
+                r.reference
+            ),
+            Err(e) => format!("completed; {e}"),
+        }
+    } else {
+        format!(
+            "{} (exit {}): {}",
+            r.outcome.status,
+            r.outcome.exit_code,
+            r.outcome.detail()
+        )
+    };
+    Trial {
+        method: method.into(),
+        value,
+        stable,
+        detail,
+    }
+}
+
+fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
+    println!("dt factor: every step × factor of the method's own proposal");
+    let mut trials = Vec::new();
+    for solver in ["explicit", "implicit"] {
+        for &f in plan.dt_factors {
+            // Undamped springs, k = 1e6 N/m: the explicit proposal is 0.5·2/ω_max, Ω = 1.
+            let r = solid_sweep::resting(solver, 1e6, f, None, 1.0);
+            let t = Trial {
+                method: format!("{solver} DDA, resting block"),
+                value: f,
+                stable: r.stable,
+                detail: format!("ω·dt = {:.2}: {}", r.omega_dt, r.detail),
+            };
+            report(&t);
+            trials.push(t);
+        }
+    }
+    for solver in ["muller", "wcsph"] {
+        for &f in plan.dt_factors {
+            let r = fluid_sweep::dam_break(solver, plan.dam_per_a, f);
+            let t = Trial {
+                method: format!("{solver} SPH, dam break"),
+                value: f,
+                stable: r.result.is_ok(),
+                detail: match &r.result {
+                    Ok(_) => format!(
+                        "completed; front error {:.3} against Martin & Moyce{}",
+                        r.experiment_error(),
+                        r.last_warning
+                            .as_ref()
+                            .map(|w| format!("; warning: {w}"))
+                            .unwrap_or_default()
+                    ),
+                    Err(e) => e.clone(),
+                },
+            };
+            report(&t);
+            trials.push(t);
+        }
+    }
+    for scheme in [Scheme::Parallel, Scheme::Serial] {
+        for &f in plan.coupled_dt_factors {
+            let config = Config {
+                fluid: "wcsph".into(),
+                solid: "explicit".into(),
+                scheme,
+                dx: 0.02,
+                dt_factor: f,
+                density: None,
+                penalty_stiffness: None,
+                end: plan.coupled_end,
+            };
+            let t = coupled_trial(
+                scratch,
+                &format!("floating block, {}", config.label()),
+                f,
+                &config,
+            );
+            report(&t);
+            trials.push(t);
+        }
+    }
+    summarise(&trials);
+    let stem = out.join("stability_dt_factor");
+    chart::stability_map(
+        &stem,
+        "Stability against the step: dt = factor × the method's proposal",
+        "dt factor",
+        &trials,
+    )?;
+    println!("  map: {}.{{csv,svg,png}}", stem.display());
+    Ok(())
+}
+
+fn stiffness_map(plan: &Plan, out: &Path) -> Result<(), String> {
+    let m = solid_sweep::RESTING_MASS;
+    let k_crit = m / (STIFFNESS_DT * STIFFNESS_DT);
+    println!(
+        "contact stiffness at fixed dt = {STIFFNESS_DT} s (block {m} kg on four springs; explicit limit ω·dt = 2 at k = m/dt² = {k_crit:.2e} N/m)"
+    );
+    let mut trials = Vec::new();
+    for solver in ["explicit", "implicit"] {
+        for &k in plan.stiffness {
+            let r = solid_sweep::resting(solver, k, 1.0, Some(STIFFNESS_DT), 1.0);
+            let t = Trial {
+                method: format!("{solver} DDA, dt = 1 ms"),
+                value: k,
+                stable: r.stable,
+                detail: format!("ω·dt = {:.2}: {}", r.omega_dt, r.detail),
+            };
+            report(&t);
+            trials.push(t);
+        }
+    }
+    summarise(&trials);
+    let stem = out.join("stability_stiffness");
+    chart::stability_map(
+        &stem,
+        &format!(
+            "Contact penalty stiffness at dt = 1 ms (explicit limit k = m/dt² = {k_crit:.1e} N/m)"
+        ),
+        "normal contact stiffness k [N/m]",
+        &trials,
+    )?;
+    println!("  map: {}.{{csv,svg,png}}", stem.display());
+    Ok(())
+}
+
+fn density_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
+    println!(
+        "block-to-water density ratio under each coupling scheme (floating-block tank, real processes)"
+    );
+    let mut trials = Vec::new();
+    for solid in ["explicit", "implicit"] {
+        for scheme in [Scheme::Parallel, Scheme::Serial] {
+            for &ratio in plan.density {
+                let config = Config {
+                    fluid: "wcsph".into(),
+                    solid: solid.into(),
+                    scheme,
+                    dx: 0.02,
+                    dt_factor: 1.0,
+                    density: Some(1000.0 * ratio),
+                    penalty_stiffness: None,
+                    end: plan.coupled_end,
+                };
+                let t = coupled_trial(scratch, &config.label(), ratio, &config);
+                report(&t);
+                trials.push(t);
+            }
+        }
+    }
+    summarise(&trials);
+    let stem = out.join("stability_density");
+    chart::stability_map(
+        &stem,
+        "Block-to-water density ratio under each coupling scheme",
+        "ρ_block / ρ_water",
+        &trials,
+    )?;
+    println!("  map: {}.{{csv,svg,png}}", stem.display());
+    Ok(())
+}
+
+fn damping(plan: &Plan, out: &Path) -> Result<(), String> {
+    println!("numerical damping of Shi's implicit scheme: restitution of an undamped bounce");
+    let path = out.join("stability_implicit_damping.csv");
+    let mut f = std::fs::File::create(&path)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    let w = |f: &mut std::fs::File, s: String| {
+        writeln!(f, "{s}").map_err(|e| format!("cannot write {}: {e}", path.display()))
+    };
+    w(
+        &mut f,
+        "omega_dt,restitution_measured,spread,newmark_exact,exp_minus_pi_omega_over_4".into(),
+    )?;
+    for &om in plan.damping_omegas {
+        let exact = solid_node::verification::newmark_restitution(om);
+        let asym = (-std::f64::consts::PI * om / 4.0).exp();
+        match solid_node::verification::mean_restitution("implicit", om) {
+            Ok((e, spread)) => {
+                println!(
+                    "  Ω = {om:<5} e = {e:.4} (spread {spread:.3}); exact Newmark {exact:.4}; exp(−πΩ/4) = {asym:.4}"
+                );
+                w(&mut f, format!("{om},{e},{spread},{exact},{asym}"))?;
+            }
+            Err(e) => {
+                println!("  Ω = {om:<5} failed: {e}");
+                w(&mut f, format!("{om},NaN,NaN,{exact},{asym}"))?;
+            }
+        }
+    }
+    println!("  table: {}", path.display());
+    Ok(())
+}

@@ -1,0 +1,134 @@
+//! Buoyancy through the whole coupled system (real coupler, fluid-node and solid-node processes
+//! over shared memory): a block of density 500 floats at draft (ρ_b/ρ_w)·h, a block of density
+//! 2500 sinks and comes to rest on the bottom (DESIGN §8, issue 5).
+//!
+//! The scenes are scenes/validation/{floating,sinking}_block.toml: a quasi-2D slab tank at
+//! dx = 0.02 m (about 2 400 particles), so each run takes seconds, not minutes. The floating
+//! block starts at its equilibrium draft and the draft is averaged over the second half of the
+//! run (0.75 s, more than one heave period), not read after the oscillation dies out.
+
+mod common;
+
+use common::*;
+use std::path::{Path, PathBuf};
+
+fn validation_scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .join("scenes/validation")
+        .join(name)
+}
+
+/// Rows of a CSV file with a header: (header, numeric rows; text cells become NaN).
+fn csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let header: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let cells: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    let nums = cells
+        .iter()
+        .map(|r| r.iter().map(|c| c.parse().unwrap_or(f64::NAN)).collect())
+        .collect();
+    (header, nums, cells)
+}
+
+fn col(header: &[String], name: &str) -> usize {
+    header.iter().position(|h| h == name).expect("column")
+}
+
+/// Mean free surface at the gauges minus mean block bottom over [t0, t1].
+fn mean_draft(dir: &Path, height: f64, t0: f64, t1: f64) -> f64 {
+    let (gh, g, _) = csv(&dir.join("gauges.csv"));
+    let surface: Vec<f64> = g
+        .iter()
+        .filter(|r| r[0] >= t0 && r[0] <= t1)
+        .flat_map(|r| r[1..gh.len()].to_vec())
+        .collect();
+    let (bh, b, _) = csv(&dir.join("blocks.csv"));
+    let z = col(&bh, "z");
+    let bottom: Vec<f64> = b
+        .iter()
+        .filter(|r| r[0] >= t0 && r[0] <= t1)
+        .map(|r| r[z] - 0.5 * height)
+        .collect();
+    assert!(!surface.is_empty() && !bottom.is_empty(), "no samples");
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    mean(&surface) - mean(&bottom)
+}
+
+#[test]
+fn floating_block_settles_at_its_draft() {
+    let (id, out) = fresh("floating");
+    let scene = validation_scene("floating_block.toml");
+    let o = run(coupler(&id, &out, &[scene.to_str().unwrap()]));
+    assert!(o.status.success(), "run failed: {}", stderr(&o));
+    let s = summary(&out);
+    assert_eq!(s["status"], "completed");
+    let (h, rho_b, rho_w) = (0.2, 500.0, 1000.0);
+    let reference = rho_b / rho_w * h;
+    let draft = mean_draft(&out, h, 0.75, 1.5);
+    let error = (draft - reference).abs() / reference;
+    eprintln!(
+        "floating block: draft {draft:.4} m, reference {reference:.4} m, error {:.2} %",
+        100.0 * error
+    );
+    assert!(
+        error < 0.03,
+        "draft {draft:.4} m is {:.1} % off (ρ_b/ρ_w)·h = {reference} m",
+        100.0 * error
+    );
+    assert!(leftovers(&id).is_empty());
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn sinking_block_comes_to_rest_on_the_bottom() {
+    let (id, out) = fresh("sinking");
+    let scene = validation_scene("sinking_block.toml");
+    let o = run(coupler(&id, &out, &[scene.to_str().unwrap()]));
+    assert!(o.status.success(), "run failed: {}", stderr(&o));
+    assert_eq!(summary(&out)["status"], "completed");
+    let (bh, b, cells) = csv(&out.join("blocks.csv"));
+    let (z, vx, vz) = (col(&bh, "z"), col(&bh, "vx"), col(&bh, "vz"));
+    let name = col(&bh, "block");
+    let rows: Vec<&Vec<f64>> = b
+        .iter()
+        .zip(&cells)
+        .filter(|(_, c)| c[name] == "block")
+        .map(|(r, _)| r)
+        .collect();
+    let start = rows.first().unwrap()[z] - 0.1;
+    let last = rows.last().unwrap();
+    let bottom = last[z] - 0.1;
+    let speed = (last[vx].powi(2) + last[vz].powi(2)).sqrt();
+    eprintln!(
+        "sinking block: bottom from {start:.4} m to {bottom:.4} m, final speed {speed:.4} m/s"
+    );
+    assert!(start > 0.09, "it started above the floor");
+    // On the floor: the bottom within 2 mm of z = 0 (the contact springs deflect ~µm under the
+    // block's submerged weight), and at rest.
+    assert!(
+        bottom.abs() < 2e-3,
+        "bottom at {bottom} m, not on the floor"
+    );
+    assert!(speed < 0.02, "still moving at {speed} m/s");
+    // The last tenth of a second: no bouncing.
+    let t_end = last[0];
+    let late_vz = rows
+        .iter()
+        .filter(|r| r[0] > t_end - 0.1)
+        .map(|r| r[vz].abs())
+        .fold(0.0, f64::max);
+    assert!(late_vz < 0.05, "still bouncing: |vz| up to {late_vz} m/s");
+    assert!(leftovers(&id).is_empty());
+    let _ = std::fs::remove_dir_all(&out);
+}
