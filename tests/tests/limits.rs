@@ -34,6 +34,7 @@ const DRY_RESTING: &str = r#"
 name = "dry_resting"
 [time]
 end = 0.5
+dt_max = 0.05
 [domain]
 min = [-1.0, -1.0, -1.0]
 max = [1.0, 1.0, 1.0]
@@ -241,8 +242,28 @@ fn too_soft_muller_eos_is_flagged_with_its_compression() {
 #[test]
 fn target_error_picks_the_spacing_from_the_measured_curve() {
     let scene = scene_file("target", &dam_break("wcsph", ""));
+    // The targets the committed curve (written by `coupler chart`) meets at 20 and 40
+    // particles across the 0.2 m column: dx = 0.01 and 0.005 m.
+    let fit = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/charts/fluid_convergence.csv"),
+    )
+    .unwrap();
+    let line = fit
+        .lines()
+        .find(|l| l.starts_with("wcsph,"))
+        .expect("wcsph fitted");
+    let v: Vec<f64> = line
+        .split(',')
+        .skip(1)
+        .map(|x| x.parse().unwrap())
+        .collect();
+    let (c, p) = (v[0], v[1]);
+    let targets: Vec<String> = [20.0f64, 40.0]
+        .iter()
+        .map(|n| format!("{}", 1.0001 * c * n.powf(-p)))
+        .collect();
     let mut chosen = Vec::new();
-    for target in ["0.2", "0.05"] {
+    for target in &targets {
         let (id, out, o) = run_scene(
             "target",
             &scene,
@@ -271,8 +292,8 @@ fn target_error_picks_the_spacing_from_the_measured_curve() {
         let _ = std::fs::remove_dir_all(&out);
     }
     assert!(
-        chosen[1] < chosen[0],
-        "a tighter target must give a finer spacing: {chosen:?}"
+        (chosen[0] - 0.01).abs() < 1e-9 && (chosen[1] - 0.005).abs() < 1e-9,
+        "a tighter target must give the finer spacing the curve asks for: {chosen:?}"
     );
     let _ = std::fs::remove_dir_all(scene.parent().unwrap());
 }
