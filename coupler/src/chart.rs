@@ -245,14 +245,15 @@ where
         .caption(title, ("sans-serif", 22))
         .margin(16)
         .x_label_area_size(48)
-        .y_label_area_size(200)
-        .build_cartesian_2d((vmin / 1.6..vmax * 1.6).log_scale(), -0.5..n - 0.5)
+        .y_label_area_size(300)
+        // One empty row below the methods holds the legend.
+        .build_cartesian_2d((vmin / 1.6..vmax * 1.6).log_scale(), -1.5..n - 0.5)
         .map_err(e)?;
     let labels = methods.clone();
     chart
         .configure_mesh()
         .x_desc(x_label)
-        .y_labels(methods.len().max(1))
+        .y_labels(2 * (methods.len() + 2))
         .y_label_formatter(&move |y: &f64| {
             let i = y.round();
             if (y - i).abs() < 1e-6 && i >= 0.0 {
@@ -281,17 +282,14 @@ where
             .draw_series(std::iter::once(Circle::new((t.value, row), 9, style)))
             .map_err(e)?;
     }
+    // Legend entries only: no points (a point outside the range would still be drawn).
     chart
-        .draw_series(std::iter::once(Circle::new(
-            (vmin, -10.0),
-            9,
-            green.filled(),
-        )))
+        .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
         .map_err(e)?
         .label("stable")
         .legend(move |(x, y)| Circle::new((x + 8, y), 6, green.filled()));
     chart
-        .draw_series(std::iter::once(Circle::new((vmin, -10.0), 9, red.filled())))
+        .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
         .map_err(e)?
         .label("unstable (detected, named)")
         .legend(move |(x, y)| Circle::new((x + 8, y), 6, red.filled()));
@@ -320,15 +318,15 @@ pub fn stability_map(
     for t in trials {
         writeln!(
             f,
-            "{},{},{},\"{}\"",
-            t.method,
+            "\"{}\",{},{},\"{}\"",
+            t.method.replace('"', "'"),
             t.value,
             t.stable,
             t.detail.replace('"', "'")
         )
         .map_err(|e| e.to_string())?;
     }
-    let h = 140
+    let h = 200
         + 60 * trials
             .iter()
             .map(|t| &t.method)
@@ -337,18 +335,80 @@ pub fn stability_map(
     ensure_font()?;
     let svg = stem.with_extension("svg");
     draw_stability(
-        SVGBackend::new(&svg, (900, h)).into_drawing_area(),
+        SVGBackend::new(&svg, (1000, h)).into_drawing_area(),
         title,
         x_label,
         trials,
     )?;
     let png = stem.with_extension("png");
     draw_stability(
-        BitMapBackend::new(&png, (900, h)).into_drawing_area(),
+        BitMapBackend::new(&png, (1000, h)).into_drawing_area(),
         title,
         x_label,
         trials,
     )
+}
+
+/// Splits one CSV line, honouring double quotes (no escaped quotes inside: the writers here
+/// replace them).
+fn split_csv(line: &str) -> Vec<String> {
+    let mut out = vec![String::new()];
+    let mut quoted = false;
+    for c in line.chars() {
+        match c {
+            '"' => quoted = !quoted,
+            ',' if !quoted => out.push(String::new()),
+            c => out.last_mut().expect("one cell").push(c),
+        }
+    }
+    out
+}
+
+/// Reads the samples back from a CSV written by [`error_vs_time`] (to redraw a chart).
+pub fn read_samples(stem: &Path) -> Result<Vec<Sample>, String> {
+    let path = stem.with_extension("csv");
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    text.lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let c = split_csv(l);
+            let num = |i: usize| c.get(i).and_then(|v| v.parse::<f64>().ok());
+            match (num(2), num(3)) {
+                (Some(wall_seconds), Some(error)) => Ok(Sample {
+                    series: c[0].clone(),
+                    params: c[1].clone(),
+                    wall_seconds,
+                    error,
+                }),
+                _ => Err(format!("bad line in {}: {l}", path.display())),
+            }
+        })
+        .collect()
+}
+
+/// Reads the trials back from a CSV written by [`stability_map`].
+pub fn read_trials(stem: &Path) -> Result<Vec<Trial>, String> {
+    let path = stem.with_extension("csv");
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    text.lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let c = split_csv(l);
+            match (c.get(1).and_then(|v| v.parse().ok()), c.get(2)) {
+                (Some(value), Some(stable)) => Ok(Trial {
+                    method: c[0].clone(),
+                    value,
+                    stable: stable == "true",
+                    detail: c.get(3).cloned().unwrap_or_default(),
+                }),
+                _ => Err(format!("bad line in {}: {l}", path.display())),
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -400,6 +460,13 @@ mod tests {
             },
         ];
         stability_map(&dir.join("m"), "map", "dt factor", &trials).unwrap();
+        let back = read_trials(&dir.join("m")).unwrap();
+        assert_eq!(back.len(), 2);
+        assert!(!back[0].stable || back[0].value == 0.5);
+        assert_eq!(back[1].detail, "energy grew");
+        let samples_back = read_samples(&dir.join("c")).unwrap();
+        assert_eq!(samples_back.len(), 3);
+        assert_eq!(samples_back[1].error, 0.2);
         assert!(
             std::fs::read_to_string(dir.join("m.csv"))
                 .unwrap()

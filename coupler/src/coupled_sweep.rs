@@ -132,8 +132,9 @@ pub fn floating(exe: Option<&Path>, scratch: &Scratch, config: &Config) -> Float
             dir: out.clone(),
         },
     };
-    // The draft over the second half of the run: long enough to hold a heave period (~0.7 s
-    // for a 0.1 m draft with its added mass) when the run lasts 1.5 s.
+    // The draft over the second half of the run: the block starts at the exact equilibrium and
+    // settles a few mm deeper (the Eq. 22 boundary) within ~0.5 s; averaging [0.5, 1] s spans
+    // about one heave period of what is left of that oscillation.
     let draft = runner::mean_draft(&out, BLOCK, h, 0.5 * config.end, config.end);
     FloatRun {
         config: config.clone(),

@@ -213,7 +213,7 @@ mod tests {
         assert!((fit.p - p).abs() < 1e-9 && (fit.c - c).abs() < 1e-9);
         let n = fit.particles_for(0.01);
         assert!((fit.error_at(n) - 0.01).abs() < 1e-12);
-        let back = parse_csv(&to_csv(&[fit.clone()])).unwrap();
+        let back = parse_csv(&to_csv(std::slice::from_ref(&fit))).unwrap();
         assert!((back[0].p - fit.p).abs() < 1e-5 && (back[0].c / fit.c - 1.0).abs() < 1e-5);
     }
 

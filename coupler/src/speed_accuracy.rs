@@ -31,6 +31,39 @@ pub struct ChartArgs {
     /// Only these charts (fluid, solid, coupled); default all three.
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
+    /// Redraw the charts from the CSV files already in --out, running nothing.
+    #[arg(long)]
+    pub replot: bool,
+}
+
+/// File stem, title and error label of each chart.
+const FLUID_CHART: (&str, &str, &str) = (
+    "fluid_speed_accuracy",
+    "Dam break (Martin & Moyce, n² = 2): front error against wall time",
+    "mean |Z − Z_ref| / Z_ref",
+);
+const FLUID_SELF_CHART: (&str, &str, &str) = (
+    "fluid_self_convergence",
+    "Dam break: front difference from the finest run against wall time",
+    "mean |Z − Z_finest| / Z_finest",
+);
+const SOLID_CHART: (&str, &str, &str) = (
+    "solid_speed_accuracy",
+    "Block on a 30° incline (φ = 20°): sliding distance error against wall time",
+    "|d(1 s) − d_ref| / d_ref",
+);
+const COUPLED_CHART: (&str, &str, &str) = (
+    "coupled_speed_accuracy",
+    "Floating block (ρ_b/ρ_w = 0.5): draft error against wall time",
+    "|draft − (ρ_b/ρ_w) h| / ((ρ_b/ρ_w) h)",
+);
+
+fn draw(out: &Path, c: (&str, &str, &str), samples: &[Sample]) -> Result<(), String> {
+    let stem = out.join(c.0);
+    chart::error_vs_time(&stem, c.1, c.2, samples)?;
+    print_front(samples, "");
+    println!("  chart: {}.{{csv,svg,png}}", stem.display());
+    Ok(())
 }
 
 /// The sweep sizes of one mode.
@@ -43,6 +76,8 @@ struct Plan {
     coupled_fluid: &'static [&'static str],
     coupled_solid: &'static [&'static str],
     coupled_end: f64,
+    /// One finer run of the paper's pairing (wcsph + explicit, parallel): the 3 % check.
+    coupled_fine: Option<f64>,
 }
 
 const FULL: Plan = Plan {
@@ -50,10 +85,11 @@ const FULL: Plan = Plan {
     fluid_dt: &[0.5, 1.0, 2.0],
     solid_k: &[1e6, 1e7, 1e8, 1e9],
     solid_dt: &[0.25, 0.5, 1.0, 1.5],
-    coupled_dx: &[0.04, 0.02, 0.01],
+    coupled_dx: &[0.04, 0.02],
     coupled_fluid: &["wcsph", "muller"],
     coupled_solid: &["explicit", "implicit"],
-    coupled_end: 1.5,
+    coupled_end: 1.0,
+    coupled_fine: Some(0.01),
 };
 
 const QUICK: Plan = Plan {
@@ -64,7 +100,8 @@ const QUICK: Plan = Plan {
     coupled_dx: &[0.04, 0.02],
     coupled_fluid: &["wcsph"],
     coupled_solid: &["explicit"],
-    coupled_end: 1.5,
+    coupled_end: 1.0,
+    coupled_fine: None,
 };
 
 /// Runs `coupler chart`; returns the exit code.
@@ -87,6 +124,18 @@ fn run_inner(args: &ChartArgs) -> Result<(), String> {
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let mode = if args.quick { "quick" } else { "full" };
+    if args.replot {
+        for c in [FLUID_CHART, FLUID_SELF_CHART, SOLID_CHART, COUPLED_CHART] {
+            match chart::read_samples(&args.out.join(c.0)) {
+                Ok(samples) => {
+                    println!("{}", c.1);
+                    draw(&args.out, c, &samples)?
+                }
+                Err(e) => println!("{}: skipped ({e})", c.0),
+            }
+        }
+        return Ok(());
+    }
     if wanted(args, "fluid") {
         fluid(plan, &args.out, mode)?;
     }
@@ -113,11 +162,19 @@ fn print_front(samples: &[Sample], unit: &str) {
 fn fluid(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
     println!("fluid: dam break n² = 2, a = 0.1 m, against Martin & Moyce ({mode} sweep)");
     let mut samples = Vec::new();
+    let mut self_samples = Vec::new();
     let mut fits = Vec::new();
     for solver in ["wcsph", "muller"] {
         let mut at_one: Vec<DamRun> = Vec::new();
+        let mut all: Vec<DamRun> = Vec::new();
+        let finest = *plan.fluid_per_a.last().expect("resolutions");
         for &per_a in plan.fluid_per_a {
             for &f in plan.fluid_dt {
+                // The finest resolution only at dt × 1: it is the self-convergence reference,
+                // and the dearest run by far.
+                if per_a == finest && f != 1.0 && plan.fluid_per_a.len() > 3 {
+                    continue;
+                }
                 let r = fluid_sweep::dam_break(solver, per_a, f);
                 let err = r.experiment_error();
                 println!(
@@ -137,8 +194,28 @@ fn fluid(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
                     wall_seconds: r.wall_seconds,
                     error: err,
                 });
+                if r.result.is_ok() {
+                    all.push(r.clone());
+                }
                 if f == 1.0 && r.result.is_ok() {
                     at_one.push(r);
+                }
+            }
+        }
+        // Against the finest run at dt × 1 (the converged solution as far as measured): the
+        // discretisation error alone, which the experiment error mixes with the model's.
+        if let Some(Ok(fine)) = at_one.last().map(|r| &r.result) {
+            for r in all
+                .iter()
+                .filter(|r| !(r.per_a == finest && r.dt_factor == 1.0))
+            {
+                if let Ok(d) = &r.result {
+                    self_samples.push(Sample {
+                        series: solver.to_string(),
+                        params: format!("a/dx={} dt×{}", r.per_a, r.dt_factor),
+                        wall_seconds: r.wall_seconds,
+                        error: fluid_sweep::front_difference(d, fine),
+                    });
                 }
             }
         }
@@ -162,21 +239,17 @@ fn fluid(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
             Err(e) => println!("  {solver}: no convergence fit: {e}"),
         }
     }
-    let stem = out.join("fluid_speed_accuracy");
-    chart::error_vs_time(
-        &stem,
-        "Dam break (Martin & Moyce, n² = 2): front error against wall time",
-        "mean |Z − Z_ref| / Z_ref",
-        &samples,
-    )?;
-    print_front(&samples, "");
+    draw(out, FLUID_CHART, &samples)?;
+    if !self_samples.is_empty() {
+        println!("  against the finest run:");
+        draw(out, FLUID_SELF_CHART, &self_samples)?;
+    }
     if !fits.is_empty() {
         let path = out.join("fluid_convergence.csv");
         std::fs::write(&path, resolution::to_csv(&fits))
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         println!("  convergence curve written to {}", path.display());
     }
-    println!("  chart: {}.{{csv,svg,png}}", stem.display());
     Ok(())
 }
 
@@ -213,15 +286,7 @@ fn solid(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
             }
         }
     }
-    let stem = out.join("solid_speed_accuracy");
-    chart::error_vs_time(
-        &stem,
-        "Block on a 30° incline (φ = 20°): sliding distance error against wall time",
-        "|d(1 s) − d_ref| / d_ref",
-        &samples,
-    )?;
-    print_front(&samples, "");
-    println!("  chart: {}.{{csv,svg,png}}", stem.display());
+    draw(out, SOLID_CHART, &samples)?;
     Ok(())
 }
 
@@ -231,11 +296,12 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
     );
     let scratch = Scratch::new("chart")?;
     let mut samples = Vec::new();
+    let mut configs = Vec::new();
     for &fluid in plan.coupled_fluid {
         for &solid in plan.coupled_solid {
             for scheme in [Scheme::Parallel, Scheme::Serial] {
                 for &dx in plan.coupled_dx {
-                    let config = Config {
+                    configs.push(Config {
                         fluid: fluid.into(),
                         solid: solid.into(),
                         scheme,
@@ -244,47 +310,54 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
                         density: None,
                         penalty_stiffness: None,
                         end: plan.coupled_end,
-                    };
-                    let r = coupled_sweep::floating(None, &scratch, &config);
-                    let err = r.error();
-                    println!(
-                        "  {:<28} dx = {dx:<5} {:>8.2} s  {}",
-                        config.label(),
-                        r.outcome.wall_seconds,
-                        match &r.draft {
-                            Ok((d, v)) if r.outcome.completed() => format!(
-                                "draft {d:.4} m (reference {:.4}), error {:.2} %, |vz| ≤ {v:.3} m/s",
-                                r.reference,
-                                100.0 * err
-                            ),
-                            _ => format!("{}: {}", r.outcome.status, r.outcome.detail()),
-                        }
-                    );
-                    samples.push(Sample {
-                        series: config.label(),
-                        params: format!(
-                            "dx={dx}{}",
-                            if err.is_nan() {
-                                format!(" {}", r.outcome.status)
-                            } else {
-                                String::new()
-                            }
-                        ),
-                        wall_seconds: r.outcome.wall_seconds,
-                        error: err,
                     });
                 }
             }
         }
     }
-    let stem = out.join("coupled_speed_accuracy");
-    chart::error_vs_time(
-        &stem,
-        "Floating block (ρ_b/ρ_w = 0.5): draft error against wall time",
-        "|draft − (ρ_b/ρ_w) h| / ((ρ_b/ρ_w) h)",
-        &samples,
-    )?;
-    print_front(&samples, "");
-    println!("  chart: {}.{{csv,svg,png}}", stem.display());
+    if let Some(dx) = plan.coupled_fine {
+        configs.push(Config {
+            fluid: "wcsph".into(),
+            solid: "explicit".into(),
+            scheme: Scheme::Parallel,
+            dx,
+            dt_factor: 1.0,
+            density: None,
+            penalty_stiffness: None,
+            end: plan.coupled_end,
+        });
+    }
+    for config in &configs {
+        let dx = config.dx;
+        let r = coupled_sweep::floating(None, &scratch, config);
+        let err = r.error();
+        println!(
+            "  {:<28} dx = {dx:<5} {:>8.2} s  {}",
+            config.label(),
+            r.outcome.wall_seconds,
+            match &r.draft {
+                Ok((d, v)) if r.outcome.completed() => format!(
+                    "draft {d:.4} m (reference {:.4}), error {:.2} %, |vz| ≤ {v:.3} m/s",
+                    r.reference,
+                    100.0 * err
+                ),
+                _ => format!("{}: {}", r.outcome.status, r.outcome.detail()),
+            }
+        );
+        samples.push(Sample {
+            series: config.label(),
+            params: format!(
+                "dx={dx}{}",
+                if err.is_nan() {
+                    format!(" {}", r.outcome.status)
+                } else {
+                    String::new()
+                }
+            ),
+            wall_seconds: r.outcome.wall_seconds,
+            error: err,
+        });
+    }
+    draw(out, COUPLED_CHART, &samples)?;
     Ok(())
 }

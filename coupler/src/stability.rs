@@ -34,6 +34,33 @@ pub struct StabilityArgs {
     /// Only these maps (dt, stiffness, density, damping); default all.
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
+    /// Redraw the maps from the CSV files already in --out, running nothing.
+    #[arg(long)]
+    pub replot: bool,
+}
+
+/// File stem, title and x label of each map.
+const DT_MAP: (&str, &str, &str) = (
+    "stability_dt_factor",
+    "Stability against the step: dt = factor × the method's proposal",
+    "dt factor",
+);
+const STIFFNESS_MAP: (&str, &str, &str) = (
+    "stability_stiffness",
+    "Contact penalty stiffness at dt = 1 ms (explicit limit k = m/dt² = 4.0e7 N/m)",
+    "normal contact stiffness k [N/m]",
+);
+const DENSITY_MAP: (&str, &str, &str) = (
+    "stability_density",
+    "Block-to-water density ratio under each coupling scheme",
+    "ρ_block / ρ_water",
+);
+
+fn draw(out: &Path, map: (&str, &str, &str), trials: &[Trial]) -> Result<(), String> {
+    let stem = out.join(map.0);
+    chart::stability_map(&stem, map.1, map.2, trials)?;
+    println!("  map: {}.{{csv,svg,png}}", stem.display());
+    Ok(())
 }
 
 struct Plan {
@@ -86,6 +113,14 @@ fn wanted(args: &StabilityArgs, what: &str) -> bool {
 
 fn run_inner(args: &StabilityArgs) -> Result<(), String> {
     let plan = if args.quick { &QUICK } else { &FULL };
+    if args.replot {
+        for map in [DT_MAP, STIFFNESS_MAP, DENSITY_MAP] {
+            let trials = chart::read_trials(&args.out.join(map.0))?;
+            summarise(&trials);
+            draw(&args.out, map, &trials)?;
+        }
+        return Ok(());
+    }
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let scratch = Scratch::new("stability")?;
@@ -149,7 +184,17 @@ fn summarise(trials: &[Trial]) {
 fn coupled_trial(scratch: &Scratch, method: &str, value: f64, config: &Config) -> Trial {
     let r = coupled_sweep::floating(None, scratch, config);
     let stable = r.outcome.completed();
-    let detail = if stable {
+    let sinks = config.density.is_some_and(|rho| rho > 1000.0);
+    let detail = if stable && sinks {
+        let h = coupled_sweep::block_height(&coupled_sweep::floating_scene());
+        match crate::runner::final_block(&r.outcome.dir, coupled_sweep::BLOCK, h) {
+            Ok((bottom, v)) => format!(
+                "completed; sank: block bottom at z = {bottom:.4} m, speed {v:.3} m/s at t = {}",
+                config.end
+            ),
+            Err(e) => format!("completed; {e}"),
+        }
+    } else if stable {
         match &r.draft {
             Ok((d, v)) => format!(
                 "completed; mean draft {d:.4} m (reference {:.4}), |vz| ≤ {v:.3} m/s",
@@ -236,15 +281,7 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
         }
     }
     summarise(&trials);
-    let stem = out.join("stability_dt_factor");
-    chart::stability_map(
-        &stem,
-        "Stability against the step: dt = factor × the method's proposal",
-        "dt factor",
-        &trials,
-    )?;
-    println!("  map: {}.{{csv,svg,png}}", stem.display());
-    Ok(())
+    draw(out, DT_MAP, &trials)
 }
 
 fn stiffness_map(plan: &Plan, out: &Path) -> Result<(), String> {
@@ -268,17 +305,7 @@ fn stiffness_map(plan: &Plan, out: &Path) -> Result<(), String> {
         }
     }
     summarise(&trials);
-    let stem = out.join("stability_stiffness");
-    chart::stability_map(
-        &stem,
-        &format!(
-            "Contact penalty stiffness at dt = 1 ms (explicit limit k = m/dt² = {k_crit:.1e} N/m)"
-        ),
-        "normal contact stiffness k [N/m]",
-        &trials,
-    )?;
-    println!("  map: {}.{{csv,svg,png}}", stem.display());
-    Ok(())
+    draw(out, STIFFNESS_MAP, &trials)
 }
 
 fn density_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
@@ -306,15 +333,7 @@ fn density_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String>
         }
     }
     summarise(&trials);
-    let stem = out.join("stability_density");
-    chart::stability_map(
-        &stem,
-        "Block-to-water density ratio under each coupling scheme",
-        "ρ_block / ρ_water",
-        &trials,
-    )?;
-    println!("  map: {}.{{csv,svg,png}}", stem.display());
-    Ok(())
+    draw(out, DENSITY_MAP, &trials)
 }
 
 fn damping(plan: &Plan, out: &Path) -> Result<(), String> {
