@@ -134,6 +134,16 @@ mod tests {
     }
 
     #[test]
+    fn unknown_wall_treatment_is_named() {
+        let text = DEFAULT_SCENE.replace("\ndx = 0.04\n", "\ndx = 0.04\nwalls = \"sponge\"\n");
+        let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();
+        assert!(
+            msg.contains("fluid.walls") && msg.contains("sponge") && msg.contains("penalty"),
+            "{msg}"
+        );
+    }
+
+    #[test]
     fn bad_value_names_field_line_and_fix() {
         let text = DEFAULT_SCENE.replacen("density = 2500.0", "density = -3.0", 1);
         let err = Scene::parse(&text, "t.toml").unwrap_err();

@@ -151,8 +151,9 @@ pub struct MullerSpec {
     pub support_ratio: Option<f64>,
     /// Step limit factor on the CFL, force and viscous limits; default 0.25.
     pub cfl: Option<f64>,
-    /// Clip negative pressure to zero (p = max(k(ρ − ρ0), 0)); default false, the paper's Eq. 17.
-    /// Summed densities are low at a free surface, so Eq. 17 pulls surface particles inward.
+    /// Clip negative pressure to zero (p = max(k(ρ − ρ0), 0)); default true. `false` is the
+    /// paper's Eq. 17 as printed: summed densities are low at a free surface, so the printed
+    /// form sucks surface particles inward hard enough to make still water boil.
     pub clamp_negative_pressure: Option<bool>,
 }
 

@@ -236,6 +236,12 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                     c.at(Seg::Index(i), |c| c.shape(&w.shape, d, true))
                 });
             }
+            if let Some(walls) = &f.walls
+                && walls != "particles"
+                && walls != "penalty"
+            {
+                c.fail("walls", walls, "is not a known wall treatment", "use \"particles\" (boundary particles) or \"penalty\" (the paper's Eq. 22 only)");
+            }
             if let Some(integrator) = &f.wcsph.integrator
                 && integrator != "symplectic"
                 && integrator != "verlet"
