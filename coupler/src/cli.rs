@@ -57,6 +57,10 @@ pub struct RunArgs {
     /// Seconds a node may stay silent within one step before it is declared hung.
     #[arg(long, default_value_t = 60.0)]
     pub step_timeout: f64,
+    /// Seconds the nodes may take to set up (build the solvers, fill the water) before a node
+    /// that has not reported ready is declared hung.
+    #[arg(long, default_value_t = 600.0)]
+    pub setup_timeout: f64,
     /// Multiply every granted step by this factor (stability experiments).
     #[arg(long, default_value_t = 1.0)]
     pub dt_factor: f64,
@@ -115,6 +119,15 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             "scene '{origin}' after command-line overrides:\n{}",
             list.join("\n")
         ));
+    }
+    for (flag, v) in [
+        ("--connect-timeout", args.connect_timeout),
+        ("--step-timeout", args.step_timeout),
+        ("--setup-timeout", args.setup_timeout),
+    ] {
+        if !(v.is_finite() && v > 0.0 && v < 1e9) {
+            return Err(format!("{flag} {v}: must be a positive number of seconds"));
+        }
     }
     if !(args.dt_factor.is_finite() && args.dt_factor > 0.0) {
         return Err(format!(
@@ -194,6 +207,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         run_id: run_id.clone(),
         connect_timeout: Duration::from_secs_f64(args.connect_timeout),
         step_timeout: Duration::from_secs_f64(args.step_timeout),
+        setup_timeout: Duration::from_secs_f64(args.setup_timeout),
         dt_factor: args.dt_factor,
         progress: !args.quiet,
     };

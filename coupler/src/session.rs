@@ -34,6 +34,9 @@ pub struct RunOptions {
     pub connect_timeout: Duration,
     /// How long one step may take before a silent node is declared hung.
     pub step_timeout: Duration,
+    /// How long the nodes may take to build their solvers (filling a million particles takes a
+    /// while) before one that has not reported ready is declared hung.
+    pub setup_timeout: Duration,
     /// Multiplies the granted step (stability experiments; 1 in normal runs).
     pub dt_factor: f64,
     /// Draw a progress bar on stderr.
@@ -336,7 +339,7 @@ impl Session {
         let sample = sample.write_from_slice(&bytes);
         sample.send().map_err(iox("send setup"))?;
         self.ring();
-        self.collect_statuses(0, self.opts.connect_timeout)?;
+        self.collect_statuses(0, self.opts.setup_timeout)?;
         if self.opts.scene.output.vtk {
             dir.add_frame(
                 0,
@@ -561,7 +564,8 @@ impl Session {
         let roles: Vec<Role> = self.peers.iter().map(|p| p.role).collect();
         let progress = crate::progress::Progress::new(self.opts.progress, end);
         // Step wall times, for the median and tail the benchmark reports.
-        let mut step_walls: Vec<f32> = Vec::new();
+        let expected_steps = (end / dt_max.max(1e-12)).min(1e7) as usize;
+        let mut step_walls: Vec<f32> = Vec::with_capacity(expected_steps);
         self.stats.dt_min = f64::INFINITY;
         let tol = 1e-12 * end.max(1.0);
 

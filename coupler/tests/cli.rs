@@ -107,6 +107,12 @@ fn bad_overrides_are_named() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--dx"));
     let o = coupler()
+        .args(["run", "--step-timeout=-3"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--step-timeout"));
+    let o = coupler()
         .args(["run", "--scheme", "sideways"])
         .output()
         .unwrap();
