@@ -128,6 +128,7 @@ impl Muller {
         let p = &mut sys.particles;
         let pos = &p.position;
         let walls = sys.walls.as_ref();
+        let (bodies, body_lists) = (sys.bodies.as_ref(), &sys.body_lists);
         p.density
             .par_iter_mut()
             .zip(p.pressure.par_iter_mut())
@@ -149,6 +150,14 @@ impl Muller {
                         }
                     }
                 }
+                if let Some(b) = bodies {
+                    for &j in body_lists.of(i) {
+                        let r2 = (xi - b.set.position[j as usize]).norm_squared();
+                        if r2 < h2 {
+                            sum += poly6.value_r2(r2);
+                        }
+                    }
+                }
                 *rho = m * sum;
                 let pressure = k * (*rho - rho_ref);
                 *pr = if clamp { pressure.max(0.0) } else { pressure };
@@ -157,6 +166,20 @@ impl Muller {
             w.update(&self.poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
                 rho_ref + p / k
             });
+        }
+        self.body_pressures();
+    }
+
+    /// Adami's extrapolation on the moving blocks' boundary particles (without the wall
+    /// acceleration term of Adami's Eq. 27: the solid node sends no accelerations).
+    fn body_pressures(&mut self) {
+        let (k, rho_ref) = (self.stiffness, self.rest_density);
+        let sys = &mut self.sys;
+        if let Some(b) = sys.bodies.as_mut() {
+            b.set
+                .update(&self.poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
+                    rho_ref + p / k
+                });
         }
     }
 
@@ -176,6 +199,7 @@ impl Muller {
             &p.penalty,
         );
         let walls = sys.walls.as_ref();
+        let (bodies, body_lists) = (sys.bodies.as_ref(), &sys.body_lists);
         p.acceleration
             .par_iter_mut()
             .enumerate()
@@ -204,6 +228,18 @@ impl Muller {
                         if r2 < h2 {
                             f_pressure -= spiky.gradient(&rij, r2.sqrt())
                                 * (m * (pi + w.pressure[j]) / (2.0 * w.density[j]));
+                        }
+                    }
+                }
+                // Moving blocks' boundary particles (free slip); the block takes the reverse.
+                if let Some(b) = bodies {
+                    for &j in body_lists.of(i) {
+                        let j = j as usize;
+                        let rij = xi - b.set.position[j];
+                        let r2 = rij.norm_squared();
+                        if r2 < h2 {
+                            f_pressure -= spiky.gradient(&rij, r2.sqrt())
+                                * (m * (pi + b.set.pressure[j]) / (2.0 * b.set.density[j]));
                         }
                     }
                 }
@@ -280,6 +316,20 @@ impl FluidSolver for Muller {
     }
 
     fn write_loads(&mut self, loads: &mut [BlockLoad]) {
+        // The water's pressure on the moving blocks' boundary particles, from the pressures of
+        // the last evaluation (Eq. 12 sums are recomputed at the start of `advance`) and the wall
+        // pressures extrapolated at the new pose.
+        self.sys.prepare_bodies();
+        self.body_pressures();
+        let sys = &mut self.sys;
+        if let Some(b) = sys.bodies.as_mut() {
+            let (m, spiky, p) = (sys.mass, &self.spiky, &sys.particles);
+            // Eq. 14's pressure force of the wall particle on fluid particle i (r = x_i − x_w),
+            // as a force: m·f_pressure/ρ_i.
+            b.react(&p.position, spiky.support(), |i, pw, rw, r, len| {
+                spiky.gradient(r, len) * (-m * m * (p.pressure[i] + pw) / (2.0 * rw * p.density[i]))
+            });
+        }
         self.sys.write_loads(loads);
     }
 }

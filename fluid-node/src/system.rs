@@ -9,7 +9,7 @@ use crate::kernel::Kernel;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
 use crate::penalty::{Obstacle, Penalty, resting_state};
-use crate::walls::WallParticles;
+use crate::walls::{BodyParticles, WallParticles};
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Real, Vector};
@@ -21,7 +21,8 @@ use std::path::PathBuf;
 /// How the fixed blocks hold the water (`[fluid] walls`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum WallMode {
-    /// Boundary particles on the fixed blocks (Adami et al. 2012) with Eq. 22 as a backstop.
+    /// Boundary particles on every block, fixed and moving (Adami et al. 2012), with Eq. 22 as
+    /// a backstop.
     Particles,
     /// The paper's Eq. 22 repulsion only.
     Penalty,
@@ -98,6 +99,10 @@ pub struct FluidSystem {
     /// fluid particle: rebuilt at every sort.
     pub fluid_lists: NeighborLists,
     pub wall_lists: NeighborLists,
+    /// Boundary particles of the moving blocks and the fluid's neighbours among them (rebuilt
+    /// after every sort of the fluid and every new pose).
+    pub bodies: Option<BodyParticles>,
+    pub body_lists: NeighborLists,
     pub penalty: Penalty,
     recorder: Recorder,
     pub dx: Real,
@@ -110,6 +115,7 @@ pub struct FluidSystem {
     pub time: Real,
     pub steps: u64,
     grid_valid: bool,
+    bodies_valid: bool,
     penalty_fresh: bool,
 }
 
@@ -133,7 +139,7 @@ impl FluidSystem {
         let hi = Vector::from(scene.domain.max);
         let grid = CellGrid::new(lo, hi, cell).map_err(SolverError::Failed)?;
 
-        // Eq. 22 defaults (documented in docs/validation-fluid.md): the spring is as stiff as the
+        // Eq. 22 defaults (documented in docs/VALIDATION.md): the spring is as stiff as the
         // water itself over one particle spacing, K_S = ½ρ0c²·dx (bulk modulus ρ0c² times the
         // particle's face dx² over its spacing dx, halved), so a wall yields no more than the
         // water does; the damper is critical for that spring and the particle mass; the margin is
@@ -147,13 +153,15 @@ impl FluidSystem {
             .penalty_damping
             .unwrap_or(2.0 * (ks * mass).sqrt());
         let margin = scene.coupling.margin.unwrap_or(0.5 * dx);
-        // With boundary particles the fixed blocks hold the water by pressure; Eq. 22 is then a
-        // backstop that acts only closer than half the margin, so it does not bear the load.
+        // With boundary particles the blocks, fixed and moving, hold the water by pressure;
+        // Eq. 22 is then a backstop that acts only closer than half the margin, so it does not
+        // bear the load.
         let fixed_margin = if walls == WallMode::Particles {
             0.5 * margin
         } else {
             margin
         };
+        let moving_margin = fixed_margin;
         let moving = scene.moving_blocks();
         let obstacles = scene
             .blocks
@@ -166,7 +174,7 @@ impl FluidSystem {
                     Some(k) => {
                         state.velocity = spec.velocity;
                         state.angular_velocity = spec.angular_velocity;
-                        Obstacle::new(poly.clone(), state, Some(k), margin)
+                        Obstacle::new(poly.clone(), state, Some(k), moving_margin)
                     }
                     None => Obstacle::new(poly.clone(), state, None, fixed_margin),
                 }
@@ -174,6 +182,22 @@ impl FluidSystem {
             .collect();
         let penalty = Penalty::new(ks, kd, obstacles);
 
+        // The moving blocks' boundary particles, sampled at the scene pose like the fixed ones.
+        let bodies = match walls {
+            WallMode::Penalty => None,
+            WallMode::Particles if moving.is_empty() => None,
+            WallMode::Particles => {
+                let polys: Vec<Polyhedron> =
+                    moving.iter().map(|&i| init.blocks[i].clone()).collect();
+                Some(BodyParticles::new(
+                    &polys,
+                    &init.fill.anchor,
+                    dx,
+                    cell,
+                    grid.clone(),
+                ))
+            }
+        };
         let walls = match walls {
             WallMode::Penalty => None,
             WallMode::Particles => {
@@ -210,6 +234,8 @@ impl FluidSystem {
             walls,
             fluid_lists: NeighborLists::default(),
             wall_lists: NeighborLists::default(),
+            bodies,
+            body_lists: NeighborLists::default(),
             penalty,
             recorder,
             dx,
@@ -222,6 +248,7 @@ impl FluidSystem {
             time: 0.0,
             steps: 0,
             grid_valid: false,
+            bodies_valid: false,
             penalty_fresh: false,
         };
         sys.check_domain()?;
@@ -250,27 +277,52 @@ impl FluidSystem {
                 w.activate(&self.wall_lists, pos, &self.grid, radius);
             }
             self.grid_valid = true;
+            self.bodies_valid = false;
         }
     }
 
-    /// Takes the moving blocks' poses and velocities.
+    /// [`Self::prepare`], then the fluid's neighbours among the moving blocks' boundary
+    /// particles, if the fluid or the blocks moved since they were listed.
+    pub fn prepare_bodies(&mut self) {
+        self.prepare();
+        if !self.bodies_valid {
+            if let Some(b) = &mut self.bodies {
+                let (pos, radius) = (&self.particles.position, self.grid.cell_size());
+                self.body_lists
+                    .build(pos, &b.set.position, &b.set.grid, radius, false);
+                b.set.activate(&self.body_lists, pos, &self.grid, radius);
+            }
+            self.bodies_valid = true;
+        }
+    }
+
+    /// Takes the moving blocks' poses and velocities, and carries their boundary particles.
     pub fn read_geometry(&mut self, blocks: &[BlockState]) {
         self.penalty.set_moving(blocks);
+        if let Some(b) = &mut self.bodies {
+            b.place(blocks);
+        }
+        self.bodies_valid = false;
         self.penalty_fresh = false;
     }
 
-    /// Eq. 22 on the particles for the coming step, and its reaction on the moving blocks.
+    /// Eq. 22 on the particles for the coming step, and its reaction on the moving blocks, plus
+    /// the pressure force of the water on their boundary particles (computed by the solver with
+    /// [`BodyParticles::react`] just before).
     pub fn write_loads(&mut self, loads: &mut [BlockLoad]) {
-        self.prepare();
+        self.prepare_bodies();
         self.penalty
             .apply(&mut self.particles, &self.grid, Some(loads));
+        if let Some(b) = &self.bodies {
+            b.add_loads(loads);
+        }
         self.penalty_fresh = true;
     }
 
     /// Makes sure the grid and the Eq. 22 forces are current before a force evaluation (when
     /// the solver runs without a coupler calling `write_loads`).
     pub fn begin_step(&mut self) {
-        self.prepare();
+        self.prepare_bodies();
         if !self.penalty_fresh {
             self.penalty.apply(&mut self.particles, &self.grid, None);
             self.penalty_fresh = true;

@@ -129,6 +129,21 @@ impl Wcsph {
                 rho0 * (1.0 + pw / prm.b).powf(1.0 / prm.gamma)
             });
         }
+        self.body_pressures();
+    }
+
+    /// Adami's extrapolation on the moving blocks' boundary particles. The wall acceleration
+    /// term of Adami's Eq. 27 (g − a_w) is left out: the solid node sends poses and velocities,
+    /// not accelerations, and for a block near equilibrium a_w ≪ g.
+    fn body_pressures(&mut self) {
+        let (prm, rho0) = (self.params, self.sys.rest_density);
+        let sys = &mut self.sys;
+        if let Some(b) = sys.bodies.as_mut() {
+            b.set
+                .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |pw| {
+                    rho0 * (1.0 + pw / prm.b).powf(1.0 / prm.gamma)
+                });
+        }
     }
 
     /// Momentum and continuity: acceleration and dρ/dt of every particle at the current state.
@@ -152,6 +167,7 @@ impl Wcsph {
             &p.penalty,
         );
         let walls = sys.walls.as_ref();
+        let (bodies, body_lists) = (sys.bodies.as_ref(), &sys.body_lists);
         p.acceleration
             .par_iter_mut()
             .zip(p.density_rate.par_iter_mut())
@@ -205,6 +221,23 @@ impl Wcsph {
                         ai -= grad * (m * (pi_term + w.pressure[j] / (rw * rw)));
                         // The wall is at rest: continuity with v_w = 0 (free slip: no viscosity).
                         di += m * vi.dot(&grad);
+                    }
+                }
+                // Moving blocks' boundary particles: the same pressure term (its reverse is the
+                // block's load, see `write_loads`) and continuity with the wall's rigid-body
+                // velocity (Adami 2012: free slip, the wall velocity enters through v_i − v_w).
+                if let Some(b) = bodies {
+                    for &j in body_lists.of(i) {
+                        let j = j as usize;
+                        let rij = xi - b.set.position[j];
+                        let r2 = rij.norm_squared();
+                        if r2 >= s2 {
+                            continue;
+                        }
+                        let grad = rij * kernel.gradient_factor(r2.sqrt());
+                        let rw = b.set.density[j];
+                        ai -= grad * (m * (pi_term + b.set.pressure[j] / (rw * rw)));
+                        di += m * (vi - b.velocity[j]).dot(&grad);
                     }
                 }
                 *a = ai + g + pen[i] / m;
@@ -339,6 +372,20 @@ impl FluidSolver for Wcsph {
     }
 
     fn write_loads(&mut self, loads: &mut [BlockLoad]) {
+        // The water's pressure on the moving blocks' boundary particles at the current state
+        // (the pressures are those of the last step's end, the wall pressures are extrapolated
+        // at the new pose): exactly the reverse of what the coming predictor applies to the fluid.
+        self.sys.prepare_bodies();
+        self.body_pressures();
+        let sys = &mut self.sys;
+        if let Some(b) = sys.bodies.as_mut() {
+            let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
+            b.react(&p.position, kernel.support(), |i, pw, rw, r, len| {
+                let ri = p.density[i];
+                r * (kernel.gradient_factor(len)
+                    * (-m * m * (p.pressure[i] / (ri * ri) + pw / (rw * rw))))
+            });
+        }
         self.sys.write_loads(loads);
     }
 }

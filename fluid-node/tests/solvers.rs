@@ -25,7 +25,7 @@ fn wcsph_still_water_is_hydrostatic() {
 #[test]
 fn muller_still_water_holds_the_column() {
     // The paper's symmetric (p_i + p_j)/2 form carries about half the pressure gradient of the
-    // consistent form, so pressure is not hydrostatic (see docs/validation-fluid.md); the column
+    // consistent form, so pressure is not hydrostatic (see docs/VALIDATION.md); the column
     // must still stand: surface in place, pressure rising with depth.
     let (depth, dx) = (0.1, 0.1 / 8.0);
     let s = still_water("muller", depth, dx, 0.3, None).unwrap();
@@ -206,10 +206,12 @@ fn default_scene_couples_with_the_moving_wedge() {
         let dir = TempRunDir::new("t").unwrap();
         let mut s = fluid_node::build(solver, &ctx_for(&scene, &dir)).unwrap();
         let poly = shared::geometry::Polyhedron::from_shape(&scene.blocks[wedge].shape).unwrap();
-        // Put the wedge over deep water, partly submerged, moving down at 1 m/s.
+        // Put the wedge over deep water, its lowest edge just in the surface (0.035 m under the
+        // still-water line, above the top particle layer: a wedge teleported deeper would put its
+        // boundary particles on top of fluid particles), moving down at 1 m/s.
         let mut state = shared::protocol::BlockState {
             block: wedge as u32,
-            centroid: [poly.centroid.x + 1.2, poly.centroid.y, 0.45],
+            centroid: [poly.centroid.x + 1.2, poly.centroid.y, 0.62],
             orientation: [0.0, 0.0, 0.0, 1.0],
             velocity: [0.0, 0.0, -1.0],
             ..Default::default()
