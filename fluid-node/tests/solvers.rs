@@ -87,7 +87,18 @@ fn ctx_for<'a>(scene: &'a shared::scene::Scene, dir: &'a TempRunDir) -> SetupCon
 
 #[test]
 fn unknown_solver_and_wall_treatment_are_named() {
-    let scene = still_water_scene("wcsph", 0.1, 0.025, 0.1, Some("magic"));
+    // A scene file naming an unknown wall treatment is refused when it is read...
+    let good = still_water_scene("wcsph", 0.1, 0.025, 0.1, None);
+    let text = toml::to_string(&good)
+        .unwrap()
+        .replace("[fluid]\n", "[fluid]\nwalls = \"magic\"\n");
+    let e = shared::scene::Scene::parse(&text, "t")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("fluid.walls") && e.contains("magic"), "{e}");
+    // ... and a solver handed one anyway (a scene built in code) names it too.
+    let mut scene = good;
+    scene.fluid.as_mut().unwrap().walls = Some("magic".into());
     let dir = TempRunDir::new("t").unwrap();
     let e = fluid_node::build("wcsph", &ctx_for(&scene, &dir))
         .err()
