@@ -57,6 +57,12 @@ impl EnergyMonitor {
         omega_dt: impl FnOnce() -> Real,
         hint: &str,
     ) -> Result<(), SolverError> {
+        // A scene whose only moving blocks are kinematic (a wave-maker piston) has no free
+        // block whose energy could grow: nothing to check, and 0/0 must not read as growth.
+        if world.free_mass() <= 0.0 {
+            self.ratio = 0.0;
+            return Ok(());
+        }
         let dynamic = world.kinetic_energy() + world.contact_energy();
         let available = self.initial - world.potential_energy() + self.work;
         self.ratio = dynamic / available.max(self.floor);
