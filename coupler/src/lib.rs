@@ -11,6 +11,7 @@ pub mod povray;
 pub mod progress;
 pub mod resolution;
 pub mod runner;
+pub mod runup;
 pub mod session;
 pub mod solid_sweep;
 pub mod speed_accuracy;

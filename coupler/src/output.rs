@@ -152,6 +152,9 @@ pub struct Summary {
     pub gauges: BTreeMap<String, GaugeSummary>,
     /// Last recorded centroid of each moving block [m].
     pub final_block_positions: BTreeMap<String, [f64; 3]>,
+    /// Highest water on a shore (slope, beach, wall) above the still-water level, from the
+    /// particle frames (resolved to the output interval).
+    pub max_runup: Option<crate::runup::RunUp>,
 }
 
 impl Summary {
@@ -191,6 +194,7 @@ impl Summary {
             compute_share,
             gauges: gauge_summaries(&dir.path.join("gauges.csv")),
             final_block_positions: final_positions(&dir.path.join("blocks.csv")),
+            max_runup: crate::runup::max_runup(&dir.path, scene),
         }
     }
 }

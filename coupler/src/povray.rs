@@ -216,7 +216,7 @@ pub fn export(
 }
 
 /// (time, file) pairs of a .pvd collection.
-fn pvd_frames(path: &Path) -> Vec<(f64, String)> {
+pub fn pvd_frames(path: &Path) -> Vec<(f64, String)> {
     let Ok(text) = std::fs::read_to_string(path) else {
         return Vec::new();
     };

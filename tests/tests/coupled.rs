@@ -110,6 +110,13 @@ fn sliding_wedge_makes_a_wave_that_travels_away() {
         "wave speed {speed} m/s"
     );
 
+    // The water runs up a shore (the far wall or the slope) above the still-water level, by
+    // less than the wedge's own drop height.
+    let runup = summary(&wet)["max_runup"]["height"]
+        .as_f64()
+        .expect("max_runup in summary.json");
+    assert!(runup > 0.01 && runup < 0.3, "run-up {runup} m");
+
     // Total fluid mass is conserved exactly: particles carry fixed masses and none is lost.
     let frames = summary(&wet)["stats"]["frames"].as_u64().unwrap() as u32;
     let first = particle_count(&wet.join("particles_00000.vtp"));
