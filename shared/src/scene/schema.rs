@@ -104,10 +104,10 @@ pub struct FluidSpec {
     /// `[fluid.wcsph]`: weakly compressible SPH (Tait, Wendland C2, δ-SPH).
     #[serde(default)]
     pub wcsph: WcsphSpec,
-    /// Wall treatment of the fixed blocks: `particles` (default: boundary particles on the fixed
-    /// blocks with pressure extrapolated from the fluid, Adami et al. 2012, plus Eq. 22 as a
-    /// backstop) or `penalty` (the paper's Eq. 22 repulsion only). Moving blocks always couple
-    /// through Eq. 22.
+    /// Wall treatment of every block: `particles` (default: boundary particles in the blocks
+    /// with pressure extrapolated from the fluid, Adami et al. 2012, moved with the moving
+    /// blocks and their reaction summed into the block loads, plus Eq. 22 as a backstop) or
+    /// `penalty` (the paper's Eq. 22 repulsion only).
     #[serde(default)]
     pub walls: Option<String>,
 }
