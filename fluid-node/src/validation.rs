@@ -423,18 +423,7 @@ pub const FRONT_MAX_DEVIATION: f64 = 0.30;
 /// Tolerance on hydrostatic pressure error, over ρ0 g H.
 pub const HYDROSTATIC_TOLERANCE: f64 = 0.05;
 
-/// One line of the validation table.
-#[derive(Debug, Clone)]
-pub struct Row {
-    pub case: String,
-    pub solver: String,
-    pub quantity: String,
-    pub reference: String,
-    pub measured: String,
-    pub error: String,
-    pub tolerance: String,
-    pub pass: bool,
-}
+pub use shared::report::Row;
 
 /// Resolutions of a validation run.
 #[derive(Debug, Clone, Copy)]
@@ -621,23 +610,4 @@ fn failed_row(case: &str, solver: &str, e: &SolverError) -> Row {
     }
 }
 
-/// The rows as a markdown table.
-pub fn markdown(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "| case | solver | quantity | reference | measured | error | tolerance | pass |\n|---|---|---|---|---|---|---|---|\n",
-    );
-    for r in rows {
-        s.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} |\n",
-            r.case,
-            r.solver,
-            r.quantity,
-            r.reference,
-            r.measured,
-            r.error,
-            r.tolerance,
-            if r.pass { "yes" } else { "**no**" }
-        ));
-    }
-    s
-}
+pub use shared::report::markdown;

@@ -11,6 +11,7 @@
 pub mod geometry;
 pub mod math;
 pub mod protocol;
+pub mod report;
 pub mod runtime;
 pub mod scene;
 pub mod solver;
