@@ -22,8 +22,12 @@ enum Cmd {
         /// Scene file; default: the embedded default scene.
         scene: Option<std::path::PathBuf>,
     },
-    /// Remove shared memory left behind by runs whose processes were all killed.
-    Clean,
+    /// Remove shared memory left behind by runs whose processes were all killed: every dead
+    /// run with a generated id (rw…), and the runs named here (ids given with --run-id).
+    Clean {
+        /// Run ids to clean besides the generated ones, e.g. `mytest`.
+        run_ids: Vec<String>,
+    },
     /// Speed against accuracy: run the validation cases over solvers, resolutions, dt factors
     /// and coupling schemes; write CSV, SVG and PNG charts with the Pareto front.
     Chart(coupler::speed_accuracy::ChartArgs),
@@ -92,9 +96,23 @@ fn main() -> ExitCode {
                 ExitCode::from(1)
             }
         },
-        Cmd::Clean => {
-            let cleaned = shared::transport::remove_stale_runs(std::time::Duration::ZERO);
-            println!("removed the files of {} dead run(s)", cleaned.len());
+        Cmd::Clean { run_ids } => {
+            let mut cleaned = shared::transport::remove_stale_runs(std::time::Duration::ZERO).len();
+            for id in &run_ids {
+                let id = match shared::transport::RunId::parse(id) {
+                    Ok(id) => id,
+                    Err(e) => {
+                        eprintln!("coupler: error: {e}");
+                        return ExitCode::from(1);
+                    }
+                };
+                if shared::transport::run_has_live_nodes(&id) {
+                    eprintln!("coupler: run {id} still has live processes; left alone");
+                } else if shared::transport::remove_run_files(&id) > 0 {
+                    cleaned += 1;
+                }
+            }
+            println!("removed the files of {cleaned} dead run(s)");
             ExitCode::SUCCESS
         }
     }

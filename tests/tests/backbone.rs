@@ -341,3 +341,54 @@ fn killed_coupler_takes_its_nodes_down_and_they_tidy_up() {
     );
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+#[test]
+fn clean_removes_a_named_dead_run() {
+    // A hand-named run whose every process was SIGKILLed leaves files behind; `coupler clean
+    // NAME` removes them (generated rw… ids are found without a name).
+    let (id, out) = fresh("clean");
+    let scene = scene("toy_hover.toml");
+    let named = shared::transport::RunId::parse(&format!("x{}", &id.as_str()[2..])).unwrap();
+    let mut cmd = std::process::Command::new(bin("coupler"));
+    cmd.args([
+        "run",
+        scene.to_str().unwrap(),
+        "--end",
+        "1000",
+        "--quiet",
+        "--run-id",
+        named.as_str(),
+        "--out",
+    ])
+    .arg(&out)
+    .args([
+        "--fluid-cmd",
+        &toy_fluid("hover"),
+        "--solid-cmd",
+        &toy_solid(),
+    ]);
+    let child = cmd.stderr(Stdio::piped()).spawn().unwrap();
+    let pid = child.id();
+    assert!(eventually(Duration::from_secs(10), || children(pid).len() == 2));
+    std::thread::sleep(Duration::from_millis(200));
+    let nodes = children(pid);
+    for n in &nodes {
+        unsafe_kill(*n, 9);
+    }
+    unsafe_kill(pid, 9);
+    let _ = wait_output(child, Duration::from_secs(5));
+    assert!(eventually(Duration::from_secs(3), || nodes
+        .iter()
+        .all(|&n| !shared::transport::process_alive(n))));
+    assert!(
+        !leftovers(&named).is_empty(),
+        "a SIGKILL of everything leaves files behind"
+    );
+    let o = std::process::Command::new(bin("coupler"))
+        .args(["clean", named.as_str()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(leftovers(&named).is_empty(), "{:?}", leftovers(&named));
+    std::fs::remove_dir_all(&out).unwrap();
+}
