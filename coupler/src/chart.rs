@@ -132,6 +132,10 @@ where
         .configure_mesh()
         .x_desc("wall time [s]")
         .y_desc(error_label)
+        .x_labels(8)
+        .y_labels(8)
+        .x_label_formatter(&|v: &f64| short(*v))
+        .y_label_formatter(&|v: &f64| short(*v))
         .label_style(("sans-serif", 14))
         .draw()
         .map_err(e)?;
@@ -178,6 +182,20 @@ where
         .map_err(e)?;
     root.present().map_err(e)?;
     Ok(())
+}
+
+/// A tick label with three significant digits and no float noise (0.30000000000000004 → 0.3).
+fn short(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 /// Writes `<stem>.csv`, `<stem>.svg` and `<stem>.png`: error against wall time on log–log axes,
@@ -422,6 +440,14 @@ mod tests {
             wall_seconds: t,
             error: e,
         }
+    }
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(short(0.30000000000000004), "0.3");
+        assert_eq!(short(0.0227), "0.0227");
+        assert_eq!(short(100.0), "100");
+        assert_eq!(short(52.95), "53");
     }
 
     #[test]
