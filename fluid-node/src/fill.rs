@@ -39,6 +39,33 @@ pub fn near_or_inside(poly: &Polyhedron, p: &Vector, clearance: Real) -> bool {
     poly.plane_distance(&local).0 < clearance
 }
 
+/// Describes how a volume's extent misses the lattice (None when every extent is a whole number
+/// of spacings, within 1 % of dx).
+pub fn off_lattice(volume: &Polyhedron, dx: Real) -> Option<String> {
+    let (a, b) = volume.world_aabb();
+    let axes = ["x", "y", "z"];
+    let misses: Vec<String> = (0..3)
+        .filter_map(|k| {
+            let extent = b[k] - a[k];
+            let layers = extent / dx;
+            ((layers - layers.round()).abs() > 0.01).then(|| {
+                format!(
+                    "{} extent {extent} m is {layers:.2}·dx, filled as {:.0} layers ({} m)",
+                    axes[k],
+                    layers.round(),
+                    layers.round() * dx
+                )
+            })
+        })
+        .collect();
+    (!misses.is_empty()).then(|| {
+        format!(
+            "{}; choose dx dividing the volume's size for the depth and mass the scene asks",
+            misses.join("; ")
+        )
+    })
+}
+
 /// Fills the water volumes of `fluid` with particles, leaving out every block of `blocks`.
 pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, String> {
     let dx = fluid.dx;
@@ -52,6 +79,13 @@ pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, Stri
         .collect::<Result<_, _>>()?;
     if volumes.is_empty() {
         return Ok(Fill::default());
+    }
+    // A lattice holds whole layers: a volume whose size is not a multiple of dx is filled to
+    // the nearest layer, which changes the water depth and mass the scene asked for.
+    for (i, v) in volumes.iter().enumerate() {
+        if let Some(w) = off_lattice(v, dx) {
+            eprintln!("fluid-node: warning: fluid.water[{i}]: {w}");
+        }
     }
     let mut lo = Vector::repeat(Real::INFINITY);
     let mut hi = Vector::repeat(Real::NEG_INFINITY);
@@ -123,6 +157,18 @@ mod tests {
             })
             .collect();
         f
+    }
+
+    #[test]
+    fn volumes_off_the_lattice_are_named() {
+        let b = Polyhedron::from_shape(&ShapeSpec::Box {
+            min: [0.0; 3],
+            max: [1.0, 0.8, 0.5],
+        })
+        .unwrap();
+        assert!(off_lattice(&b, 0.1).is_none());
+        let w = off_lattice(&b, 0.04).expect("0.5 m is 12.5 spacings of 0.04 m");
+        assert!(w.contains("z extent") && w.contains("12.50"), "{w}");
     }
 
     #[test]
