@@ -122,6 +122,9 @@ mod tests {
         assert!(!Row::numeric("c", "s", "q", 1.0, f64::NAN, Tolerance::Absolute(1.0)).pass);
         assert!(Row::numeric("c", "s", "q", 0.0, 0.05, Tolerance::AtMost(0.1)).pass);
         let table = markdown(&[Row::categorical("c", "s", "q", "slides", "topples")]);
-        assert!(table.contains("| slides | topples |") && table.contains("**no**"), "{table}");
+        assert!(
+            table.contains("| slides | topples |") && table.contains("**no**"),
+            "{table}"
+        );
     }
 }
