@@ -42,20 +42,7 @@ fn full_short_run_in_both_schemes() {
 #[test]
 fn killed_node_ends_the_run_within_two_seconds_and_leaves_nothing() {
     let (id, out) = fresh("kill");
-    let scene = scene("toy_hover.toml");
-    let mut cmd = coupler(
-        &id,
-        &out,
-        &[
-            scene.to_str().unwrap(),
-            "--end",
-            "1000",
-            "--fluid-cmd",
-            &toy_fluid("hover"),
-            "--solid-cmd",
-            &toy_solid(),
-        ],
-    );
+    let mut cmd = long_toy_run(&id, &out);
     let child = cmd
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -63,13 +50,7 @@ fn killed_node_ends_the_run_within_two_seconds_and_leaves_nothing() {
         .unwrap();
     let coupler_pid = child.id();
     // Wait until both nodes run, then kill the fluid node the hard way.
-    assert!(eventually(Duration::from_secs(10), || children(
-        coupler_pid
-    )
-    .len()
-        == 2));
-    std::thread::sleep(Duration::from_millis(300));
-    let fluid = children(coupler_pid)
+    let fluid = running_nodes(coupler_pid)
         .into_iter()
         .find(|p| cmdline(*p).contains("toy-fluid-node"))
         .expect("fluid node runs");
@@ -229,27 +210,12 @@ fn hung_node_is_detected_and_named() {
 fn interrupt_stops_all_three_cleanly() {
     use std::os::unix::process::CommandExt;
     let (id, out) = fresh("sigint");
-    let scene = scene("toy_hover.toml");
-    let mut cmd = coupler(
-        &id,
-        &out,
-        &[
-            scene.to_str().unwrap(),
-            "--end",
-            "1000",
-            "--fluid-cmd",
-            &toy_fluid("hover"),
-            "--solid-cmd",
-            &toy_solid(),
-        ],
-    );
+    let mut cmd = long_toy_run(&id, &out);
     // Its own process group, as a shell gives a foreground job: Ctrl-C reaches all three.
     cmd.process_group(0).stderr(Stdio::piped());
     let child = cmd.spawn().unwrap();
     let pid = child.id();
-    assert!(eventually(Duration::from_secs(10), || children(pid).len() == 2));
-    std::thread::sleep(Duration::from_millis(300));
-    let nodes = children(pid);
+    let nodes = running_nodes(pid);
     unsafe_kill_group(pid, 2);
     let (o, took) = wait_output(child, Duration::from_secs(10));
     let err = stderr(&o);
@@ -305,25 +271,10 @@ fn nodes_started_by_hand_are_attached() {
 #[test]
 fn killed_coupler_takes_its_nodes_down_and_they_tidy_up() {
     let (id, out) = fresh("coupler-kill");
-    let scene = scene("toy_hover.toml");
-    let mut cmd = coupler(
-        &id,
-        &out,
-        &[
-            scene.to_str().unwrap(),
-            "--end",
-            "1000",
-            "--fluid-cmd",
-            &toy_fluid("hover"),
-            "--solid-cmd",
-            &toy_solid(),
-        ],
-    );
+    let mut cmd = long_toy_run(&id, &out);
     let child = cmd.stderr(Stdio::piped()).spawn().unwrap();
     let pid = child.id();
-    assert!(eventually(Duration::from_secs(10), || children(pid).len() == 2));
-    std::thread::sleep(Duration::from_millis(300));
-    let nodes = children(pid);
+    let nodes = running_nodes(pid);
     unsafe_kill(pid, 9);
     let _ = wait_output(child, Duration::from_secs(5));
     // Orphaned, the nodes notice within a wait slice, stop, and the last one out removes the
@@ -347,31 +298,11 @@ fn clean_removes_a_named_dead_run() {
     // A hand-named run whose every process was SIGKILLed leaves files behind; `coupler clean
     // NAME` removes them (generated rw… ids are found without a name).
     let (id, out) = fresh("clean");
-    let scene = scene("toy_hover.toml");
     let named = shared::transport::RunId::parse(&format!("x{}", &id.as_str()[2..])).unwrap();
-    let mut cmd = std::process::Command::new(bin("coupler"));
-    cmd.args([
-        "run",
-        scene.to_str().unwrap(),
-        "--end",
-        "1000",
-        "--quiet",
-        "--run-id",
-        named.as_str(),
-        "--out",
-    ])
-    .arg(&out)
-    .args([
-        "--fluid-cmd",
-        &toy_fluid("hover"),
-        "--solid-cmd",
-        &toy_solid(),
-    ]);
+    let mut cmd = long_toy_run(&named, &out);
     let child = cmd.stderr(Stdio::piped()).spawn().unwrap();
     let pid = child.id();
-    assert!(eventually(Duration::from_secs(10), || children(pid).len() == 2));
-    std::thread::sleep(Duration::from_millis(200));
-    let nodes = children(pid);
+    let nodes = running_nodes(pid);
     for n in &nodes {
         unsafe_kill(*n, 9);
     }

@@ -134,3 +134,31 @@ pub fn summary(dir: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json written");
     serde_json::from_str(&text).expect("summary.json is JSON")
 }
+
+/// `coupler run` of the toy scene with the toy nodes, long enough (1000 s) to be interrupted.
+pub fn long_toy_run(id: &RunId, out: &Path) -> Command {
+    let scene = scene("toy_hover.toml");
+    coupler(
+        id,
+        out,
+        &[
+            scene.to_str().unwrap(),
+            "--end",
+            "1000",
+            "--fluid-cmd",
+            &toy_fluid("hover"),
+            "--solid-cmd",
+            &toy_solid(),
+        ],
+    )
+}
+
+/// Waits until the coupler `pid` has both nodes running and stepping; returns their pids.
+pub fn running_nodes(pid: u32) -> Vec<u32> {
+    assert!(
+        eventually(Duration::from_secs(10), || children(pid).len() == 2),
+        "the nodes did not start"
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    children(pid)
+}
