@@ -4,6 +4,7 @@
 //! - [`scene`]: the scene schema (TOML), its validation and the embedded default scene.
 //! - [`geometry`]: convex polyhedra built from scene shapes (faces, edges, mass properties).
 //! - [`protocol`]: the versioned wire types exchanged over shared memory each step.
+//! - [`strain`]: the constant strain of a deformable (12-DOF) DDA block.
 //! - [`solver`]: the coupling interface a solver implements (preCICE style: read, write, advance).
 //! - [`transport`]: the iceoryx2 services of one run, under a unique prefix.
 //! - [`runtime`]: the node runtime that does all the talking for a solver.
@@ -15,5 +16,6 @@ pub mod report;
 pub mod runtime;
 pub mod scene;
 pub mod solver;
+pub mod strain;
 pub mod transport;
 pub mod vtk;

@@ -7,7 +7,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Version of every layout in this module. Checked at the handshake.
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// Which side of the coupling a node plays.
 #[repr(u32)]
@@ -223,7 +223,8 @@ pub struct BlockState {
     /// Range of this block's corners in the vertex message.
     pub first_vertex: u32,
     pub vertex_count: u32,
-    pub _reserved: u32,
+    /// [`BlockState::DEFORMABLE`] when the block is a 12-DOF deformable DDA block.
+    pub flags: u32,
     /// Centroid position [m].
     pub centroid: [f64; 3],
     /// Unit quaternion, in nalgebra's coordinate order [i, j, k, w].
@@ -232,6 +233,11 @@ pub struct BlockState {
     pub velocity: [f64; 3],
     /// Angular velocity [rad/s].
     pub angular_velocity: [f64; 3],
+    /// Constant strain (εx, εy, εz, γyz, γzx, γxy) in the block frame (see [`crate::strain`]);
+    /// zero for rigid blocks.
+    pub strain: [f64; 6],
+    /// Its rate [1/s].
+    pub strain_rate: [f64; 6],
 }
 
 impl BlockState {
@@ -248,9 +254,41 @@ impl BlockState {
     pub fn angular_velocity(&self) -> crate::math::Vector {
         crate::math::Vector::from(self.angular_velocity)
     }
-    /// Velocity of the material point of the block at world position `p` (v + ω × r).
+    /// Flag bit of a deformable block.
+    pub const DEFORMABLE: u32 = 1;
+
+    pub fn is_deformable(&self) -> bool {
+        self.flags & Self::DEFORMABLE != 0
+    }
+    pub fn strain(&self) -> crate::strain::Strain {
+        crate::strain::Strain::from(self.strain)
+    }
+    /// The linear map of the block frame to the world, R (I + E): a material point at X (block
+    /// frame, undeformed) is at c + F X. R for a rigid block.
+    pub fn deformation(&self) -> crate::math::Matrix {
+        let r = self.rotation().to_rotation_matrix().into_inner();
+        if self.is_deformable() {
+            r * (crate::math::Matrix::identity() + crate::strain::tensor(&self.strain()))
+        } else {
+            r
+        }
+    }
+    /// Velocity of the material point of the block at world position `p`: v + ω × r, plus
+    /// R Ė X for a deformable block (X the point's undeformed block-frame position).
     pub fn point_velocity(&self, p: &crate::math::Point) -> crate::math::Vector {
-        self.velocity() + self.angular_velocity().cross(&(p - self.centroid()))
+        let r = p - self.centroid();
+        let rigid = self.velocity() + self.angular_velocity().cross(&r);
+        if !self.is_deformable() {
+            return rigid;
+        }
+        let rot = self.rotation();
+        let stretch = crate::math::Matrix::identity() + crate::strain::tensor(&self.strain());
+        let x = stretch
+            .try_inverse()
+            .unwrap_or_else(crate::math::Matrix::identity)
+            * rot.inverse_transform_vector(&r);
+        let rate = crate::strain::tensor(&crate::strain::Strain::from(self.strain_rate));
+        rigid + rot * (rate * x)
     }
 }
 
@@ -271,4 +309,7 @@ pub struct BlockLoad {
     pub _reserved: u32,
     pub force: [f64; 3],
     pub torque: [f64; 3],
+    /// Generalised force on the strain unknowns, Σ T_e(X)ᵀ Rᵀ f over the forces f at material
+    /// points X ([`crate::strain::generalised_force`]); zero for rigid blocks.
+    pub strain_load: [f64; 6],
 }

@@ -297,6 +297,7 @@ mod tests {
             motion: None,
             friction_angle: None,
             cohesion: None,
+            elastic: None,
         }
     }
 

@@ -86,6 +86,7 @@ mod tests {
             motion: None,
             friction_angle: None,
             cohesion: None,
+            elastic: None,
         };
         Block::from_spec(0, &spec).unwrap()
     }

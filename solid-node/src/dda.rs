@@ -124,11 +124,13 @@ impl SolidSolver for DdaSolver {
                 block: b.scene_index as u32,
                 first_vertex: first as u32,
                 vertex_count: n as u32,
-                _reserved: 0,
+                flags: 0,
                 centroid: b.position.coords.into(),
                 orientation: b.rotation.coords.into(),
                 velocity: b.velocity.into(),
                 angular_velocity: b.angular_velocity.into(),
+                strain: [0.0; 6],
+                strain_rate: [0.0; 6],
             };
             for (dst, v) in vertices[first..first + n].iter_mut().zip(&b.world_vertices) {
                 *dst = [v.x, v.y, v.z];

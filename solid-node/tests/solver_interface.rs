@@ -87,6 +87,7 @@ fn fluid_loads_move_the_block() {
             _reserved: 0,
             force: [3.0, -1.0, 2.0],
             torque: [0.0, 0.0, 0.5],
+            ..Default::default()
         };
         let t = 0.5;
         while h.time() < t - 1e-12 {
@@ -261,6 +262,7 @@ fn non_finite_load_is_unstable_not_nan_output() {
             _reserved: 0,
             force: [f64::NAN, 0.0, 0.0],
             torque: [0.0; 3],
+            ..Default::default()
         }]);
         let err = h.solver.advance(1e-3).unwrap_err();
         assert!(

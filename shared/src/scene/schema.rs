@@ -376,6 +376,26 @@ pub struct BlockSpec {
     /// Joint cohesion for contacts of this block [Pa]; a pair uses the smaller of the two.
     #[serde(default)]
     pub cohesion: Option<f64>,
+    /// Makes a free block deformable: Shi's 12-DOF DDA block (6 rigid + 6 constant strains).
+    /// Absent, the block is rigid (6 DOF): a rock's elastic strain (~10⁻⁶) changes no wave.
+    #[serde(default)]
+    pub elastic: Option<ElasticSpec>,
+}
+
+/// `elastic = { young_modulus = ..., poisson_ratio = ... }` of a deformable block: linear
+/// isotropic elasticity of its constant strain (Shi 1993, the 3D-DDA stiffness sub-matrix).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ElasticSpec {
+    /// Young's modulus E [Pa].
+    pub young_modulus: f64,
+    /// Poisson's ratio ν, in [0, 0.5).
+    #[serde(default = "default_poisson_ratio")]
+    pub poisson_ratio: f64,
+}
+
+fn default_poisson_ratio() -> f64 {
+    0.25
 }
 
 fn default_rock_density() -> f64 {

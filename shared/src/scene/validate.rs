@@ -417,6 +417,31 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                 {
                     c.fail("cohesion", coh, "must be >= 0", "give cohesion in Pa");
                 }
+                if let Some(el) = &b.elastic {
+                    if b.kind != BlockKind::Free {
+                        c.fail(
+                            "elastic",
+                            format!("{:?}", b.kind).to_lowercase(),
+                            "only free blocks deform (fixed and kinematic blocks have no unknowns)",
+                            "remove elastic, or set kind = \"free\"",
+                        );
+                    }
+                    c.key("elastic", |c| {
+                        c.positive(
+                            "young_modulus",
+                            el.young_modulus,
+                            "give Young's modulus in Pa, e.g. young_modulus = 1e10 for rock",
+                        );
+                        if !(0.0..0.5).contains(&el.poisson_ratio) {
+                            c.fail(
+                                "poisson_ratio",
+                                el.poisson_ratio,
+                                "must be in [0, 0.5) (0.5 is incompressible: no finite bulk modulus)",
+                                "e.g. poisson_ratio = 0.25",
+                            );
+                        }
+                    });
+                }
             })
         });
     }
