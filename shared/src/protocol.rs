@@ -263,32 +263,27 @@ impl BlockState {
     pub fn strain(&self) -> crate::strain::Strain {
         crate::strain::Strain::from(self.strain)
     }
-    /// The linear map of the block frame to the world, R (I + E): a material point at X (block
-    /// frame, undeformed) is at c + F X. R for a rigid block.
+    /// The linear map of the block frame to the world, F = R (I + E) (R for a rigid block).
     pub fn deformation(&self) -> crate::math::Matrix {
-        let r = self.rotation().to_rotation_matrix().into_inner();
-        if self.is_deformable() {
-            r * (crate::math::Matrix::identity() + crate::strain::tensor(&self.strain()))
-        } else {
-            r
-        }
+        self.material_map().map
+    }
+    /// Positions and velocities of the block's material points at this state.
+    pub fn material_map(&self) -> crate::strain::MaterialMap {
+        let (e, e_dot) = (self.strain(), crate::strain::Strain::from(self.strain_rate));
+        crate::strain::MaterialMap::new(
+            self.centroid().coords,
+            self.rotation().to_rotation_matrix().into_inner(),
+            self.velocity(),
+            self.angular_velocity(),
+            self.is_deformable().then_some((&e, &e_dot)),
+        )
     }
     /// Velocity of the material point of the block at world position `p`: v + ω × r, plus
-    /// R Ė X for a deformable block (X the point's undeformed block-frame position).
+    /// R Ė X for a deformable block. (Builds the map: hot loops should keep a
+    /// [`Self::material_map`] instead.)
     pub fn point_velocity(&self, p: &crate::math::Point) -> crate::math::Vector {
-        let r = p - self.centroid();
-        let rigid = self.velocity() + self.angular_velocity().cross(&r);
-        if !self.is_deformable() {
-            return rigid;
-        }
-        let rot = self.rotation();
-        let stretch = crate::math::Matrix::identity() + crate::strain::tensor(&self.strain());
-        let x = stretch
-            .try_inverse()
-            .unwrap_or_else(crate::math::Matrix::identity)
-            * rot.inverse_transform_vector(&r);
-        let rate = crate::strain::tensor(&crate::strain::Strain::from(self.strain_rate));
-        rigid + rot * (rate * x)
+        let m = self.material_map();
+        m.velocity(&m.material(&p.coords))
     }
 }
 

@@ -115,6 +115,84 @@ pub fn inertia(second_moment: &Matrix, density: Real) -> Matrix6 {
     m * density
 }
 
+/// Where a block's material points are and how fast they move, computed once per pose:
+/// x = c + F X and ẋ = v + ω × (F X) + R Ė X, with F = R (I + E). For a rigid block F = R and
+/// the strain terms vanish.
+#[derive(Debug, Clone, Copy)]
+pub struct MaterialMap {
+    pub centroid: Vector,
+    /// F = R (I + E).
+    pub map: Matrix,
+    /// F⁻¹.
+    pub inverse: Matrix,
+    pub rotation: Matrix,
+    pub velocity: Vector,
+    pub angular_velocity: Vector,
+    /// R Ė.
+    pub strain_velocity: Matrix,
+    pub deformable: bool,
+}
+
+impl MaterialMap {
+    /// Builds the map of a block at centroid `c`, rotation `r`, velocities `v`, `w`, strain `e`
+    /// and strain rate `e_dot` (`None` for a rigid block).
+    pub fn new(
+        c: Vector,
+        r: Matrix,
+        v: Vector,
+        w: Vector,
+        strain: Option<(&Strain, &Strain)>,
+    ) -> Self {
+        let (map, strain_velocity) = match strain {
+            Some((e, e_dot)) => (r * (Matrix::identity() + tensor(e)), r * tensor(e_dot)),
+            None => (r, Matrix::zeros()),
+        };
+        Self {
+            centroid: c,
+            inverse: map.try_inverse().unwrap_or_else(|| r.transpose()),
+            map,
+            rotation: r,
+            velocity: v,
+            angular_velocity: w,
+            strain_velocity,
+            deformable: strain.is_some(),
+        }
+    }
+
+    /// World position of the material point X.
+    #[inline]
+    pub fn position(&self, x: &Vector) -> Vector {
+        self.centroid + self.map * x
+    }
+
+    /// Material point X now at world position `p`.
+    #[inline]
+    pub fn material(&self, p: &Vector) -> Vector {
+        self.inverse * (p - self.centroid)
+    }
+
+    /// Velocity of the material point X.
+    #[inline]
+    pub fn velocity(&self, x: &Vector) -> Vector {
+        let rigid = self.velocity + self.angular_velocity.cross(&(self.map * x));
+        if self.deformable {
+            rigid + self.strain_velocity * x
+        } else {
+            rigid
+        }
+    }
+
+    /// Generalised strain load of a world force `f` at the material point X (zero when rigid).
+    #[inline]
+    pub fn strain_load(&self, x: &Vector, f: &Vector) -> Strain {
+        if self.deformable {
+            generalised_force(x, &(self.rotation.transpose() * f))
+        } else {
+            Strain::zeros()
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -147,6 +225,27 @@ mod tests {
         let mu = e / (2.0 * (1.0 + nu));
         let w2 = d[(5, 5)] * v / m[(5, 5)];
         assert!((w2 / (24.0 * mu / (rho * l * l)) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn material_map_velocity_is_the_time_derivative_of_position() {
+        let r = nalgebra::Rotation3::from_euler_angles(0.3, -0.2, 0.5).into_inner();
+        let w = Vector::new(0.4, -1.0, 0.3);
+        let (e, e_dot) = (
+            Strain::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.03),
+            Strain::new(0.1, 0.2, -0.1, 0.3, -0.2, 0.1),
+        );
+        let (c, v) = (Vector::new(1.0, 2.0, 3.0), Vector::new(0.5, 0.0, -1.0));
+        let at = |t: Real| {
+            let rt = nalgebra::Rotation3::new(w * t).into_inner() * r;
+            MaterialMap::new(c + v * t, rt, v, w, Some((&(e + e_dot * t), &e_dot)))
+        };
+        let x = Vector::new(0.2, -0.4, 0.3);
+        let h = 1e-6;
+        let fd = (at(h).position(&x) - at(-h).position(&x)) / (2.0 * h);
+        assert!((fd - at(0.0).velocity(&x)).norm() < 1e-8, "{fd}");
+        let m = at(0.0);
+        assert!((m.material(&m.position(&x)) - x).norm() < 1e-14);
     }
 
     #[test]
