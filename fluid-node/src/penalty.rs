@@ -11,8 +11,9 @@ use crate::neighbors::CellGrid;
 use crate::particles::Particles;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
-use shared::math::{Isometry, Point, Real, Rotation, Vector};
+use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
+use shared::strain::{MaterialMap, Strain};
 
 /// One block as the fluid sees it.
 #[derive(Debug, Clone)]
@@ -25,53 +26,71 @@ pub struct Obstacle {
     pub moving: Option<usize>,
     /// Margin used for this block [m].
     pub margin: Real,
-    pose: Isometry,
+    /// Material positions and velocities at the current state.
+    map: MaterialMap,
+    /// World planes (outward unit normal, offset n·x) of each face at the current state: the
+    /// block frame's planes carried by F = R(I + E), whose normals turn with F⁻ᵀ.
+    planes: Vec<(Vector, Real)>,
+    /// World bounds of the corners.
+    lo: Vector,
+    hi: Vector,
 }
 
 impl Obstacle {
     pub fn new(shape: Polyhedron, state: BlockState, moving: Option<usize>, margin: Real) -> Self {
-        let pose = pose_of(&state);
-        Self {
+        let nf = shape.faces.len();
+        let mut o = Self {
             shape,
             state,
             moving,
             margin,
-            pose,
-        }
+            map: state.material_map(),
+            planes: vec![(Vector::zeros(), 0.0); nf],
+            lo: Vector::zeros(),
+            hi: Vector::zeros(),
+        };
+        o.set_state(state);
+        o
     }
 
     pub fn set_state(&mut self, state: BlockState) {
-        self.pose = pose_of(&state);
         self.state = state;
+        self.map = state.material_map();
+        let normal_map = self.map.inverse.transpose();
+        for (plane, f) in self.planes.iter_mut().zip(&self.shape.faces) {
+            let n = (normal_map * f.normal).normalize();
+            let on_face = self
+                .map
+                .position(&self.shape.vertices[f.vertices[0] as usize].coords);
+            *plane = (n, n.dot(&on_face));
+        }
+        self.lo = Vector::repeat(Real::INFINITY);
+        self.hi = Vector::repeat(Real::NEG_INFINITY);
+        for v in &self.shape.vertices {
+            let w = self.map.position(&v.coords);
+            self.lo = self.lo.inf(&w);
+            self.hi = self.hi.sup(&w);
+        }
     }
 
     /// World-frame bounds grown by the margin.
     fn bounds(&self) -> (Vector, Vector) {
-        let r = self.shape.radius + self.margin;
-        let c = self.pose.translation.vector;
-        let mut lo = Vector::repeat(Real::INFINITY);
-        let mut hi = Vector::repeat(Real::NEG_INFINITY);
-        for v in &self.shape.vertices {
-            let w = self.pose.rotation * v.coords + c;
-            lo = lo.inf(&w);
-            hi = hi.sup(&w);
-        }
-        // Never larger than the bounding sphere (cheap clamp against degenerate inputs).
-        (
-            lo.sup(&(c - Vector::repeat(r))) - Vector::repeat(self.margin),
-            hi.inf(&(c + Vector::repeat(r))) + Vector::repeat(self.margin),
-        )
+        let m = Vector::repeat(self.margin);
+        (self.lo - m, self.hi + m)
     }
 
-    /// Signed distance of a world point to the block's planes and the world normal of that face.
+    /// Signed distance of a world point to the block's planes (the largest: negative inside)
+    /// and the world normal of that face.
     #[inline]
     fn distance(&self, x: &Vector) -> (Real, Vector) {
-        let local = self
-            .pose
-            .rotation
-            .inverse_transform_vector(&(x - self.pose.translation.vector));
-        let (d, f) = self.shape.plane_distance(&Point::from(local));
-        (d, self.pose.rotation * self.shape.faces[f].normal)
+        let mut best = (Real::NEG_INFINITY, Vector::z());
+        for (n, o) in &self.planes {
+            let d = n.dot(x) - o;
+            if d > best.0 {
+                best = (d, *n);
+            }
+        }
+        best
     }
 
     /// Eq. 22 force on a particle at `x` with velocity `v`; also the surface point it acts at.
@@ -82,17 +101,12 @@ impl Obstacle {
             return None;
         }
         let surface = x - n * dist;
-        let vs = self.state.point_velocity(&Point::from(surface));
+        let vs = self.map.velocity(&self.map.material(&surface));
         let d = self.margin - dist;
         // A penalty contact pushes, never pulls: a particle leaving fast must not be held back.
         let magnitude = (ks * d - (v - vs).dot(&n) * kd).max(0.0);
         Some((n * magnitude, surface))
     }
-}
-
-fn pose_of(s: &BlockState) -> Isometry {
-    let r: Rotation = s.rotation();
-    Isometry::from_parts(s.centroid().coords.into(), r)
 }
 
 /// A block at rest at its scene pose.
@@ -187,18 +201,23 @@ impl Penalty {
                         .force(&pos[i], &vel[i], ks, kd)
                         .unwrap_or((Vector::zeros(), pos[i]));
                 });
-            let mut load = (Vector::zeros(), Vector::zeros());
-            let c = o.pose.translation.vector;
+            let (mut force, mut torque, mut strain) =
+                (Vector::zeros(), Vector::zeros(), Strain::zeros());
+            let c = o.map.centroid;
             for (&i, (f, at)) in self.candidates.iter().zip(&self.forces) {
                 particles.penalty[i as usize] += f;
-                load.0 -= f;
-                load.1 -= (at - c).cross(f);
+                force -= f;
+                torque -= (at - c).cross(f);
+                if o.map.deformable {
+                    strain -= o.map.strain_load(&o.map.material(at), f);
+                }
             }
             if let (Some(k), Some(l)) = (o.moving, loads.as_deref_mut())
                 && let Some(slot) = l.get_mut(k)
             {
-                slot.force = (Vector::from(slot.force) + load.0).into();
-                slot.torque = (Vector::from(slot.torque) + load.1).into();
+                slot.force = (Vector::from(slot.force) + force).into();
+                slot.torque = (Vector::from(slot.torque) + torque).into();
+                slot.strain_load = (Strain::from(slot.strain_load) + strain).into();
             }
         }
     }
@@ -207,6 +226,7 @@ impl Penalty {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use shared::math::Rotation;
     use shared::scene::ShapeSpec;
 
     fn cube() -> Polyhedron {
@@ -282,6 +302,46 @@ mod tests {
         let x = Vector::new(0.5, 0.5, 0.5) + n * 0.51;
         let (f, _) = ob.force(&x, &Vector::zeros(), 100.0, 0.0).unwrap();
         assert!((f - n * (100.0 * 0.04)).norm() < 1e-9, "{f}");
+    }
+
+    /// A deformable cube stretched by εz = 0.1 and shearing (γzx rate): the particle feels the
+    /// displaced top face with its material velocity, and the block's strain load is the
+    /// virtual work of the reaction, f · (δE X).
+    #[test]
+    fn deformed_block_pushes_from_its_deformed_face_and_loads_its_strain() {
+        let shape = cube();
+        let mut state = resting_state(0, &shape);
+        state.flags = BlockState::DEFORMABLE;
+        state.strain = [0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
+        state.strain_rate = [0.0, 0.0, 2.0, 0.0, 0.0, 0.0];
+        let (margin, ks, kd) = (0.05, 1000.0, 10.0);
+        let mut pen = Penalty::new(ks, kd, vec![Obstacle::new(shape, state, Some(0), margin)]);
+        // The top face is at z = 0.5 + 0.5 · 1.1 = 1.05, moving up at ε̇z · 0.5 = 1 m/s.
+        let pos = vec![Vector::new(0.6, 0.5, 1.07), Vector::new(0.5, 0.5, 1.2)];
+        let mut p = Particles::new(pos, vec![1000.0; 2]);
+        let mut grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(4.0), 0.1).unwrap();
+        let order = grid.sort(&p.position).to_vec();
+        p.permute(&order);
+        let mut loads = vec![BlockLoad::default()];
+        pen.apply(&mut p, &grid, Some(&mut loads));
+        let i = p.position.iter().position(|x| x.z < 1.1).unwrap();
+        let expected = ks * (margin - 0.02) + 1.0 * kd;
+        assert!(
+            (p.penalty[i] - Vector::new(0.0, 0.0, expected)).norm() < 1e-9,
+            "{}",
+            p.penalty[i]
+        );
+        // −f at the material point X = (0.1, 0, 0.5) of the undeformed cube.
+        let g = shared::strain::generalised_force(&Vector::new(0.1, 0.0, 0.5), &-p.penalty[i]);
+        assert!((Strain::from(loads[0].strain_load) - g).norm() < 1e-9);
+        assert!((loads[0].strain_load[2] + expected * 0.5).abs() < 1e-9);
+        // A rigid block of the same pose loads no strain.
+        let mut rigid = state;
+        rigid.flags = 0;
+        pen.obstacles[0].set_state(rigid);
+        pen.apply(&mut p, &grid, Some(&mut loads));
+        assert_eq!(loads[0].strain_load, [0.0; 6]);
+        assert!(p.penalty.iter().all(|f| f.norm() == 0.0));
     }
 
     #[test]

@@ -174,6 +174,9 @@ impl FluidSystem {
                     Some(k) => {
                         state.velocity = spec.velocity;
                         state.angular_velocity = spec.angular_velocity;
+                        if spec.elastic.is_some() {
+                            state.flags = BlockState::DEFORMABLE;
+                        }
                         Obstacle::new(poly.clone(), state, Some(k), moving_margin)
                     }
                     None => Obstacle::new(poly.clone(), state, None, fixed_margin),

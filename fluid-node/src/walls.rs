@@ -14,7 +14,8 @@
 //! Eq. 22 springs alone the particles under a floating block see no water above them, their
 //! pressure is a truncated-kernel estimate and the block floats too deep (43 % at dx = 0.04,
 //! 10 % at 0.02; docs/speed-accuracy.md). The block's boundary particles are sampled once in its
-//! local frame and carried rigidly with the pose the solid node sends; the force the water exerts
+//! local frame and carried, as the material points they are, with the pose (and the strain, for a
+//! deformable block) the solid node sends; the force the water exerts
 //! on them (the reverse of their pressure force on each fluid neighbour) is summed into the
 //! block's load, so action and reaction balance pair by pair.
 
@@ -23,8 +24,9 @@ use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
-use shared::math::{Point, Real, Vector};
+use shared::math::{Matrix, Point, Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
+use shared::strain::{MaterialMap, Strain};
 
 /// Static boundary particles with their extrapolated pressure and the density it implies.
 #[derive(Debug, Clone)]
@@ -202,15 +204,18 @@ pub struct BodyParticles {
     world: Vec<Vector>,
     /// The particles as walls: sorted positions, extrapolated pressure and density, active lists.
     pub set: WallParticles,
-    /// Rigid-body velocity v + ω × (x − c) of each sorted particle: the wall velocity of the
-    /// continuity equation (free slip, as the fixed walls).
+    /// Material velocity v + ω × (x − c) (+ R Ė X for a deformable block) of each sorted
+    /// particle: the wall velocity of the continuity equation (free slip, as the fixed walls).
     pub velocity: Vec<Vector>,
     pub owner_sorted: Vec<u32>,
-    /// Centroid of each moving block (the torque reference).
-    centroid: Vec<Vector>,
-    /// Force of the water on each active particle (scratch) and the sums per block.
+    /// `local` in sorted order (the material point each sorted particle is).
+    local_sorted: Vec<Vector>,
+    /// Where each moving block's material points are now (centroid: the torque reference).
+    maps: Vec<MaterialMap>,
+    /// Force of the water on each active particle (scratch) and the sums per block: force,
+    /// torque about the centroid, and the strain load of a deformable block.
     reaction: Vec<Vector>,
-    pub loads: Vec<(Vector, Vector)>,
+    pub loads: Vec<(Vector, Vector, Strain)>,
 }
 
 impl BodyParticles {
@@ -225,7 +230,7 @@ impl BodyParticles {
         grid: CellGrid,
     ) -> Self {
         let (mut local, mut owner, mut world) = (Vec::new(), Vec::new(), Vec::new());
-        let mut centroid = Vec::with_capacity(moving.len());
+        let mut maps = Vec::with_capacity(moving.len());
         for (k, b) in moving.iter().enumerate() {
             let c = b.centroid.coords;
             let (mut lo, mut hi) = (
@@ -241,7 +246,13 @@ impl BodyParticles {
                 owner.push(k as u32);
                 world.push(p);
             }
-            centroid.push(c);
+            maps.push(MaterialMap::new(
+                c,
+                Matrix::identity(),
+                Vector::zeros(),
+                Vector::zeros(),
+                None,
+            ));
         }
         let n = local.len();
         let set = WallParticles::new(world.clone(), grid);
@@ -252,9 +263,10 @@ impl BodyParticles {
             set,
             velocity: vec![Vector::zeros(); n],
             owner_sorted: vec![0; n],
-            centroid,
+            local_sorted: vec![Vector::zeros(); n],
+            maps,
             reaction: Vec::new(),
-            loads: vec![(Vector::zeros(), Vector::zeros()); moving.len()],
+            loads: vec![(Vector::zeros(), Vector::zeros(), Strain::zeros()); moving.len()],
         };
         body.sort();
         body
@@ -268,43 +280,39 @@ impl BodyParticles {
         self.local.is_empty()
     }
 
-    /// Carries every particle rigidly with its block: x = c + R·x_local, v = v_c + ω × (x − c).
+    /// Carries every particle with its block as the material point it is: x = c + F·X with
+    /// F = R (rigid) or R(I + E) (deformable), v = v_c + ω × (x − c) (+ R Ė X).
     /// `states` are the moving blocks in loads order.
     pub fn place(&mut self, states: &[BlockState]) {
-        for (c, s) in self.centroid.iter_mut().zip(states) {
-            *c = s.centroid().coords;
+        for (m, s) in self.maps.iter_mut().zip(states) {
+            *m = s.material_map();
         }
-        let (local, owner) = (&self.local, &self.owner);
+        let (local, owner, maps) = (&self.local, &self.owner, &self.maps);
         self.world.par_iter_mut().enumerate().for_each(|(i, x)| {
-            if let Some(s) = states.get(owner[i] as usize) {
-                *x = s.centroid().coords + s.rotation() * local[i];
-            }
+            *x = maps[owner[i] as usize].position(&local[i]);
         });
         self.sort();
-        let owner = &self.owner_sorted;
+        let (owner, local, maps) = (&self.owner_sorted, &self.local_sorted, &self.maps);
         self.velocity
             .par_iter_mut()
-            .zip(self.set.position.par_iter())
             .enumerate()
-            .for_each(|(i, (v, x))| {
-                if let Some(s) = states.get(owner[i] as usize) {
-                    *v = s.point_velocity(&Point::from(*x));
-                }
-            });
+            .for_each(|(i, v)| *v = maps[owner[i] as usize].velocity(&local[i]));
     }
 
     /// Counting sort of the world positions into the set's grid.
     fn sort(&mut self) {
         let order = self.set.grid.sort(&self.world);
-        let (world, owner) = (&self.world, &self.owner);
+        let (world, owner, local) = (&self.world, &self.owner, &self.local);
         self.set
             .position
             .par_iter_mut()
             .zip(self.owner_sorted.par_iter_mut())
+            .zip(self.local_sorted.par_iter_mut())
             .zip(order.par_iter())
-            .for_each(|((x, o), &k)| {
+            .for_each(|(((x, o), l), &k)| {
                 *x = world[k as usize];
                 *o = owner[k as usize];
+                *l = local[k as usize];
             });
     }
 
@@ -341,21 +349,26 @@ impl BodyParticles {
             });
         self.loads
             .iter_mut()
-            .for_each(|l| *l = (Vector::zeros(), Vector::zeros()));
+            .for_each(|l| *l = (Vector::zeros(), Vector::zeros(), Strain::zeros()));
         for (&w, f) in set.active.iter().zip(&self.reaction) {
             let w = w as usize;
             let k = self.owner_sorted[w] as usize;
-            let arm = set.position[w] - self.centroid[k];
+            let map = &self.maps[k];
+            let arm = set.position[w] - map.centroid;
             self.loads[k].0 += f;
             self.loads[k].1 += arm.cross(f);
+            if map.deformable {
+                self.loads[k].2 += map.strain_load(&self.local_sorted[w], f);
+            }
         }
     }
 
     /// Adds the last [`Self::react`] to the moving blocks' loads.
     pub fn add_loads(&self, loads: &mut [BlockLoad]) {
-        for (slot, (f, t)) in loads.iter_mut().zip(&self.loads) {
+        for (slot, (f, t, e)) in loads.iter_mut().zip(&self.loads) {
             slot.force = (Vector::from(slot.force) + f).into();
             slot.torque = (Vector::from(slot.torque) + t).into();
+            slot.strain_load = (Strain::from(slot.strain_load) + e).into();
         }
     }
 }
@@ -379,5 +392,72 @@ mod tests {
         // Three layers (z = -0.05, -0.15, -0.25) of 10 × 10.
         assert_eq!(pts.len(), 300);
         assert!(pts.iter().all(|p| p.z < 0.0 && p.z > -0.3));
+    }
+
+    /// Boundary particles of a deformable block follow x = c + R(I + E)X with the material
+    /// velocity; with the rigid flag the same pose puts them where the rotation alone does.
+    #[test]
+    fn body_particles_follow_the_strain_of_a_deformable_block() {
+        let cube = Polyhedron::from_shape(&ShapeSpec::Box {
+            min: [0.0; 3],
+            max: [0.4; 3],
+        })
+        .unwrap();
+        let grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(2.0), 0.1).unwrap();
+        let mut body = BodyParticles::new(
+            std::slice::from_ref(&cube),
+            &Vector::repeat(0.025),
+            0.05,
+            0.1,
+            grid,
+        );
+        assert!(!body.is_empty());
+        let rot = shared::math::Rotation::from_euler_angles(0.2, -0.1, 0.4);
+        let mut state = BlockState {
+            centroid: [0.3, 0.25, 0.2],
+            orientation: [rot.i, rot.j, rot.k, rot.w],
+            velocity: [0.1, 0.0, -0.2],
+            angular_velocity: [0.0, 0.3, 0.0],
+            strain: [0.02, -0.01, 0.03, 0.01, 0.0, -0.02],
+            strain_rate: [0.5, 0.0, -0.3, 0.2, 0.1, 0.0],
+            ..Default::default()
+        };
+        let r = rot.to_rotation_matrix().into_inner();
+        for deformable in [true, false] {
+            state.flags = if deformable {
+                BlockState::DEFORMABLE
+            } else {
+                0
+            };
+            body.place(std::slice::from_ref(&state));
+            let (f, rate) = if deformable {
+                (
+                    r * (Matrix::identity() + shared::strain::tensor(&state.strain())),
+                    r * shared::strain::tensor(&Strain::from(state.strain_rate)),
+                )
+            } else {
+                (r, Matrix::zeros())
+            };
+            let (c, v0, w) = (
+                Vector::from(state.centroid),
+                Vector::from(state.velocity),
+                Vector::from(state.angular_velocity),
+            );
+            for ((x, v), local) in body
+                .set
+                .position
+                .iter()
+                .zip(&body.velocity)
+                .zip(&body.local_sorted)
+            {
+                assert!((x - (c + f * local)).norm() < 1e-12);
+                assert!((v - (v0 + w.cross(&(x - c)) + rate * local)).norm() < 1e-12);
+            }
+            let key = |a: &Vector, b: &Vector| a.as_slice().partial_cmp(b.as_slice()).unwrap();
+            let (mut sorted, mut all) = (body.local_sorted.clone(), body.local.clone());
+            sorted.sort_by(key);
+            all.sort_by(key);
+            assert_eq!(sorted, all, "every particle once");
+        }
     }
 }
