@@ -1,5 +1,6 @@
 //! rockwave's solver SDK.
 //!
+//! - [`added_mass`]: detection of the added-mass instability of partitioned coupling.
 //! - [`math`]: the scalar and vector types used everywhere.
 //! - [`scene`]: the scene schema (TOML), its validation and the embedded default scene.
 //! - [`geometry`]: convex polyhedra built from scene shapes (faces, edges, mass properties).
@@ -9,6 +10,7 @@
 //! - [`transport`]: the iceoryx2 services of one run, under a unique prefix.
 //! - [`runtime`]: the node runtime that does all the talking for a solver.
 
+pub mod added_mass;
 pub mod geometry;
 pub mod math;
 pub mod protocol;

@@ -11,8 +11,11 @@
 //! the serial scheme the fluid reads G_{n+1} and its loads feed solid step n+1 (the first ones
 //! are computed at set-up from G_0).
 
+use crate::added_mass::AddedMassMonitor;
+use crate::geometry::Polyhedron;
+use crate::math::Vector;
 use crate::protocol::*;
-use crate::scene::Scheme;
+use crate::scene::{BlockKind, Scene, Scheme};
 use crate::solver::{FluidSolver, SetupContext, SolidSolver, Solver, SolverError, StepReport};
 use crate::transport::{self, Ipc, Party, Pub, Run, RunId, Sub, TransportError, Wake};
 use clap::Parser;
@@ -176,6 +179,8 @@ struct Node<'a> {
     n_moving: usize,
     write_vtk: bool,
     hang_after: Option<u64>,
+    /// The solid's watch on the loads for the added-mass instability (when water exists).
+    added_mass: Option<AddedMassMonitor>,
 }
 
 fn serve(
@@ -354,6 +359,10 @@ fn serve(
     };
     let n_moving = scene.moving_blocks().len();
     let write_vtk = scene.output.vtk;
+    let added_mass = match (role, &scene.fluid) {
+        (Role::Solid, Some(fluid)) => Some(added_mass_monitor(&scene, fluid.density)),
+        _ => None,
+    };
     let mut node = Node {
         role,
         run: &run,
@@ -363,8 +372,28 @@ fn serve(
         n_moving,
         write_vtk,
         hang_after: args.hang_after_steps,
+        added_mass,
     };
     node.serve()
+}
+
+/// The added-mass watch over the scene's moving blocks (kinematic ones cannot be moved by
+/// their loads: infinite mass).
+fn added_mass_monitor(scene: &Scene, water_density: f64) -> AddedMassMonitor {
+    let blocks = scene
+        .moving_blocks()
+        .into_iter()
+        .map(|i| {
+            let b = &scene.blocks[i];
+            let volume = Polyhedron::from_shape(&b.shape).map_or(f64::NAN, |p| p.volume);
+            let mass = match b.kind {
+                BlockKind::Free => b.density * volume,
+                _ => f64::INFINITY,
+            };
+            (b.name.clone(), mass, b.density)
+        })
+        .collect();
+    AddedMassMonitor::new(blocks, Vector::from(scene.gravity).norm(), water_density)
 }
 
 /// Sends a status to the coupler and rings it.
@@ -643,7 +672,11 @@ impl Node<'_> {
             }
             Role::Solid => {
                 if self.peer_present() {
-                    compute += self.receive_loads(cmd.step)?;
+                    let (t, added_mass) = self.receive_loads(cmd.step)?;
+                    compute += t;
+                    if let Some(msg) = added_mass {
+                        return Err(StepFailure::Solver(SolverError::Unstable(msg)));
+                    }
                 }
                 let t = Instant::now();
                 let r = self.side.solver().advance(cmd.dt)?;
@@ -706,8 +739,9 @@ impl Node<'_> {
         Ok(t.elapsed())
     }
 
-    /// Waits for loads message `tag` and hands it to the solid solver.
-    fn receive_loads(&mut self, tag: u64) -> Result<Duration, Fatal> {
+    /// Waits for loads message `tag` and hands it to the solid solver; also what the
+    /// added-mass watch makes of them.
+    fn receive_loads(&mut self, tag: u64) -> Result<(Duration, Option<String>), Fatal> {
         let loads_in = self
             .ports
             .loads_in
@@ -719,7 +753,11 @@ impl Node<'_> {
             unreachable!()
         };
         s.read_loads(sample.payload());
-        Ok(t.elapsed())
+        let added_mass = self
+            .added_mass
+            .as_mut()
+            .and_then(|m| m.observe(sample.payload()));
+        Ok((t.elapsed(), added_mass))
     }
 
     /// Writes the solid's geometry straight into loaned shared memory and sends it.

@@ -8,6 +8,9 @@
 //! - SPH: WCSPH's proposal is the CFL step 0.2·h/(c + v); × 10 puts sound across more than a
 //!   smoothing length per step, which must be caught (density ratio, NaN or domain) and named.
 //! - Müller's linear EOS made too soft: a warning with the measured compression, run completed.
+//! - Light blocks under explicit partitioned coupling (both schemes lag the loads one step):
+//!   the floating block at ρ_b/ρ_w = 0.001 must be stopped as an added-mass instability, by
+//!   name, before anything flies off; at 0.05 it floats.
 //!
 //! A dry scene runs no fluid node and a scene without moving blocks no solid node: the tests
 //! give the absent node a command that does not exist, and the run must still succeed.
@@ -165,6 +168,57 @@ fn explicit_dda_fails_past_omega_dt_two_and_says_so() {
     assert!(leftovers(&id).is_empty());
     let _ = std::fs::remove_dir_all(&out);
     let _ = std::fs::remove_dir_all(scene.parent().unwrap());
+}
+
+/// The validation tank's floating block with another density.
+fn floating_block_of_density(tag: &str, density: f64) -> PathBuf {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .join("scenes/validation/floating_block.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(text.contains("density = 500.0"));
+    scene_file(
+        tag,
+        &text.replace("density = 500.0", &format!("density = {density:.1}")),
+    )
+}
+
+#[test]
+fn light_block_under_explicit_coupling_is_an_added_mass_instability_by_name() {
+    for scheme in ["parallel", "serial"] {
+        let light = floating_block_of_density("light", 1.0);
+        let (id, out, o) = run_scene("added-mass", &light, &["--end", "0.05", "--scheme", scheme]);
+        assert_eq!(o.status.code(), Some(2), "{scheme}: {}", stderr(&o));
+        let s = summary(&out);
+        assert_eq!(s["status"], "unstable");
+        let msg = s["message"].as_str().unwrap();
+        assert!(
+            msg.contains("solid node")
+                && msg.contains("added-mass instability")
+                && msg.contains("'block'")
+                && msg.contains("ρ_b/ρ_w = 0.0010"),
+            "{scheme}: the message must name the instability and the block: {msg}"
+        );
+        // Caught while the block is still in the tank (unchecked, it leaves the domain at
+        // 1 km/s a few steps later).
+        assert!(!msg.contains("left the domain"), "{msg}");
+        assert_no_nan(&out);
+        assert!(leftovers(&id).is_empty());
+        let _ = std::fs::remove_dir_all(&out);
+        let _ = std::fs::remove_dir_all(light.parent().unwrap());
+    }
+    let buoyant = floating_block_of_density("buoyant", 50.0);
+    let (id, out, o) = run_scene("buoyant", &buoyant, &["--end", "0.05"]);
+    assert!(
+        o.status.success(),
+        "ρ_b/ρ_w = 0.05 must float: {}",
+        stderr(&o)
+    );
+    assert_eq!(summary(&out)["status"], "completed");
+    assert!(leftovers(&id).is_empty());
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(buoyant.parent().unwrap());
 }
 
 #[test]
