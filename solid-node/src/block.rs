@@ -1,11 +1,19 @@
-//! A rigid block: its convex shape, mass properties, kind, pose and velocity, and the
-//! world-frame copy of its geometry the contact search reads each step.
+//! A block: its convex shape, mass properties, kind, pose and velocity, and the world-frame
+//! copy of its geometry the contact search reads each step.
+//!
+//! Blocks are rigid (6 unknowns) unless the scene gives them `elastic = { ... }`: then they
+//! carry Shi's six constant strains as well ([`crate::elastic`]), and a material point at X
+//! (block frame, undeformed) is at x = c + R (I + E) X. Every geometric query below (world
+//! vertices, face planes, point velocity and step displacement, the lever arm of a load on the
+//! strains) takes the strain into account; for rigid blocks E = 0 is not even stored.
 
+use crate::elastic::Elastic;
 use crate::rotation;
 use shared::geometry::Polyhedron;
 use shared::math::{Isometry, Matrix, Point, Real, Rotation, Vector};
 use shared::scene::{BlockKind, BlockSpec, MotionSpec};
 use shared::solver::SolverError;
+use shared::strain::{self, Strain};
 
 /// One block of the scene.
 #[derive(Debug, Clone)]
@@ -43,6 +51,9 @@ pub struct Block {
     /// Pose at the start of the last step (for the material displacement of contact points).
     pub prev_position: Point,
     pub prev_rotation: Rotation,
+    /// Strain state and matrices of a deformable block; `None` for a rigid one (boxed: rigid
+    /// blocks stay small in the contact search's cache).
+    pub elastic: Option<Box<Elastic>>,
 
     // World-frame geometry at the current pose.
     pub world_vertices: Vec<Point>,
@@ -139,6 +150,18 @@ impl Block {
             angular_velocity: Vector::from(spec.angular_velocity),
             prev_position: origin,
             prev_rotation: Rotation::identity(),
+            elastic: spec
+                .elastic
+                .as_ref()
+                .filter(|_| spec.kind == BlockKind::Free)
+                .map(|el| {
+                    Box::new(Elastic::new(
+                        el,
+                        shape.volume,
+                        spec.density,
+                        &shape.unit_inertia,
+                    ))
+                }),
             world_vertices: vec![Point::origin(); nv],
             world_normals: vec![Vector::zeros(); nf],
             world_offsets: vec![0.0; nf],
@@ -160,6 +183,68 @@ impl Block {
     #[inline]
     pub fn is_free(&self) -> bool {
         self.kind == BlockKind::Free
+    }
+
+    /// True for a 12-DOF deformable block.
+    #[inline]
+    pub fn is_deformable(&self) -> bool {
+        self.elastic.is_some()
+    }
+
+    /// Number of unknowns: 6 for a free rigid block, 12 for a deformable one, 0 otherwise.
+    pub fn unknowns(&self) -> usize {
+        match (self.is_free(), self.is_deformable()) {
+            (false, _) => 0,
+            (true, false) => 6,
+            (true, true) => 12,
+        }
+    }
+
+    /// Strain (zero for a rigid block).
+    #[inline]
+    pub fn strain(&self) -> Strain {
+        self.elastic
+            .as_ref()
+            .map_or_else(Strain::zeros, |e| e.strain)
+    }
+
+    /// Strain rate (zero for a rigid block).
+    #[inline]
+    pub fn strain_rate(&self) -> Strain {
+        self.elastic.as_ref().map_or_else(Strain::zeros, |e| e.rate)
+    }
+
+    /// The linear part of the block-frame → world map, F = R (I + E) (R for a rigid block).
+    pub fn deformation(&self) -> Matrix {
+        let r = self.rotation.to_rotation_matrix().into_inner();
+        match &self.elastic {
+            None => r,
+            Some(el) => r * el.stretch(),
+        }
+    }
+
+    /// The undeformed block-frame position X of the material point now at world `p`:
+    /// X = (I + E)⁻¹ Rᵀ (p − c).
+    #[inline]
+    pub fn material_point(&self, p: &Point) -> Vector {
+        let local = self.rotation.inverse_transform_vector(&(p - self.position));
+        match &self.elastic {
+            None => local,
+            Some(el) => el.stretch_inv * local,
+        }
+    }
+
+    /// Generalised load on the strain unknowns of a world force `f` acting on the material
+    /// point now at `p`: T_e(X)ᵀ Rᵀ f (zero for a rigid block).
+    #[inline]
+    pub fn strain_load(&self, p: &Point, f: &Vector) -> Strain {
+        if self.elastic.is_none() {
+            return Strain::zeros();
+        }
+        strain::generalised_force(
+            &self.material_point(p),
+            &self.rotation.inverse_transform_vector(f),
+        )
     }
 
     /// Diameter of the bounding sphere [m]: the block's size in the displacement limit.
@@ -193,24 +278,60 @@ impl Block {
         r.matrix() * self.inv_inertia * r.matrix().transpose()
     }
 
-    /// Velocity of the material point at world position `p`.
+    /// Velocity of the material point at world position `p`: v + ω × r, plus R Ė X for a
+    /// deformable block (d/dt of c + R (I + E) X with Ṙ = [ω]× R).
     #[inline]
     pub fn point_velocity(&self, p: &Point) -> Vector {
-        self.velocity + self.angular_velocity.cross(&(p - self.position))
+        let rigid = self.velocity + self.angular_velocity.cross(&(p - self.position));
+        match &self.elastic {
+            None => rigid,
+            Some(el) => rigid + self.strain_velocity(el, p),
+        }
+    }
+
+    /// R Ė X (kept out of line: the rigid blocks' hot path stays as small as it was).
+    #[inline(never)]
+    fn strain_velocity(&self, el: &Elastic, p: &Point) -> Vector {
+        let x = self.material_point(p);
+        self.rotation * (strain::tensor(&el.rate) * x)
     }
 
     /// Displacement over the last step of the material point now at `p`: exact for the
-    /// finite rotation (p minus where that point was at the previous pose).
+    /// finite rotation and the strain change (p minus where that point was at the previous
+    /// pose and strain).
     #[inline]
     pub fn point_step_displacement(&self, p: &Point) -> Vector {
+        if let Some(el) = &self.elastic {
+            return self.deformed_step_displacement(el, p);
+        }
         let local = self.rotation.inverse_transform_vector(&(p - self.position));
         p - (self.prev_position + self.prev_rotation * local)
     }
 
-    /// Records the pose at the start of a step.
+    #[inline(never)]
+    fn deformed_step_displacement(&self, el: &Elastic, p: &Point) -> Vector {
+        let x = self.material_point(p);
+        let before = x + strain::tensor(&el.prev_strain) * x;
+        p - (self.prev_position + self.prev_rotation * before)
+    }
+
+    /// Records the pose (and strain) at the start of a step.
     pub fn remember_pose(&mut self) {
         self.prev_position = self.position;
         self.prev_rotation = self.rotation;
+        if let Some(el) = &mut self.elastic {
+            el.prev_strain = el.strain;
+        }
+    }
+
+    /// Changes the strain by `de` (after [`Block::remember_pose`]); the caller updates the
+    /// world geometry.
+    #[inline]
+    pub fn strain_by(&mut self, de: &Strain) {
+        if let Some(el) = &mut self.elastic {
+            el.strain += de;
+            el.update_stretch();
+        }
     }
 
     /// Moves by `d` and turns by the rotation vector `theta` (exactly, see [`rotation`]).
@@ -221,6 +342,9 @@ impl Block {
 
     /// Recomputes world vertices, face planes and the bounding box from the pose.
     pub fn update_world_geometry(&mut self) {
+        if self.elastic.is_some() {
+            return self.update_deformed_geometry();
+        }
         let iso = self.isometry();
         let mut lo = Point::from([Real::INFINITY; 3]);
         let mut hi = Point::from([Real::NEG_INFINITY; 3]);
@@ -237,6 +361,38 @@ impl Block {
         {
             *n = self.rotation * f.normal;
             *o = f.offset + n.dot(&self.position.coords);
+        }
+        self.aabb_min = lo;
+        self.aabb_max = hi;
+    }
+
+    /// World geometry of a deformable block under the affine map x = c + F X, F = R (I + E):
+    /// a plane n·X = o of the block frame maps to m·(x − c) = o with m = F⁻ᵀ n = R (I + E)⁻¹ n
+    /// ((I + E) is symmetric), renormalised: normal m/|m|, offset o/|m| + n_w·c.
+    #[inline(never)]
+    fn update_deformed_geometry(&mut self) {
+        let Some(el) = &self.elastic else { return };
+        let rot = self.rotation.to_rotation_matrix().into_inner();
+        let f = rot * el.stretch();
+        let normal_map = rot * el.stretch_inv;
+        let c = self.position;
+        let mut lo = Point::from([Real::INFINITY; 3]);
+        let mut hi = Point::from([Real::NEG_INFINITY; 3]);
+        for (w, l) in self.world_vertices.iter_mut().zip(&self.shape.vertices) {
+            *w = c + f * l.coords;
+            lo = lo.inf(w);
+            hi = hi.sup(w);
+        }
+        for ((n, o), face) in self
+            .world_normals
+            .iter_mut()
+            .zip(self.world_offsets.iter_mut())
+            .zip(&self.shape.faces)
+        {
+            let m = normal_map * face.normal;
+            let len = m.norm();
+            *n = m / len;
+            *o = face.offset / len + n.dot(&c.coords);
         }
         self.aabb_min = lo;
         self.aabb_max = hi;
@@ -261,12 +417,19 @@ impl Block {
         best
     }
 
-    /// Kinetic energy [J].
+    /// Kinetic energy [J] (with ½ ėᵀ M_e ė for a deformable block).
     pub fn kinetic_energy(&self) -> Real {
         let w = self
             .rotation
             .inverse_transform_vector(&self.angular_velocity);
-        0.5 * self.mass * self.velocity.norm_squared() + 0.5 * w.dot(&(self.inertia * w))
+        let rigid =
+            0.5 * self.mass * self.velocity.norm_squared() + 0.5 * w.dot(&(self.inertia * w));
+        rigid + self.elastic.as_ref().map_or(0.0, |e| e.kinetic_energy())
+    }
+
+    /// Elastic strain energy ½ V eᵀ D e [J] (0 for a rigid block).
+    pub fn strain_energy(&self) -> Real {
+        self.elastic.as_ref().map_or(0.0, |e| e.strain_energy())
     }
 
     /// True when position, orientation and velocities are all finite.
@@ -275,6 +438,7 @@ impl Block {
             && self.rotation.coords.iter().all(|x| x.is_finite())
             && self.velocity.iter().all(|x| x.is_finite())
             && self.angular_velocity.iter().all(|x| x.is_finite())
+            && self.elastic.as_ref().is_none_or(|e| e.is_finite())
     }
 }
 

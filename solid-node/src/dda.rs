@@ -8,6 +8,7 @@ use crate::world::World;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError, StepReport};
+use shared::strain::Strain;
 use std::path::PathBuf;
 
 pub struct DdaSolver {
@@ -28,7 +29,11 @@ impl DdaSolver {
         world.detect(world.penalty.margin);
         integrator.init(&mut world);
         let energy = EnergyMonitor::new(&world);
-        let mut csv = KinematicsCsv::create(ctx.run_dir, ctx.scene.output.interval)?;
+        let mut csv = KinematicsCsv::create(
+            ctx.run_dir,
+            ctx.scene.output.interval,
+            !world.deformable.is_empty(),
+        )?;
         csv.sample(&world, true)?;
         Ok(DdaSolver {
             world,
@@ -43,6 +48,43 @@ impl DdaSolver {
     /// Block `name`'s index in the scene.
     pub fn block_index(&self, name: &str) -> Option<usize> {
         self.world.blocks.iter().position(|b| b.name == name)
+    }
+
+    /// Number of unknowns of the block system (6 per free rigid block, 12 per deformable one).
+    pub fn unknowns(&self) -> usize {
+        self.world.unknowns()
+    }
+
+    /// Gives deformable block `block` an initial strain and strain rate (a scene starts
+    /// unstrained; verification starts free vibrations this way). Only before the first step:
+    /// the contacts, the integrator's state and the energy reference are set up again.
+    pub fn set_initial_strain(
+        &mut self,
+        block: usize,
+        strain: Strain,
+        rate: Strain,
+    ) -> Result<(), SolverError> {
+        let b = &mut self.world.blocks[block];
+        let name = b.name.clone();
+        let Some(el) = b.elastic.as_mut() else {
+            return Err(SolverError::Failed(format!(
+                "block '{name}' is rigid: it has no strain to set"
+            )));
+        };
+        if self.world.time != 0.0 {
+            return Err(SolverError::Failed(
+                "an initial strain can only be set before the first step".into(),
+            ));
+        }
+        el.strain = strain;
+        el.prev_strain = strain;
+        el.rate = rate;
+        el.update_stretch();
+        b.update_world_geometry();
+        self.world.detect(self.world.penalty.margin);
+        self.integrator.init(&mut self.world);
+        self.energy = EnergyMonitor::new(&self.world);
+        Ok(())
     }
 }
 
@@ -64,13 +106,20 @@ impl Solver for DdaSolver {
         }
         for &i in &self.world.moving {
             let (f, t) = (self.world.load_force[i], self.world.load_torque[i]);
-            if !(f.iter().chain(t.iter()).all(|x| x.is_finite())) {
+            let g = self.world.load_strain[i];
+            if !(f
+                .iter()
+                .chain(t.iter())
+                .chain(g.iter())
+                .all(|x| x.is_finite()))
+            {
                 return Err(SolverError::Unstable(format!(
-                    "{} solver: the fluid load on block '{}' is non-finite (force {:?}, torque {:?}) at t = {:.6} s",
+                    "{} solver: the fluid load on block '{}' is non-finite (force {:?}, torque {:?}, strain load {:?}) at t = {:.6} s",
                     self.name(),
                     self.world.blocks[i].name,
                     f.as_slice(),
                     t.as_slice(),
+                    g.as_slice(),
                     self.world.time
                 )));
             }
@@ -104,6 +153,11 @@ impl SolidSolver for DdaSolver {
         for (l, &i) in loads.iter().zip(&self.world.moving) {
             self.world.load_force[i] = Vector::from(l.force);
             self.world.load_torque[i] = Vector::from(l.torque);
+            // The generalised load on the strains is only used by deformable blocks (a rigid
+            // block has no strain unknowns for it to act on).
+            if self.world.blocks[i].is_deformable() {
+                self.world.load_strain[i] = Strain::from(l.strain_load);
+            }
         }
     }
 
@@ -120,17 +174,22 @@ impl SolidSolver for DdaSolver {
         for (state, &i) in blocks.iter_mut().zip(&self.world.moving) {
             let b = &self.world.blocks[i];
             let n = b.world_vertices.len();
+            // World corners are the deformed ones (c + R (I + E) X) for a deformable block.
+            let (flags, strain, strain_rate) = match &b.elastic {
+                Some(el) => (BlockState::DEFORMABLE, el.strain.into(), el.rate.into()),
+                None => (0, [0.0; 6], [0.0; 6]),
+            };
             *state = BlockState {
                 block: b.scene_index as u32,
                 first_vertex: first as u32,
                 vertex_count: n as u32,
-                flags: 0,
+                flags,
                 centroid: b.position.coords.into(),
                 orientation: b.rotation.coords.into(),
                 velocity: b.velocity.into(),
                 angular_velocity: b.angular_velocity.into(),
-                strain: [0.0; 6],
-                strain_rate: [0.0; 6],
+                strain,
+                strain_rate,
             };
             for (dst, v) in vertices[first..first + n].iter_mut().zip(&b.world_vertices) {
                 *dst = [v.x, v.y, v.z];

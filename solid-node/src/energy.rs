@@ -1,6 +1,7 @@
 //! Energy bookkeeping that detects a method going unstable.
 //!
-//! Without the method's error, the kinetic plus contact-spring energy of the free blocks can
+//! Without the method's error, the kinetic plus contact-spring (plus elastic strain, for
+//! deformable blocks) energy of the free blocks can
 //! never exceed what they started with, plus the potential energy they have lost, plus the work
 //! of the fluid loads and of kinematic blocks pushing them; friction and dashpots only take
 //! energy away. The central difference scheme run past 2/ω_max multiplies a contact mode's
@@ -33,7 +34,10 @@ impl EnergyMonitor {
         let size = world.smallest_free_size();
         let size = if size.is_finite() { size } else { 1.0 };
         EnergyMonitor {
-            initial: world.kinetic_energy() + world.contact_energy() + world.potential_energy(),
+            initial: world.kinetic_energy()
+                + world.contact_energy()
+                + world.strain_energy()
+                + world.potential_energy(),
             work: 0.0,
             floor: 1e-3 * world.free_mass() * g * size,
             ratio: 0.0,
@@ -49,13 +53,15 @@ impl EnergyMonitor {
 
     /// Measures the energy ratio; `Unstable` naming the solver, the growth and ω·dt when it
     /// exceeds [`GROWTH_LIMIT`].
-    /// `omega_dt` gives ω_max·dt for the message; `hint` says what bounds the method (e.g. "central difference is stable only below 2").
+    /// `omega_dt` gives ω_max·dt for the message; `hint` says what bounds the method (e.g.
+    /// "central difference is stable only below 2", or which elastic mode binds); both are
+    /// only evaluated when the check fails.
     pub fn check(
         &mut self,
         world: &World,
         solver: &str,
         omega_dt: impl FnOnce() -> Real,
-        hint: &str,
+        hint: impl FnOnce() -> String,
     ) -> Result<(), SolverError> {
         // A scene whose only moving blocks are kinematic (a wave-maker piston) has no free
         // block whose energy could grow: nothing to check, and 0/0 must not read as growth.
@@ -63,15 +69,21 @@ impl EnergyMonitor {
             self.ratio = 0.0;
             return Ok(());
         }
-        let dynamic = world.kinetic_energy() + world.contact_energy();
+        let dynamic = world.kinetic_energy() + world.contact_energy() + world.strain_energy();
         let available = self.initial - world.potential_energy() + self.work;
         self.ratio = dynamic / available.max(self.floor);
         if self.ratio > GROWTH_LIMIT || !self.ratio.is_finite() {
             let omega_dt = omega_dt();
+            let hint = hint();
             return Err(SolverError::Unstable(format!(
-                "{solver} solver: energy grew {:.3e}-fold beyond what the loads supplied ({dynamic:.4e} J kinetic + contact \
+                "{solver} solver: energy grew {:.3e}-fold beyond what the loads supplied ({dynamic:.4e} J kinetic + contact{} \
                  against {:.4e} J available) at t = {:.6} s, ω_max·dt = {omega_dt:.3} ({hint})",
                 self.ratio,
+                if world.deformable.is_empty() {
+                    ""
+                } else {
+                    " + strain"
+                },
                 available.max(self.floor),
                 world.time
             )));

@@ -14,30 +14,43 @@
 //! Δt ≤ 2/ω_max (Eq. 8); the proposal is `safety_factor` · 2/ω_max. Past it nothing is
 //! refused: the step is taken as the method would, and the energy growth that follows is
 //! detected and reported (see [`crate::energy`]).
+//!
+//! Deformable blocks integrate their six strains the same way (Shi's strain unknowns, with
+//! the block-diagonal mass of [`crate::elastic`]):
+//!
+//! ```text
+//! ė_{n+½} = ė_{n−½} + ½ (Δt_n + Δt_{n+1}) M_e⁻¹ (g_contact + g_fluid − V D e_n)
+//! e_{n+1} = e_n + Δt_{n+1} ė_{n+½}
+//! ```
+//!
+//! and the limit Δt ≤ 2/ω_max then includes their elastic modes (see [`crate::stability`]).
 
 use crate::energy::EnergyMonitor;
 use crate::integrator::Integrator;
-use crate::stability;
+use crate::stability::{self, Estimate};
 use crate::world::World;
-use nalgebra::Matrix6;
 use shared::math::{Real, Vector};
 use shared::solver::{SolverError, StepReport};
+use shared::strain::Strain;
 
 pub struct CentralDifference {
     /// v_{n−½} of each block (indexed like `World::blocks`).
     half_velocity: Vec<Vector>,
     /// Angular momentum L_{n−½} (world frame).
     half_momentum: Vec<Vector>,
+    /// ė_{n−½} of each block (used for the deformable ones only).
+    half_rate: Vec<Strain>,
     /// The previous step Δt_n (0 before the first step).
     dt_prev: Real,
     safety: Real,
-    /// ω² of the resting-block floor (set-up) and of the current contacts.
-    omega2_floor: Real,
-    omega2_now: Real,
-    scratch: Vec<Matrix6<Real>>,
-    /// ω·dt of the first step that exceeded 2 (what an instability report names: by the time
-    /// the energy has grown, the contact configuration is anything).
-    first_excess: Option<Real>,
+    /// ω² of the resting-block floor (set-up) and of the current contacts (and elastic modes).
+    floor: Estimate,
+    now: Estimate,
+    scratch: stability::Scratch,
+    /// ω·dt of the first step that exceeded 2, and the estimate it came from (what an
+    /// instability report names: by the time the energy has grown, the contact configuration
+    /// is anything).
+    first_excess: Option<(Real, Estimate)>,
 }
 
 impl CentralDifference {
@@ -45,18 +58,41 @@ impl CentralDifference {
         CentralDifference {
             half_velocity: Vec::new(),
             half_momentum: Vec::new(),
+            half_rate: Vec::new(),
             dt_prev: 0.0,
             safety,
-            omega2_floor: 0.0,
-            omega2_now: 0.0,
-            scratch: Vec::new(),
+            floor: Estimate::default(),
+            now: Estimate::default(),
+            scratch: stability::Scratch::default(),
             first_excess: None,
         }
     }
 
-    /// Highest contact frequency ω_max [rad/s] the proposal is built on.
+    /// Highest frequency ω_max [rad/s] the proposal is built on (contacts, elastic modes).
     pub fn omega_max(&self) -> Real {
-        self.omega2_floor.max(self.omega2_now).sqrt()
+        self.floor.omega2.max(self.now.omega2).sqrt()
+    }
+
+    /// The estimate behind [`CentralDifference::omega_max`].
+    pub fn binding(&self) -> Estimate {
+        self.floor.max(self.now)
+    }
+}
+
+/// What an instability report says bounds the step.
+fn limit_hint(world: &World, est: &Estimate) -> String {
+    const BASE: &str = "central difference is stable only below 2, paper Eq. 8; reduce dt or [solid].safety_factor";
+    match est.elastic {
+        Some(i) => {
+            let b = &world.blocks[i];
+            let w = b.elastic.as_ref().map_or(0.0, |e| e.omega2.sqrt());
+            format!(
+                "the elastic mode of deformable block '{}' binds: ω_elastic = {w:.4e} rad/s, λ_max(M_e^-½ V D M_e^-½); \
+                 {BASE}, or soften the block (ω_elastic ∝ sqrt(E))",
+                b.name
+            )
+        }
+        None => BASE.to_string(),
     }
 }
 
@@ -72,10 +108,12 @@ impl Integrator for CentralDifference {
             .iter()
             .map(|b| b.world_inertia() * b.angular_velocity)
             .collect();
+        self.half_rate = world.blocks.iter().map(|b| b.strain_rate()).collect();
         self.dt_prev = 0.0;
+        self.first_excess = None;
         world.update_contact_forces_explicit();
-        self.omega2_floor = stability::resting_floor(world);
-        self.omega2_now = stability::current(world, &mut self.scratch);
+        self.floor = stability::resting_floor(world);
+        self.now = stability::current(world, &mut self.scratch);
     }
 
     fn advance(
@@ -84,15 +122,16 @@ impl Integrator for CentralDifference {
         dt: Real,
         energy: &mut EnergyMonitor,
     ) -> Result<StepReport, SolverError> {
-        // ω·dt of the contacts present (the set-up floor only anticipates contacts to come).
-        let omega_now = if self.omega2_now > 0.0 {
-            self.omega2_now.sqrt()
+        // ω·dt of the contacts present and of the elastic modes (the set-up floor only
+        // anticipates contacts to come).
+        let (omega_now, est_now) = if self.now.omega2 > 0.0 {
+            (self.now.omega2.sqrt(), self.now)
         } else {
-            self.omega_max()
+            (self.omega_max(), self.binding())
         };
         let omega_dt = omega_now * dt;
         if omega_dt > 2.0 && self.first_excess.is_none() {
-            self.first_excess = Some(omega_dt);
+            self.first_excess = Some((omega_dt, est_now));
         }
         let kick = 0.5 * (self.dt_prev + dt);
         let mut work = 0.0;
@@ -114,6 +153,27 @@ impl Integrator for CentralDifference {
             // (2/ω)(sqrt(1 + ζ²) − ζ)); the velocity at t_{n+1} is set once a_{n+1} is known.
             b.velocity = self.half_velocity[i];
             b.angular_velocity = omega;
+            if !b.is_deformable() {
+                // (A deformable block's geometry follows its strain update below.)
+                b.update_world_geometry();
+            }
+        }
+        // The strain unknowns of the deformable blocks: the same central difference.
+        // (`remember_pose` above kept e_n for the step displacement of contact points.)
+        for &i in &world.deformable {
+            let b = &mut world.blocks[i];
+            let de = match b.elastic.as_mut() {
+                Some(el) => {
+                    let g = world.contact_strain[i] + world.load_strain[i] + el.elastic_force();
+                    self.half_rate[i] += el.inv_mass * g * kick;
+                    // As for v above: the dashpots of the next evaluation see ė_{n+½}.
+                    el.rate = self.half_rate[i];
+                    self.half_rate[i] * dt
+                }
+                None => continue,
+            };
+            work += world.load_strain[i].dot(&de);
+            b.strain_by(&de);
             b.update_world_geometry();
         }
         let t1 = world.time + dt;
@@ -154,17 +214,25 @@ impl Integrator for CentralDifference {
             b.angular_velocity =
                 b.world_inv_inertia() * (self.half_momentum[i] + torque * (0.5 * dt));
         }
-        self.omega2_now = stability::current(world, &mut self.scratch);
-        let reported = self.first_excess.unwrap_or(omega_dt);
-        energy.check(
-            world,
-            self.name(),
-            || reported,
-            "central difference is stable only below 2, paper Eq. 8; reduce dt or [solid].safety_factor",
-        )?;
+        for &i in &world.deformable {
+            if let Some(el) = world.blocks[i].elastic.as_mut() {
+                let g = world.contact_strain[i] + world.load_strain[i] + el.elastic_force();
+                el.rate = self.half_rate[i] + el.inv_mass * g * (0.5 * dt);
+            }
+        }
+        self.now = stability::current(world, &mut self.scratch);
+        let (reported, est) = self.first_excess.unwrap_or((omega_dt, est_now));
+        energy.check(world, self.name(), || reported, || limit_hint(world, &est))?;
         let warning = (self.omega_max() * dt > 2.0).then(|| {
             let omega_dt = self.omega_max() * dt;
-            format!("explicit step dt = {dt:.3e} s exceeds the stability limit 2/ω_max = {:.3e} s (ω_max·dt = {omega_dt:.2})", 2.0 / self.omega_max())
+            let what = match self.binding().elastic {
+                Some(i) => format!(
+                    ", bound by the elastic mode of deformable block '{}'",
+                    world.blocks[i].name
+                ),
+                None => String::new(),
+            };
+            format!("explicit step dt = {dt:.3e} s exceeds the stability limit 2/ω_max = {:.3e} s (ω_max·dt = {omega_dt:.2}{what})", 2.0 / self.omega_max())
         });
         Ok(StepReport { warning })
     }

@@ -21,23 +21,37 @@
 //!
 //! The scheme is unconditionally stable but damps contact oscillations: a penalty bounce
 //! keeps e ≈ exp(−πΩ/4) of its speed (Ω = ω·Δt), the price DDA pays for its large steps.
+//!
+//! **Deformable blocks** (Shi's 12 unknowns: D = [d; θ; Δe]) add, per block, the strain mass
+//! M_e and the block stiffness V·D to the diagonal block, the strain loads (fluid strain load,
+//! −V D e_n) to the right-hand side, and to each contact spring the strain part of its
+//! direction, T_e(X)ᵀ Rᵀ e ([`crate::elastic`]): (2/Δt² M_e + V D) Δe = g − V D e_n +
+//! (2/Δt) M_e ė_n + springs, the constant-strain rows of Eq. 4. The integrator is generic over
+//! the block size: `Newmark<6>` for a scene of rigid blocks (the system of before, no strain
+//! work anywhere), `Newmark<12>` when a scene has a deformable block, with identity strain rows
+//! (solving to zero) for its rigid blocks.
 
 use crate::block::Block;
 use crate::contact::{Contact, ContactState};
 use crate::energy::EnergyMonitor;
 use crate::friction::Joint;
 use crate::integrator::Integrator;
-use crate::linear_system::{BlockSystem, Mat6, SolveError, Vec6};
+use crate::linear_system::{BlockMat, BlockSystem, BlockVec, SolveError};
 use crate::penalty::PenaltyModel;
 use crate::stability;
 use crate::world::World;
-use nalgebra::Matrix6;
-use shared::math::{Matrix, Real, Vector};
+use shared::math::{Matrix, Point, Real, Rotation, Vector};
 use shared::scene::SolidSpec;
 use shared::solver::{SolverError, StepReport};
+use shared::strain::{self, Strain};
 
 /// Relative residual of the conjugate gradient solve.
 const SOLVE_TOLERANCE: Real = 1e-11;
+
+/// Relative band about the Mohr–Coulomb limit inside which a contact keeps its locked or
+/// sliding state between open–close iterations (the four corners of a deformable block
+/// spreading under load sit exactly on the limit: without the band they flip on round-off).
+const STATE_TOLERANCE: Real = 1e-6;
 
 /// The per-iteration state of one contact.
 #[derive(Debug, Clone, Copy, Default)]
@@ -58,35 +72,104 @@ enum Cut {
     Solve(SolveError),
 }
 
-pub struct Newmark {
+/// Shi's implicit scheme over blocks of `N` unknowns: 6 (rigid blocks only) or 12 (a scene
+/// with deformable blocks).
+pub struct Newmark<const N: usize> {
     max_open_close: u32,
     displacement_limit: Real,
-    system: BlockSystem,
+    system: BlockSystem<N>,
     /// Row of each block in the system, usize::MAX for fixed and kinematic blocks.
     row: Vec<usize>,
     /// Prescribed step displacement of fixed and kinematic blocks.
-    known: Vec<Vec6>,
-    solution: Vec<Vec6>,
+    known: Vec<BlockVec<N>>,
+    solution: Vec<BlockVec<N>>,
     trials: Vec<Trial>,
     /// Sub-step that last succeeded when the step had to be cut.
     substep_hint: Option<Real>,
     /// Statistics of the last advance.
     pub last_substeps: usize,
     pub last_iterations: usize,
-    scratch: Vec<Matrix6<Real>>,
+    scratch: stability::Scratch,
 }
 
-/// Generalised direction [e; r × e] of a unit force e at lever arm r.
-#[inline]
-fn direction(r: &Vector, e: &Vector) -> Vec6 {
-    let t = r.cross(e);
-    Vec6::new(e.x, e.y, e.z, t.x, t.y, t.z)
+/// Where a contact point sits on one block: the world lever arm r, and for a deformable block
+/// (N = 12 only) the point's undeformed block-frame position X and the block's rotation R.
+#[derive(Clone, Copy)]
+struct Arm {
+    r: Vector,
+    strain: Option<(Vector, Rotation)>,
 }
 
-/// Displacement of the material point at lever arm r under D = [d; θ].
 #[inline]
-fn point_displacement(d: &Vec6, r: &Vector) -> Vector {
-    Vector::new(d[0], d[1], d[2]) + Vector::new(d[3], d[4], d[5]).cross(r)
+fn arm<const N: usize>(b: &Block, p: &Point) -> Arm {
+    Arm {
+        r: p - b.position,
+        strain: (N == 12 && b.is_deformable()).then(|| (b.material_point(p), b.rotation)),
+    }
+}
+
+/// Generalised direction [e; r × e] of a unit force e at the arm, with [T_e(X)ᵀ Rᵀ e] on the
+/// strain rows of a deformable block.
+#[inline]
+fn direction<const N: usize>(a: &Arm, e: &Vector) -> BlockVec<N> {
+    let t = a.r.cross(e);
+    let mut g = BlockVec::<N>::zeros();
+    g[0] = e.x;
+    g[1] = e.y;
+    g[2] = e.z;
+    g[3] = t.x;
+    g[4] = t.y;
+    g[5] = t.z;
+    if let Some((x, rot)) = &a.strain {
+        let s = strain::generalised_force(x, &rot.inverse_transform_vector(e));
+        for k in 0..6 {
+            g[6 + k] = s[k];
+        }
+    }
+    g
+}
+
+/// The strain rows of a generalised vector (zero when N = 6).
+#[inline]
+fn strain_part<const N: usize>(d: &BlockVec<N>) -> Strain {
+    if N == 12 {
+        Strain::from_fn(|k, _| d[6 + k])
+    } else {
+        Strain::zeros()
+    }
+}
+
+/// A generalised vector from its rigid part [d; θ] and strain part.
+#[inline]
+fn generalised<const N: usize>(d: &Vector, theta: &Vector, e: &Strain) -> BlockVec<N> {
+    let mut g = BlockVec::<N>::zeros();
+    for k in 0..3 {
+        g[k] = d[k];
+        g[3 + k] = theta[k];
+    }
+    if N == 12 {
+        for k in 0..6 {
+            g[6 + k] = e[k];
+        }
+    }
+    g
+}
+
+/// Displacement of the material point at the arm under D = [d; θ; Δe]: d + θ × r (+ R ΔE X).
+#[inline]
+fn point_displacement<const N: usize>(d: &BlockVec<N>, a: &Arm) -> Vector {
+    let u = Vector::new(d[0], d[1], d[2]) + Vector::new(d[3], d[4], d[5]).cross(&a.r);
+    match &a.strain {
+        None => u,
+        Some((x, rot)) => u + rot * (strain::tensor(&strain_part(d)) * x),
+    }
+}
+
+/// Largest distance [m] a point of block `b` moves under the strain change `de`:
+/// |ΔE X| ≤ ‖ΔE‖_F |X| (the Frobenius norm bounds the spectral one).
+#[inline]
+fn strain_travel(b: &Block, de: &Strain) -> Real {
+    strain::tensor(de).norm() * b.shape.radius
 }
 
 fn tangents(n: &Vector) -> (Vector, Vector) {
@@ -100,16 +183,26 @@ fn tangents(n: &Vector) -> (Vector, Vector) {
     (t1, n.cross(&t1))
 }
 
-fn mass_matrix(b: &Block) -> Mat6 {
-    let mut m = Mat6::zeros();
+/// The block's mass matrix: m 1, the world inertia, and (N = 12) M_e on the strain rows of a
+/// deformable block, the identity on those of a rigid one (rows that solve to Δe = 0).
+/// Block-diagonal: the rotation–strain inertia coupling is neglected ([`crate::elastic`]).
+fn mass_matrix<const N: usize>(b: &Block) -> BlockMat<N> {
+    let mut m = BlockMat::<N>::zeros();
     m.fixed_view_mut::<3, 3>(0, 0)
         .copy_from(&(Matrix::identity() * b.mass));
     m.fixed_view_mut::<3, 3>(3, 3).copy_from(&b.world_inertia());
+    if N == 12 {
+        match &b.elastic {
+            Some(el) => m.fixed_view_mut::<6, 6>(6, 6).copy_from(&el.mass),
+            None => m.fixed_view_mut::<6, 6>(6, 6).fill_with_identity(),
+        }
+    }
     m
 }
 
-impl Newmark {
-    pub fn new(spec: &SolidSpec) -> Newmark {
+impl<const N: usize> Newmark<N> {
+    pub fn new(spec: &SolidSpec) -> Newmark<N> {
+        assert!(N == 6 || N == 12, "blocks have 6 or 12 unknowns");
         Newmark {
             max_open_close: spec.max_open_close.max(1),
             displacement_limit: spec.displacement_limit,
@@ -121,7 +214,7 @@ impl Newmark {
             substep_hint: None,
             last_substeps: 0,
             last_iterations: 0,
-            scratch: Vec::new(),
+            scratch: stability::Scratch::default(),
         }
     }
 
@@ -132,15 +225,15 @@ impl Newmark {
     fn add_spring(
         &mut self,
         c: &Contact,
-        rp: &Vector,
-        rq: &Vector,
+        rp: &Arm,
+        rq: &Arm,
         e: &Vector,
         k: Real,
         f0: Real,
         world: &World,
     ) {
         let (p, q) = (c.p as usize, c.q as usize);
-        let (gp, gq) = (direction(rp, e), direction(rq, e));
+        let (gp, gq) = (direction::<N>(rp, e), direction::<N>(rq, e));
         let (ip, iq) = (self.row[p], self.row[q]);
         // Relative displacement along e already fixed by the prescribed sides.
         let mut u_known = 0.0;
@@ -171,19 +264,22 @@ impl Newmark {
         self.system.reset(n);
         for (r, &i) in world.free.iter().enumerate() {
             let b = &world.blocks[i];
-            let m = mass_matrix(b);
+            let m = mass_matrix::<N>(b);
             self.system.diag[r] = m * (2.0 / (h * h));
-            let v = Vec6::new(
-                b.velocity.x,
-                b.velocity.y,
-                b.velocity.z,
-                b.angular_velocity.x,
-                b.angular_velocity.y,
-                b.angular_velocity.z,
-            );
             let f = b.mass * world.gravity + world.load_force[i];
             let t = world.load_torque[i];
-            self.system.rhs[r] = Vec6::new(f.x, f.y, f.z, t.x, t.y, t.z) + m * v * (2.0 / h);
+            // Strain rows: the fluid's strain load and the elastic force at the start, −V D e_n;
+            // V D Δe goes into the matrix (the elastic force at the end of the step).
+            let (g, rate) = match &b.elastic {
+                Some(el) if N == 12 => {
+                    let mut kb = self.system.diag[r].fixed_view_mut::<6, 6>(6, 6);
+                    kb += el.stiffness;
+                    (world.load_strain[i] + el.elastic_force(), el.rate)
+                }
+                _ => (Strain::zeros(), Strain::zeros()),
+            };
+            let v = generalised::<N>(&b.velocity, &b.angular_velocity, &rate);
+            self.system.rhs[r] = generalised::<N>(&f, &t, &g) + m * v * (2.0 / h);
         }
         let pen = &world.penalty;
         for (ci, c) in world.contacts.iter().enumerate() {
@@ -192,7 +288,7 @@ impl Newmark {
                 continue;
             }
             let (bp, bq) = (&world.blocks[c.p as usize], &world.blocks[c.q as usize]);
-            let (rp, rq) = (c.point - bp.position, c.point - bq.position);
+            let (rp, rq) = (arm::<N>(bp, &c.point), arm::<N>(bq, &c.point));
             let mred = PenaltyModel::reduced_mass(bp, bq);
             let dv = bp.point_velocity(&c.point) - bq.point_velocity(&c.point);
             let n = c.normal;
@@ -252,8 +348,8 @@ impl Newmark {
             let (p, q) = (c.p as usize, c.q as usize);
             let dp = self.step_of(p);
             let dq = self.step_of(q);
-            let delta = point_displacement(&dp, &(c.point - world.blocks[p].position))
-                - point_displacement(&dq, &(c.point - world.blocks[q].position));
+            let delta = point_displacement(&dp, &arm::<N>(&world.blocks[p], &c.point))
+                - point_displacement(&dq, &arm::<N>(&world.blocks[q], &c.point));
             let n = c.normal;
             let gap = c.gap + n.dot(&delta);
             let tr = &mut self.trials[ci];
@@ -263,7 +359,15 @@ impl Newmark {
                 let nf = -pen.normal * gap;
                 let shear = c.shear + (delta - n * n.dot(&delta));
                 let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, nf);
-                let state = if pen.shear * shear.norm() > limit {
+                // A contact whose shear sits on the Mohr–Coulomb limit (within
+                // STATE_TOLERANCE) keeps its trial state: locked and sliding then give the same
+                // solution, and flipping between them on round-off would never converge.
+                let force = pen.shear * shear.norm();
+                let slides = match tr.state {
+                    ContactState::Sliding => force >= limit * (1.0 - STATE_TOLERANCE),
+                    _ => force > limit * (1.0 + STATE_TOLERANCE),
+                };
+                let state = if slides {
                     ContactState::Sliding
                 } else {
                     ContactState::Locked
@@ -287,7 +391,7 @@ impl Newmark {
         (changed, stale)
     }
 
-    fn step_of(&self, block: usize) -> Vec6 {
+    fn step_of(&self, block: usize) -> BlockVec<N> {
         match self.row[block] {
             usize::MAX => self.known[block],
             r => self.solution[r],
@@ -300,9 +404,9 @@ impl Newmark {
             self.known[i] = match (&b.motion, b.kind) {
                 (Some(m), shared::scene::BlockKind::Kinematic) => {
                     let d = m.displacement(world.time + h) - m.displacement(world.time);
-                    Vec6::new(d.x, d.y, d.z, 0.0, 0.0, 0.0)
+                    generalised::<N>(&d, &Vector::zeros(), &Strain::zeros())
                 }
-                _ => Vec6::zeros(),
+                _ => BlockVec::<N>::zeros(),
             };
         }
         self.trials.clear();
@@ -321,7 +425,8 @@ impl Newmark {
         for &i in &world.free {
             let b = &world.blocks[i];
             let (d, w) = (b.velocity * h, b.angular_velocity * h);
-            self.solution.push(Vec6::new(d.x, d.y, d.z, w.x, w.y, w.z));
+            self.solution
+                .push(generalised::<N>(&d, &w, &(b.strain_rate() * h)));
         }
         let max_cg = 50 + 20 * world.free.len();
         let mut iterations = 0;
@@ -352,7 +457,8 @@ impl Newmark {
             let b = &world.blocks[i];
             let d = &self.solution[r];
             let moved = Vector::new(d[0], d[1], d[2]).norm()
-                + Vector::new(d[3], d[4], d[5]).norm() * b.shape.radius;
+                + Vector::new(d[3], d[4], d[5]).norm() * b.shape.radius
+                + strain_travel(b, &strain_part(d));
             let ratio = moved / b.size();
             if ratio > self.displacement_limit {
                 return Err(Cut::Displacement { block: i, ratio });
@@ -373,6 +479,12 @@ impl Newmark {
             b.velocity = dx * (2.0 / h) - b.velocity;
             b.angular_velocity = th * (2.0 / h) - b.angular_velocity;
             b.displace(&dx, &th);
+            if let Some(el) = b.elastic.as_mut() {
+                let de = strain_part(&d);
+                work += world.load_strain[i].dot(&de);
+                el.rate = de * (2.0 / h) - el.rate;
+                b.strain_by(&de);
+            }
             b.update_world_geometry();
         }
         let pen = world.penalty.clone();
@@ -425,14 +537,18 @@ impl Newmark {
             let b = &world.blocks[i];
             let a = world.gravity.norm() + world.load_force[i].norm() / b.mass;
             travel = travel.max(
-                (b.velocity.norm() + b.angular_velocity.norm() * b.shape.radius) * h + a * h * h,
+                (b.velocity.norm()
+                    + b.angular_velocity.norm() * b.shape.radius
+                    + strain_travel(b, &b.strain_rate()))
+                    * h
+                    + a * h * h,
             );
         }
         world.penalty.margin + 2.0 * travel
     }
 }
 
-impl Integrator for Newmark {
+impl<const N: usize> Integrator for Newmark<N> {
     fn name(&self) -> &'static str {
         "implicit"
     }
@@ -451,7 +567,7 @@ impl Integrator for Newmark {
                 }
             })
             .collect();
-        self.known = vec![Vec6::zeros(); world.blocks.len()];
+        self.known = vec![BlockVec::<N>::zeros(); world.blocks.len()];
     }
 
     fn advance(
@@ -522,8 +638,8 @@ impl Integrator for Newmark {
         energy.check(
             world,
             "implicit",
-            || stability::current(world, scratch).sqrt() * dt,
-            "Shi's β = ½, γ = 1 Newmark is unconditionally stable: growth means a wrong contact state",
+            || stability::current(world, scratch).omega2.sqrt() * dt,
+            || "Shi's β = ½, γ = 1 Newmark is unconditionally stable: growth means a wrong contact state".to_string(),
         )?;
         // Cutting is routine for Shi's scheme; only heavy cutting is worth telling the user.
         let warning = (self.last_substeps >= 9).then(|| {
@@ -539,7 +655,9 @@ impl Integrator for Newmark {
         let mut dt = world.dt_max;
         for &i in &world.free {
             let b = &world.blocks[i];
-            let speed = b.velocity.norm() + b.angular_velocity.norm() * b.shape.radius;
+            let speed = b.velocity.norm()
+                + b.angular_velocity.norm() * b.shape.radius
+                + strain_travel(b, &b.strain_rate());
             if speed > 0.0 {
                 dt = dt.min(self.displacement_limit * b.size() / speed);
             }

@@ -1,7 +1,9 @@
-//! 3D-DDA solvers for rockwave: rigid convex blocks in contact, after Shi (1993) and the
+//! 3D-DDA solvers for rockwave: convex blocks in contact, rigid (6 unknowns) or, where a scene
+//! asks, deformable with Shi's constant strain (12 unknowns), after Shi (1993) and the
 //! explicit 3D-DDA of Geraili Mikola & Sitar (the paper, §2).
 //!
 //! - [`block`]: a block's shape, mass properties, pose and world geometry;
+//! - [`elastic`]: the strain state and matrices of a deformable block (co-rotational);
 //! - [`rotation`]: exact rotation updates (no growth of rotating blocks);
 //! - [`broad_phase`], [`narrow_phase`], [`contact`]: finding vertex–face and edge–edge contacts;
 //! - [`penalty`], [`friction`]: normal and shear springs, Mohr–Coulomb with cohesion;
@@ -15,6 +17,7 @@ pub mod block;
 pub mod broad_phase;
 pub mod contact;
 pub mod dda;
+pub mod elastic;
 pub mod energy;
 pub mod explicit;
 pub mod friction;
@@ -44,7 +47,11 @@ pub fn build_dda(name: &str, ctx: &SetupContext) -> Result<dda::DdaSolver, Solve
     let solid = &ctx.scene.solid;
     let integrator: Box<dyn integrator::Integrator> = match name {
         "explicit" => Box::new(explicit::CentralDifference::new(solid.safety_factor)),
-        "implicit" => Box::new(implicit::Newmark::new(solid)),
+        // 12 unknowns per block only when the scene asks for a deformable one.
+        "implicit" if ctx.scene.blocks.iter().any(|b| b.elastic.is_some()) => {
+            Box::new(implicit::Newmark::<12>::new(solid))
+        }
+        "implicit" => Box::new(implicit::Newmark::<6>::new(solid)),
         other => {
             return Err(SolverError::Failed(format!(
                 "unknown solid solver '{other}'; fix: use one of {}",

@@ -1,31 +1,53 @@
-//! The global equations of the implicit scheme (paper Eq. 4) for rigid blocks: a symmetric,
-//! positive definite matrix of 6×6 blocks (one row of blocks per free block, one off-diagonal
-//! block per pair of free blocks in contact), solved by conjugate gradients preconditioned with
-//! the inverse diagonal blocks.
+//! The global equations of the implicit scheme (paper Eq. 4): a symmetric, positive definite
+//! matrix of N×N blocks (one row of blocks per free block, one off-diagonal block per pair of
+//! free blocks in contact), solved by conjugate gradients preconditioned with the inverse
+//! diagonal blocks.
 //!
 //! Shi (1993) stores DDA's matrix the same way (6×6 sub-matrices for rigid blocks, 12×12 with
 //! strains) and solves it iteratively; the 2M/Δt² term makes the diagonal blocks dominant, so
 //! block Jacobi preconditioning converges in a few iterations, and a block without free
 //! neighbours is solved exactly in one.
+//!
+//! The block size is a const generic: N = 6 for a scene of rigid blocks (the fixed-size 6×6
+//! arithmetic of before, nothing paid for deformability), N = 12 when a scene has a
+//! deformable block (rigid blocks then carry six identity strain rows that solve to zero).
 
-use nalgebra::{Matrix6, Vector6};
+use nalgebra::{SMatrix, SVector};
 use shared::math::Real;
 
-pub type Mat6 = Matrix6<Real>;
-pub type Vec6 = Vector6<Real>;
+/// One N×N block of the matrix and one N-vector of unknowns.
+pub type BlockMat<const N: usize> = SMatrix<Real, N, N>;
+pub type BlockVec<const N: usize> = SVector<Real, N>;
+pub type Mat6 = BlockMat<6>;
+pub type Vec6 = BlockVec<6>;
 
 /// A · x = b with A block-sparse, symmetric. Buffers are kept between solves.
-#[derive(Debug, Default)]
-pub struct BlockSystem {
-    pub diag: Vec<Mat6>,
+#[derive(Debug)]
+pub struct BlockSystem<const N: usize> {
+    pub diag: Vec<BlockMat<N>>,
     /// Off-diagonal blocks (i, j, A_ij) with i < j; A_ji = A_ijᵀ.
-    pub off: Vec<(u32, u32, Mat6)>,
-    pub rhs: Vec<Vec6>,
-    inv_diag: Vec<Mat6>,
-    r: Vec<Vec6>,
-    z: Vec<Vec6>,
-    p: Vec<Vec6>,
-    ap: Vec<Vec6>,
+    pub off: Vec<(u32, u32, BlockMat<N>)>,
+    pub rhs: Vec<BlockVec<N>>,
+    inv_diag: Vec<BlockMat<N>>,
+    r: Vec<BlockVec<N>>,
+    z: Vec<BlockVec<N>>,
+    p: Vec<BlockVec<N>>,
+    ap: Vec<BlockVec<N>>,
+}
+
+impl<const N: usize> Default for BlockSystem<N> {
+    fn default() -> Self {
+        BlockSystem {
+            diag: Vec::new(),
+            off: Vec::new(),
+            rhs: Vec::new(),
+            inv_diag: Vec::new(),
+            r: Vec::new(),
+            z: Vec::new(),
+            p: Vec::new(),
+            ap: Vec::new(),
+        }
+    }
 }
 
 /// Why a solve failed.
@@ -37,19 +59,19 @@ pub enum SolveError {
     NoConvergence(Real),
 }
 
-impl BlockSystem {
+impl<const N: usize> BlockSystem<N> {
     /// Empties the system for `n` block rows, keeping capacity.
     pub fn reset(&mut self, n: usize) {
         self.diag.clear();
-        self.diag.resize(n, Mat6::zeros());
+        self.diag.resize(n, BlockMat::<N>::zeros());
         self.rhs.clear();
-        self.rhs.resize(n, Vec6::zeros());
+        self.rhs.resize(n, BlockVec::<N>::zeros());
         self.off.clear();
     }
 
     /// Adds `m` to block (i, j) of the matrix, i ≠ j. Consecutive additions to the same
     /// block are merged (contacts arrive grouped by pair).
-    pub fn add_off(&mut self, i: usize, j: usize, m: &Mat6) {
+    pub fn add_off(&mut self, i: usize, j: usize, m: &BlockMat<N>) {
         let (a, b, m) = if i < j {
             (i as u32, j as u32, *m)
         } else {
@@ -62,7 +84,7 @@ impl BlockSystem {
     }
 
     /// y = A x.
-    pub fn apply(&self, x: &[Vec6], y: &mut [Vec6]) {
+    pub fn apply(&self, x: &[BlockVec<N>], y: &mut [BlockVec<N>]) {
         for ((yi, d), xi) in y.iter_mut().zip(&self.diag).zip(x) {
             *yi = d * xi;
         }
@@ -77,7 +99,7 @@ impl BlockSystem {
     /// given `x`. Returns the number of iterations.
     pub fn solve(
         &mut self,
-        x: &mut [Vec6],
+        x: &mut [BlockVec<N>],
         rel_tol: Real,
         max_iter: usize,
     ) -> Result<usize, SolveError> {
@@ -92,7 +114,7 @@ impl BlockSystem {
         }
         for v in [&mut self.r, &mut self.z, &mut self.p, &mut self.ap] {
             v.clear();
-            v.resize(n, Vec6::zeros());
+            v.resize(n, BlockVec::<N>::zeros());
         }
         let mut r = std::mem::take(&mut self.r);
         let mut ap = std::mem::take(&mut self.ap);
@@ -166,7 +188,7 @@ mod tests {
     #[test]
     fn pcg_matches_dense_solution() {
         let n = 50;
-        let mut sys = BlockSystem::default();
+        let mut sys = BlockSystem::<6>::default();
         sys.reset(n);
         let mut seed = 7u64;
         let mut rnd = || {

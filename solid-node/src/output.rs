@@ -10,24 +10,40 @@ use std::path::{Path, PathBuf};
 /// Rows between flushes: a killed run keeps all but the last few.
 const FLUSH_EVERY: usize = 64;
 
+/// The strain and stress columns `blocks.csv` gets when the scene has a deformable block:
+/// strain e = (εx, εy, εz, γyz, γzx, γxy) (engineering shears) and stress σ = D e [Pa], both in
+/// the block frame (Shi's order); 0 on the rows of rigid blocks.
+pub const STRAIN_COLUMNS: &str = "exx,eyy,ezz,gyz,gzx,gxy,sxx,syy,szz,syz,szx,sxy";
+
 /// `blocks.csv`: time, block, centroid, velocity, orientation quaternion [i, j, k, w] and
-/// angular velocity of every kinematic and free block.
+/// angular velocity of every kinematic and free block; with [`STRAIN_COLUMNS`] appended when
+/// the scene has a deformable block (a scene of rigid blocks keeps exactly the columns it had).
 pub struct KinematicsCsv {
     out: BufWriter<File>,
     min_interval: Real,
     last: Option<Real>,
     rows: usize,
+    strains: bool,
 }
 
 impl KinematicsCsv {
-    pub fn create(run_dir: &Path, output_interval: Real) -> std::io::Result<KinematicsCsv> {
+    pub fn create(
+        run_dir: &Path,
+        output_interval: Real,
+        strains: bool,
+    ) -> std::io::Result<KinematicsCsv> {
         let mut out = BufWriter::new(File::create(run_dir.join("blocks.csv"))?);
-        writeln!(out, "time,block,x,y,z,vx,vy,vz,qi,qj,qk,qw,wx,wy,wz")?;
+        write!(out, "time,block,x,y,z,vx,vy,vz,qi,qj,qk,qw,wx,wy,wz")?;
+        if strains {
+            write!(out, ",{STRAIN_COLUMNS}")?;
+        }
+        writeln!(out)?;
         Ok(KinematicsCsv {
             out,
             min_interval: output_interval / 20.0,
             last: None,
             rows: 0,
+            strains,
         })
     }
 
@@ -54,11 +70,25 @@ impl KinematicsCsv {
                 b.rotation.coords,
                 b.angular_velocity,
             );
-            writeln!(
+            write!(
                 self.out,
                 "{t:.9},{},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.12},{:.12},{:.12},{:.12},{:.9},{:.9},{:.9}",
                 b.name, p.x, p.y, p.z, v.x, v.y, v.z, q.x, q.y, q.z, q.w, w.x, w.y, w.z
             )?;
+            if self.strains {
+                match &b.elastic {
+                    Some(el) => {
+                        for x in el.strain.iter() {
+                            write!(self.out, ",{x:.6e}")?;
+                        }
+                        for x in el.stress().iter() {
+                            write!(self.out, ",{x:.6e}")?;
+                        }
+                    }
+                    None => write!(self.out, "{}", ",0".repeat(12))?,
+                }
+            }
+            writeln!(self.out)?;
             self.rows += 1;
         }
         if self.rows >= FLUSH_EVERY {
@@ -81,8 +111,11 @@ pub fn frame_path(run_dir: &Path, frame: u32) -> PathBuf {
     run_dir.join(format!("blocks_{frame:05}.vtp"))
 }
 
-/// Writes all blocks (fixed ones too) at their current pose as polygons, with per-block kind
-/// (0 fixed, 1 kinematic, 2 free), speed and contact-force magnitude as cell data.
+/// Writes all blocks (fixed ones too) at their current pose (deformed, for deformable blocks)
+/// as polygons, with per-block kind (0 fixed, 1 kinematic, 2 free), speed and contact-force
+/// magnitude as cell data; when the scene has a deformable block, also its volumetric strain
+/// εx + εy + εz, von Mises stress [Pa] and the six block-frame strains and stresses (0 for
+/// rigid blocks).
 pub fn write_blocks_vtp(world: &World, path: &Path) -> std::io::Result<()> {
     let verts: Vec<Vec<[f64; 3]>> = world
         .blocks
@@ -110,13 +143,53 @@ pub fn write_blocks_vtp(world: &World, path: &Path) -> std::io::Result<()> {
         .collect();
     let speed: Vec<f64> = world.blocks.iter().map(|b| b.velocity.norm()).collect();
     let contact: Vec<f64> = world.contact_force.iter().map(|f| f.norm()).collect();
-    shared::vtk::write_polyhedra(
-        path,
-        &blocks,
-        &[
-            ("kind", &kind),
-            ("speed", &speed),
-            ("contact_force", &contact),
-        ],
-    )
+    let mut arrays: Vec<(&str, &[f64])> = vec![
+        ("kind", &kind),
+        ("speed", &speed),
+        ("contact_force", &contact),
+    ];
+    let per_block = |f: &dyn Fn(&crate::elastic::Elastic) -> f64| -> Vec<f64> {
+        world
+            .blocks
+            .iter()
+            .map(|b| b.elastic.as_ref().map_or(0.0, |e| f(e)))
+            .collect()
+    };
+    let (volumetric, mises);
+    let components: Vec<Vec<f64>>;
+    const NAMES: [&str; 12] = [
+        "strain_xx",
+        "strain_yy",
+        "strain_zz",
+        "strain_yz",
+        "strain_zx",
+        "strain_xy",
+        "stress_xx",
+        "stress_yy",
+        "stress_zz",
+        "stress_yz",
+        "stress_zx",
+        "stress_xy",
+    ];
+    if !world.deformable.is_empty() {
+        volumetric = per_block(&|e| e.strain[0] + e.strain[1] + e.strain[2]);
+        mises = per_block(&|e| e.von_mises());
+        components = (0..12)
+            .map(|k| {
+                per_block(&|e| {
+                    if k < 6 {
+                        e.strain[k]
+                    } else {
+                        e.stress()[k - 6]
+                    }
+                })
+            })
+            .collect();
+        arrays.push(("volumetric_strain", &volumetric));
+        arrays.push(("von_mises_stress", &mises));
+        for (name, c) in NAMES.iter().zip(&components) {
+            arrays.push((name, c));
+        }
+    }
+    shared::vtk::write_polyhedra(path, &blocks, &arrays)
 }

@@ -11,6 +11,7 @@ use rayon::prelude::*;
 use shared::math::{Point, Real, Vector};
 use shared::scene::{ContactSpec, Scene};
 use shared::solver::SolverError;
+use shared::strain::Strain;
 
 /// Below this many pairs (or contacts) the narrow phase runs on one thread: rayon's fork costs
 /// more than the work.
@@ -24,6 +25,9 @@ pub struct World {
     pub moving: Vec<usize>,
     /// Indices of the free blocks.
     pub free: Vec<usize>,
+    /// Indices of the deformable (12-DOF) free blocks; empty in a scene of rigid blocks, and
+    /// then no strain work is done anywhere.
+    pub deformable: Vec<usize>,
     pub gravity: Vector,
     pub penalty: PenaltyModel,
     pub contact_spec: ContactSpec,
@@ -46,6 +50,10 @@ pub struct World {
     /// Contact force and torque on each block from the last force evaluation.
     pub contact_force: Vec<Vector>,
     pub contact_torque: Vec<Vector>,
+    /// Fluid load on the strain unknowns (the protocol's `strain_load`), deformable blocks.
+    pub load_strain: Vec<Strain>,
+    /// Contact load on the strain unknowns, Σ T_e(X)ᵀ Rᵀ f, deformable blocks only.
+    pub contact_strain: Vec<Strain>,
 }
 
 impl World {
@@ -62,6 +70,9 @@ impl World {
         Ok(World {
             moving: scene.moving_blocks(),
             free: (0..n).filter(|&i| blocks[i].is_free()).collect(),
+            deformable: (0..n)
+                .filter(|&i| blocks[i].is_free() && blocks[i].is_deformable())
+                .collect(),
             blocks,
             gravity,
             penalty,
@@ -79,7 +90,15 @@ impl World {
             load_torque: vec![Vector::zeros(); n],
             contact_force: vec![Vector::zeros(); n],
             contact_torque: vec![Vector::zeros(); n],
+            load_strain: vec![Strain::zeros(); n],
+            contact_strain: vec![Strain::zeros(); n],
         })
+    }
+
+    /// Number of unknowns of the block system: 6 per free rigid block, 12 per deformable one
+    /// (fixed and kinematic blocks have none).
+    pub fn unknowns(&self) -> usize {
+        self.free.iter().map(|&i| self.blocks[i].unknowns()).sum()
     }
 
     /// Total mass of the free blocks [kg].
@@ -181,6 +200,30 @@ impl World {
             self.contact_force[q] -= c.force;
             self.contact_torque[q] -= (c.point - self.blocks[q].position).cross(&c.force);
         }
+        if !self.deformable.is_empty() {
+            self.sum_contact_strain_loads();
+        }
+    }
+
+    /// The contact forces' loads on the strain unknowns of the deformable blocks: the force f
+    /// at the contact point loads the block with T_e(X)ᵀ Rᵀ f (X the point's undeformed
+    /// block-frame position, [`Block::strain_load`]).
+    fn sum_contact_strain_loads(&mut self) {
+        for &i in &self.deformable {
+            self.contact_strain[i] = Strain::zeros();
+        }
+        for c in &self.contacts {
+            if c.force == Vector::zeros() {
+                continue;
+            }
+            let (p, q) = (c.p as usize, c.q as usize);
+            if self.blocks[p].is_deformable() {
+                self.contact_strain[p] += self.blocks[p].strain_load(&c.point, &c.force);
+            }
+            if self.blocks[q].is_deformable() {
+                self.contact_strain[q] += self.blocks[q].strain_load(&c.point, &-c.force);
+            }
+        }
     }
 
     /// Kinetic energy of the free blocks [J].
@@ -188,6 +231,14 @@ impl World {
         self.free
             .iter()
             .map(|&i| self.blocks[i].kinetic_energy())
+            .sum()
+    }
+
+    /// Elastic strain energy of the deformable blocks [J].
+    pub fn strain_energy(&self) -> Real {
+        self.deformable
+            .iter()
+            .map(|&i| self.blocks[i].strain_energy())
             .sum()
     }
 
