@@ -2,7 +2,8 @@
 //! incline that sticks or slides (with and without cohesion), slide-or-topple, the restitution
 //! of an undamped penalty bounce for both schemes, the explicit scheme pushed past its limit,
 //! a stack at rest, the embedded default scene's wedge, and a spinning block that must not
-//! grow. `solid-validate` prints them as a table; the tests run the same functions.
+//! grow; and the deformable (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints
+//! them as a table; the tests run the same functions.
 //!
 //! Every case drives the solver through the [`SolidSolver`] interface, as the node runtime
 //! does, with the run directory in a temporary folder.
@@ -19,6 +20,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 const G: Real = shared::math::STANDARD_GRAVITY;
 
 pub use shared::report::{Row, Tolerance, markdown};
+
+pub mod deformable;
 
 // ---------------------------------------------------------------------------------------------
 // Scenes built in code.
@@ -216,6 +219,11 @@ pub struct Incline {
 impl Incline {
     /// The slope (a fixed slab) and the block sitting on it at zero gap, both turned by α.
     pub fn scene(&self) -> Scene {
+        self.scene_with("")
+    }
+
+    /// [`Incline::scene`] with `extra` TOML lines in the block's table (e.g. `elastic = ...`).
+    pub fn scene_with(&self, extra: &str) -> Scene {
         let a = self.alpha.to_radians();
         let slab = rotate_y(&box_corners([-1.0, -1.0, -0.3], [6.0, 1.0, 0.0]), a);
         let block = rotate_y(&box_corners([0.0, -0.2, 0.0], [self.b, 0.2, self.h]), a);
@@ -230,7 +238,7 @@ impl Incline {
             ),
             &[
                 block_toml("slope", "fixed", 2500.0, &slab, ""),
-                block_toml("rock", "free", 2500.0, &block, ""),
+                block_toml("rock", "free", 2500.0, &block, extra),
             ],
         )
     }
@@ -833,6 +841,9 @@ pub fn run_all(quick: bool) -> Vec<Row> {
         }
         rows.push(stack_row(solver, if quick { 3.0 } else { 10.0 }));
         rows.extend(default_wedge_rows(solver));
+    }
+    for solver in crate::SOLVERS {
+        rows.extend(deformable::rows(solver));
     }
     rows
 }

@@ -67,3 +67,41 @@ fn newmark_restitution_tends_to_shi_asymptote() {
         assert!((e / a - 1.0).abs() < 0.2 * w, "Ω = {w}: {e} vs {a}");
     }
 }
+
+#[test]
+fn deformable_block_resting_strain() {
+    let mut rows = v::deformable::resting_rows("explicit");
+    rows.extend(v::deformable::resting_rows("implicit"));
+    check(&rows);
+}
+
+#[test]
+fn deformable_block_free_vibration() {
+    let mut rows = v::deformable::vibration_rows("explicit");
+    rows.extend(v::deformable::vibration_rows("implicit"));
+    check(&rows);
+}
+
+#[test]
+fn deformable_block_explicit_limit_names_the_elastic_mode() {
+    check(&v::deformable::elastic_limit_rows());
+}
+
+#[test]
+fn stiff_deformable_block_slides_like_the_rigid_one() {
+    check(&[
+        v::deformable::incline_rigid_vs_deformable("explicit"),
+        v::deformable::incline_rigid_vs_deformable("implicit"),
+    ]);
+}
+
+#[test]
+fn newmark_vibration_theory() {
+    // Small Ω: period stretch 1 + Ω²/... → 1, decay per period exp(−πΩ/2).
+    for w in [1e-3, 1e-2] {
+        let (stretch, decay) = v::deformable::newmark_vibration(w);
+        assert!((stretch - 1.0).abs() < w, "{stretch}");
+        let a = (-std::f64::consts::PI * w / 2.0).exp();
+        assert!((decay / a - 1.0).abs() < 0.2 * w, "Ω = {w}: {decay} vs {a}");
+    }
+}

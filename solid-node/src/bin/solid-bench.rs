@@ -3,13 +3,19 @@
 //! that vertex–face and edge–edge contacts both occur). Prints a markdown table.
 //!
 //! Options: `--steps N` timed steps per case (default 200), `--warm N` steps before timing
-//! (default 300), `--sizes 10,100,1000`, `--solvers explicit,implicit`.
+//! (default 300), `--sizes 10,100,1000`, `--solvers explicit,implicit`, `--elastic E` to make
+//! every block of the pile deformable (12 unknowns) with Young's modulus E [Pa], ν = 0.25,
+//! `--elastic-one E` only the first (the rest rigid: what a scene with one deformable block
+//! costs the implicit scheme, whose blocks are then all 12×12).
 
 use shared::solver::Solver;
 use solid_node::verification::{Harness, block_toml, box_corners, scene};
 use std::time::Instant;
 
-fn pile(n: usize) -> shared::scene::Scene {
+fn pile(n: usize, elastic: Option<f64>, only_first: bool) -> shared::scene::Scene {
+    let extra = elastic.map_or(String::new(), |e| {
+        format!("elastic = {{ young_modulus = {e:e}, poisson_ratio = 0.25 }}")
+    });
     let side = (n as f64).cbrt().ceil() as usize;
     let mut seed = 2024u64;
     let mut rnd = move || {
@@ -47,7 +53,8 @@ fn pile(n: usize) -> shared::scene::Scene {
                 ]
             })
             .collect();
-        blocks.push(block_toml(&format!("b{k}"), "free", 2500.0, &v, ""));
+        let extra = if only_first && k > 0 { "" } else { &extra };
+        blocks.push(block_toml(&format!("b{k}"), "free", 2500.0, &v, extra));
     }
     scene(
         "pile",
@@ -68,6 +75,11 @@ fn main() {
             .cloned()
     };
     let steps: usize = arg("--steps").map_or(200, |s| s.parse().expect("--steps N"));
+    let one = arg("--elastic-one");
+    let only_first = one.is_some();
+    let elastic: Option<f64> = arg("--elastic")
+        .or(one)
+        .map(|s| s.parse().expect("--elastic E"));
     let sizes: Vec<usize> = arg("--sizes").map_or(vec![10, 100, 1000], |s| {
         s.split(',')
             .map(|x| x.parse().expect("--sizes 10,100"))
@@ -78,7 +90,7 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|---|");
     for &n in &sizes {
-        let scene = pile(n);
+        let scene = pile(n, elastic, only_first);
         let solvers: Vec<String> = arg("--solvers").map_or(
             solid_node::SOLVERS.iter().map(|s| s.to_string()).collect(),
             |s| s.split(',').map(String::from).collect(),

@@ -1,11 +1,20 @@
 //! `cargo run --release -p solid-node --bin solid-validate`: runs the solid verification cases
 //! (see `solid_node::verification`) and prints a markdown table. Exits non-zero if one fails.
-//! `--quick` shortens the 10 s stack run to 3 s.
+//! `--quick` shortens the 10 s stack run to 3 s; `--deformable` runs only the deformable-block
+//! cases.
 
 fn main() -> std::process::ExitCode {
     let quick = std::env::args().any(|a| a == "--quick");
+    let deformable = std::env::args().any(|a| a == "--deformable");
     let start = std::time::Instant::now();
-    let rows = solid_node::verification::run_all(quick);
+    let rows = if deformable {
+        solid_node::SOLVERS
+            .iter()
+            .flat_map(|s| solid_node::verification::deformable::rows(s))
+            .collect()
+    } else {
+        solid_node::verification::run_all(quick)
+    };
     println!("{}", solid_node::verification::markdown(&rows));
     let failed = rows.iter().filter(|r| !r.pass).count();
     println!(
