@@ -1,6 +1,7 @@
 //! "Model no more than a scene needs" inside the solid solver: fixed blocks carry no unknowns
 //! and are never checked against each other, and blocks are rigid (6 unknowns, shape kept
-//! exactly) since no scene can ask for deformation. The process-level half (no fluid node for a
+//! exactly) unless the scene asks for deformation (`elastic = {...}`: 12 unknowns, and the
+//! shape then changes under load). The process-level half (no fluid node for a
 //! dry scene, no solid node without moving blocks, --target-error) is in tests/tests/limits.rs.
 
 use shared::math::STANDARD_GRAVITY as G;
@@ -84,15 +85,42 @@ fn fixed_blocks_have_no_unknowns_and_no_contacts_among_themselves() {
 }
 
 #[test]
-fn blocks_are_rigid() {
+fn blocks_are_rigid_unless_the_scene_asks() {
     // A free block spinning and landing on the floor keeps every corner-to-corner distance:
-    // rigid 6-DOF bodies with exactly integrated rotations, never a deformable DDA block.
+    // rigid 6-DOF bodies with exactly integrated rotations, unless the scene gives it
+    // `elastic`, when it has 12 unknowns and the landing deforms it.
+    for solver in ["explicit", "implicit"] {
+        for elastic in [false, true] {
+            let extra = if elastic {
+                "\nelastic = { young_modulus = 1e6, poisson_ratio = 0.25 }"
+            } else {
+                ""
+            };
+            let worst = landing_shape_change(solver, extra);
+            if elastic {
+                assert!(
+                    worst > 1e-4,
+                    "{solver}: a soft block must deform: {worst:e}"
+                );
+            } else {
+                assert!(
+                    worst < 1e-12,
+                    "{solver}: the block changed shape by {worst:e}"
+                );
+            }
+        }
+    }
+}
+
+/// The largest relative change of a corner-to-corner distance of a block that lands on the
+/// floor, spinning, over 0.5 s; also checks its number of unknowns.
+fn landing_shape_change(solver: &str, extra: &str) -> f64 {
     let text = block_toml(
         "rock",
         "free",
         2500.0,
         &box_corners([-0.1, -0.2, 0.05], [0.1, 0.2, 0.35]),
-        "angular_velocity = [3.0, 5.0, 1.0]\nvelocity = [0.0, 0.0, -1.0]",
+        &format!("angular_velocity = [3.0, 5.0, 1.0]\nvelocity = [0.0, 0.0, -1.0]{extra}"),
     );
     let floor = block_toml(
         "floor",
@@ -101,42 +129,39 @@ fn blocks_are_rigid() {
         &box_corners([-2.0, -2.0, -0.5], [2.0, 2.0, 0.0]),
         "",
     );
-    for solver in ["explicit", "implicit"] {
-        let s = scene(
-            "rigid",
-            [0.0, 0.0, -G],
-            10.0,
-            "",
-            "damping_ratio = 0.1",
-            &[floor.clone(), text.clone()],
-        );
-        let mut h = Harness::new(&s, solver).unwrap();
-        let i = h.solver.block_index("rock").unwrap();
-        let dists = |w: &solid_node::world::World| -> Vec<f64> {
-            let v = &w.blocks[i].world_vertices;
-            let mut d = Vec::new();
-            for a in 0..v.len() {
-                for b in a + 1..v.len() {
-                    d.push((v[a] - v[b]).norm());
-                }
+    let s = scene(
+        "rigid",
+        [0.0, 0.0, -G],
+        10.0,
+        "",
+        "damping_ratio = 0.1",
+        &[floor, text],
+    );
+    let mut h = Harness::new(&s, solver).unwrap();
+    let unknowns = if extra.is_empty() { 6 } else { 12 };
+    assert_eq!(h.solver.unknowns(), unknowns, "{solver}");
+    let i = h.solver.block_index("rock").unwrap();
+    let dists = |w: &solid_node::world::World| -> Vec<f64> {
+        let v = &w.blocks[i].world_vertices;
+        let mut d = Vec::new();
+        for a in 0..v.len() {
+            for b in a + 1..v.len() {
+                d.push((v[a] - v[b]).norm());
             }
-            d
-        };
-        let before = dists(h.world());
-        let mut worst: f64 = 0.0;
-        let mut touched = false;
-        h.run_until(0.5, None, |w| {
-            touched |= !w.contacts.is_empty();
-            for (a, b) in dists(w).iter().zip(&before) {
-                worst = worst.max((a - b).abs() / b);
-            }
-        })
-        .unwrap();
-        assert!(touched, "{solver}: the block hit the floor");
-        assert!(
-            worst < 1e-12,
-            "{solver}: the block changed shape by {worst:e}"
-        );
-        assert!(h.solver.dt_proposal() > 0.0);
-    }
+        }
+        d
+    };
+    let before = dists(h.world());
+    let mut worst: f64 = 0.0;
+    let mut touched = false;
+    h.run_until(0.5, None, |w| {
+        touched |= !w.contacts.is_empty();
+        for (a, b) in dists(w).iter().zip(&before) {
+            worst = worst.max((a - b).abs() / b);
+        }
+    })
+    .unwrap();
+    assert!(touched, "{solver}: the block hit the floor");
+    assert!(h.solver.dt_proposal() > 0.0);
+    worst
 }
