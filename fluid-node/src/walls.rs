@@ -210,6 +210,13 @@ pub struct BodyParticles {
     pub owner_sorted: Vec<u32>,
     /// `local` in sorted order (the material point each sorted particle is).
     local_sorted: Vec<Vector>,
+    /// Set-up index of each sorted particle.
+    source: Vec<u32>,
+    /// The point of the block's surface each particle stands for (block frame, set-up order):
+    /// its projection on the nearest face. A boundary particle carries the pressure of the
+    /// wall it lies under, so the first moment of that pressure, the strain load, is taken at
+    /// the wall, not a particle depth inside it (which would shorten every lever arm by it).
+    surface: Vec<Vector>,
     /// Where each moving block's material points are now (centroid: the torque reference).
     maps: Vec<MaterialMap>,
     /// Force of the water on each active particle (scratch) and the sums per block: force,
@@ -230,6 +237,7 @@ impl BodyParticles {
         grid: CellGrid,
     ) -> Self {
         let (mut local, mut owner, mut world) = (Vec::new(), Vec::new(), Vec::new());
+        let mut surface = Vec::new();
         let mut maps = Vec::with_capacity(moving.len());
         for (k, b) in moving.iter().enumerate() {
             let c = b.centroid.coords;
@@ -242,7 +250,10 @@ impl BodyParticles {
                 hi = hi.sup(&(v.coords + c));
             }
             for p in WallParticles::sample(std::slice::from_ref(b), anchor, dx, depth, &lo, &hi) {
-                local.push(p - c);
+                let x = Point::from(p - c);
+                let (d, f) = b.plane_distance(&x);
+                surface.push(x.coords - b.faces[f].normal * d);
+                local.push(x.coords);
                 owner.push(k as u32);
                 world.push(p);
             }
@@ -264,6 +275,8 @@ impl BodyParticles {
             velocity: vec![Vector::zeros(); n],
             owner_sorted: vec![0; n],
             local_sorted: vec![Vector::zeros(); n],
+            source: vec![0; n],
+            surface,
             maps,
             reaction: Vec::new(),
             loads: vec![(Vector::zeros(), Vector::zeros(), Strain::zeros()); moving.len()],
@@ -308,11 +321,13 @@ impl BodyParticles {
             .par_iter_mut()
             .zip(self.owner_sorted.par_iter_mut())
             .zip(self.local_sorted.par_iter_mut())
+            .zip(self.source.par_iter_mut())
             .zip(order.par_iter())
-            .for_each(|(((x, o), l), &k)| {
+            .for_each(|((((x, o), l), src), &k)| {
                 *x = world[k as usize];
                 *o = owner[k as usize];
                 *l = local[k as usize];
+                *src = k;
             });
     }
 
@@ -358,7 +373,8 @@ impl BodyParticles {
             self.loads[k].0 += f;
             self.loads[k].1 += arm.cross(f);
             if map.deformable {
-                self.loads[k].2 += map.strain_load(&self.local_sorted[w], f);
+                let at = &self.surface[self.source[w] as usize];
+                self.loads[k].2 += map.strain_load(at, f);
             }
         }
     }
