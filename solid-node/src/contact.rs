@@ -128,6 +128,19 @@ pub fn find<'a>(sorted: &'a [Contact], key: &ContactKey) -> Option<&'a Contact> 
         .map(|i| &sorted[i])
 }
 
+/// Two unit tangents completing the contact normal `n` to a right-handed frame: the directions
+/// of the shear springs.
+pub fn tangents(n: &Vector) -> (Vector, Vector) {
+    let t1 = n
+        .cross(&if n.x.abs() < 0.9 {
+            Vector::x()
+        } else {
+            Vector::y()
+        })
+        .normalize();
+    (t1, n.cross(&t1))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

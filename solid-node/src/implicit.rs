@@ -32,7 +32,7 @@
 //! (solving to zero) for its rigid blocks.
 
 use crate::block::Block;
-use crate::contact::{Contact, ContactState};
+use crate::contact::{Contact, ContactState, tangents};
 use crate::energy::EnergyMonitor;
 use crate::friction::Joint;
 use crate::integrator::Integrator;
@@ -170,17 +170,6 @@ fn point_displacement<const N: usize>(d: &BlockVec<N>, a: &Arm) -> Vector {
 #[inline]
 fn strain_travel(b: &Block, de: &Strain) -> Real {
     strain::tensor(de).norm() * b.shape.radius
-}
-
-fn tangents(n: &Vector) -> (Vector, Vector) {
-    let t1 = n
-        .cross(&if n.x.abs() < 0.9 {
-            Vector::x()
-        } else {
-            Vector::y()
-        })
-        .normalize();
-    (t1, n.cross(&t1))
 }
 
 /// The block's mass matrix: m 1, the world inertia, and (N = 12) M_e on the strain rows of a

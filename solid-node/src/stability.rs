@@ -22,6 +22,7 @@
 //! mode, ν < 0.3) or 24 μ/(ρ L²) (deviatoric). Rigid blocks get no strain block at all.
 
 use crate::block::Block;
+use crate::contact::tangents;
 use crate::world::World;
 use nalgebra::{Matrix6, SymmetricEigen, Vector6};
 use rayon::prelude::*;
@@ -63,17 +64,6 @@ fn normalised_direction(b: &Block, r: &Vector, e: &Vector) -> Vector6<Real> {
     let t = inv_sqrt_world * r.cross(e);
     let s = 1.0 / b.mass.sqrt();
     Vector6::new(e.x * s, e.y * s, e.z * s, t.x, t.y, t.z)
-}
-
-fn tangents(n: &Vector) -> (Vector, Vector) {
-    let t1 = n
-        .cross(&if n.x.abs() < 0.9 {
-            Vector::x()
-        } else {
-            Vector::y()
-        })
-        .normalize();
-    (t1, n.cross(&t1))
 }
 
 /// Adds the springs of one contact point (normal `n`, lever arm `r`) to a mass-normalised

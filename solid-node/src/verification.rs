@@ -607,9 +607,31 @@ pub fn resting_block(omega_dt: Real, duration: Real) -> Result<Real, SolverError
 /// The explicit scheme on a sustained contact either side of Ω = 2 (paper Eq. 8): stable at
 /// 1.9, and at 2.2 an `Unstable` error naming the solver, the energy growth and ω·dt.
 pub fn explicit_limit_rows() -> Vec<Row> {
-    let mut rows = Vec::new();
-    let case = "block resting on springs, Ω = 1.9, 1 s";
-    rows.push(match resting_block(1.9, 1.0) {
+    limit_rows(
+        (
+            "block resting on springs, Ω = 1.9, 1 s",
+            resting_block(1.9, 1.0),
+        ),
+        (
+            "block resting on springs, Ω = 2.2 (past 2/ω_max)",
+            resting_block(2.2, 1.0),
+        ),
+        "Unstable reported",
+        &["explicit", "energy", "ω_max·dt"],
+    )
+}
+
+/// The two rows of an explicit limit: the `stable` run's largest energy ratio (at most 1.05),
+/// and the `unstable` run's outcome, which must be an `Unstable` error whose message holds
+/// every one of `named`.
+pub fn limit_rows(
+    stable: (&str, Result<Real, SolverError>),
+    unstable: (&str, Result<Real, SolverError>),
+    expected: &str,
+    named: &[&str],
+) -> Vec<Row> {
+    let (case, result) = stable;
+    let first = match result {
         Ok(r) => Row::numeric(
             case,
             "explicit",
@@ -619,41 +641,24 @@ pub fn explicit_limit_rows() -> Vec<Row> {
             Tolerance::AtMost(1.05),
         ),
         Err(e) => Row::failed(case, "explicit", "energy ratio", &e),
-    });
-    let case = "block resting on springs, Ω = 2.2 (past 2/ω_max)";
-    rows.push(match resting_block(2.2, 1.0) {
-        Ok(r) => Row::categorical(
-            case,
-            "explicit",
-            "outcome",
-            "Unstable reported",
-            &format!("completed, energy ratio {r:.3}"),
-        ),
+    };
+    let (case, result) = unstable;
+    let categorical =
+        |measured: &str| Row::categorical(case, "explicit", "outcome", expected, measured);
+    let second = match result {
+        Ok(r) => categorical(&format!("completed, energy ratio {r:.3}")),
         Err(SolverError::Unstable(msg)) => {
-            let ok = msg.contains("explicit") && msg.contains("energy") && msg.contains("ω_max·dt");
-            let mut row = Row::categorical(
-                case,
-                "explicit",
-                "outcome",
-                "Unstable reported",
-                "Unstable reported",
-            );
+            let mut row = categorical(expected);
             row.measured = format!(
                 "Unstable: {}",
                 msg.split(" (central").next().unwrap_or(&msg)
             );
-            row.pass = ok;
+            row.pass = named.iter().all(|w| msg.contains(w));
             row
         }
-        Err(e) => Row::categorical(
-            case,
-            "explicit",
-            "outcome",
-            "Unstable reported",
-            &format!("other error: {e}"),
-        ),
-    });
-    rows
+        Err(e) => categorical(&format!("other error: {e}")),
+    };
+    vec![first, second]
 }
 
 /// A stack of `n` staggered boxes on a fixed floor, starting at zero gap: the largest

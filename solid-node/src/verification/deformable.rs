@@ -344,49 +344,22 @@ pub fn elastic_limit(omega_dt: Real, steps: usize) -> Result<Real, SolverError> 
 }
 
 pub fn elastic_limit_rows() -> Vec<Row> {
-    let mut rows = Vec::new();
-    let case = "deformable cube, volumetric mode, ω_elastic·Δt = 1.8, 400 steps";
-    rows.push(match elastic_limit(1.8, 400) {
-        Ok(r) => Row::numeric(
-            case,
-            "explicit",
-            "largest energy ratio (1 = all energy supplied)",
-            1.0,
-            r,
-            Tolerance::AtMost(1.05),
+    let mut rows = super::limit_rows(
+        (
+            "deformable cube, volumetric mode, ω_elastic·Δt = 1.8, 400 steps",
+            elastic_limit(1.8, 400),
         ),
-        Err(e) => Row::failed(case, "explicit", "energy ratio", &e),
-    });
-    let case = "deformable cube, volumetric mode, ω_elastic·Δt = 2.5 (past 2/ω_max)";
-    let expected = "Unstable, elastic mode named";
-    rows.push(match elastic_limit(2.5, 400) {
-        Ok(r) => Row::categorical(
-            case,
-            "explicit",
-            "outcome",
-            expected,
-            &format!("completed, energy ratio {r:.3}"),
+        (
+            "deformable cube, volumetric mode, ω_elastic·Δt = 2.5 (past 2/ω_max)",
+            elastic_limit(2.5, 400),
         ),
-        Err(SolverError::Unstable(msg)) => {
-            let ok = msg.contains("energy")
-                && msg.contains("ω_max·dt = 2.500")
-                && msg.contains("elastic mode of deformable block 'soft'");
-            let mut row = Row::categorical(case, "explicit", "outcome", expected, expected);
-            row.measured = format!(
-                "Unstable: {}",
-                msg.split(" (central").next().unwrap_or(&msg)
-            );
-            row.pass = ok;
-            row
-        }
-        Err(e) => Row::categorical(
-            case,
-            "explicit",
-            "outcome",
-            expected,
-            &format!("other error: {e}"),
-        ),
-    });
+        "Unstable, elastic mode named",
+        &[
+            "energy",
+            "ω_max·dt = 2.500",
+            "elastic mode of deformable block 'soft'",
+        ],
+    );
     // The proposal itself keeps the elastic mode below the limit.
     let case = "deformable cube in space: explicit dt proposal";
     rows.push(match vibrating_cube("explicit", Mode::Volumetric, 0.0) {
