@@ -62,10 +62,14 @@ fn default_scene_wedge_slides_smoothly() {
 #[test]
 fn newmark_restitution_tends_to_shi_asymptote() {
     for w in [1e-3, 1e-2] {
-        let e = v::newmark_restitution(w);
+        let e = v::newmark_restitution(w).unwrap();
         let a = (-std::f64::consts::PI * w / 4.0).exp();
         assert!((e / a - 1.0).abs() < 0.2 * w, "Ω = {w}: {e} vs {a}");
     }
+    // Ω = 2 turns a quarter period per step (e = 1/3 exactly); past Ω = 4 no half cycle.
+    assert!((v::newmark_restitution(2.0).unwrap() - 1.0 / 3.0).abs() < 1e-12);
+    assert!(v::newmark_restitution(3.99).is_some());
+    assert!(v::newmark_restitution(4.01).is_none());
 }
 
 #[test]
