@@ -23,8 +23,9 @@
 
 use crate::block::Block;
 use crate::contact::tangents;
+use crate::elastic::largest_eigenvalue;
 use crate::world::World;
-use nalgebra::{Matrix6, SymmetricEigen, Vector6};
+use nalgebra::{Matrix6, Vector6};
 use rayon::prelude::*;
 use shared::math::{Point, Real, Vector};
 use shared::strain;
@@ -107,10 +108,6 @@ fn add_contact_strain(
     }
 }
 
-fn largest_eigenvalue(k: Matrix6<Real>) -> Real {
-    SymmetricEigen::new(k).eigenvalues.max()
-}
-
 /// The bound λ_max(rigid) + λ_max(strain + elastic) of a deformable block (see the module
 /// docs), with the elastic mode named when it is the larger half.
 #[inline(never)]
@@ -122,11 +119,11 @@ fn deformable_bound(
 ) -> Estimate {
     let el = b.elastic.as_ref().expect("a deformable block");
     let lr = if rigid.iter().any(|&x| x != 0.0) {
-        largest_eigenvalue(*rigid)
+        largest_eigenvalue(rigid)
     } else {
         0.0
     };
-    let omega2 = lr + largest_eigenvalue(strain + el.normalised_stiffness);
+    let omega2 = lr + largest_eigenvalue(&(strain + el.normalised_stiffness));
     Estimate {
         omega2,
         elastic: (el.omega2 > 0.5 * omega2).then_some(i),
@@ -154,7 +151,7 @@ pub fn resting_floor(world: &World) -> Estimate {
                 deformable_bound(b, i, &k, &ke)
             } else {
                 Estimate {
-                    omega2: largest_eigenvalue(k),
+                    omega2: largest_eigenvalue(&k),
                     elastic: None,
                 }
             };
@@ -226,7 +223,7 @@ pub fn current(world: &World, scratch: &mut Scratch) -> Estimate {
         .par_iter()
         .with_min_len(32)
         .filter(|k| k.iter().any(|&x| x != 0.0))
-        .map(|k| largest_eigenvalue(*k))
+        .map(largest_eigenvalue)
         .reduce(|| 0.0, Real::max);
     let mut best = Estimate {
         omega2: rigid,
