@@ -2,10 +2,10 @@
 //! memory: nothing to couple): the Martin & Moyce dam break (n² = 2, a = 0.1 m) at a given
 //! resolution with every step multiplied by a dt factor.
 
+use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, DamBreak};
 use shared::protocol::BlockLoad;
-use shared::scene::Scheme;
-use shared::solver::{SetupContext, SolverError};
+use shared::solver::SolverError;
 use std::time::Instant;
 
 /// Column height over width of the dam break the sweeps run.
@@ -82,18 +82,12 @@ fn run(
 ) -> Result<DamBreak, SolverError> {
     let scene = validation::dam_break_scene(solver, N2, A, per_a, None);
     let dir = validation::TempRunDir::new("sweep")?;
-    let ctx = SetupContext {
-        scene: &scene,
-        run_dir: dir.path(),
-        scheme: Scheme::Parallel,
-        peer_present: false,
-    };
-    let mut s = validation::build_sph(solver, &ctx)?;
+    let mut s = validation::build(solver, &scene, dir.path())?;
     let particles = s.system().len();
     let dx = A / per_a as f64;
     let scale = (N2 as f64).sqrt() * (9.81 / A).sqrt();
     let end = validation::dam_break_end(N2, A) * 1.01;
-    let front = |s: &dyn validation::SphSolver| {
+    let front = |s: &dyn SphSolver| {
         s.system()
             .particles
             .position

@@ -1,4 +1,4 @@
-//! The stable step an SPH solver proposes (DESIGN §4): the smallest of
+//! The stable step an SPH solver proposes (Monaghan 1992; Morris et al. 1997): the smallest of
 //! - CFL: C·h/(c + v_max) (sound crossing a smoothing length; Monaghan 1992),
 //! - force: C·sqrt(h/|a|_max) (no particle moves more than ~h under its acceleration),
 //! - viscous: 0.125·h²/ν (explicit diffusion; Morris et al. 1997),

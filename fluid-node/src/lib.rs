@@ -1,15 +1,22 @@
 //! rockwave's water: SPH solvers behind the [`shared::solver::FluidSolver`] interface.
 //!
-//! - [`muller`]: the paper's scheme (Müller et al. 2003; paper Eqs. 11–21), `--solver muller`.
+//! A solver is a [`scheme::Scheme`] (what one SPH method does differently: kernel, equation of
+//! state, forces, integrator, stable step) run by [`sph::Sph`], which implements the coupling
+//! interface once over the [`system::FluidSystem`] every scheme shares. The schemes:
+//!
+//! - [`muller`]: the paper's scheme (Müller et al. 2003; paper Eqs. 11–21), `--solver muller`;
 //! - [`wcsph`]: weakly compressible SPH in the DualSPHysics standard, `--solver wcsph`.
 //!
-//! Both are built from the same parts: [`kernel`]/[`kernels`] (smoothing kernels),
-//! [`particles`] (struct-of-arrays state), [`neighbors`] (cell grid, counting sort), [`fill`]
-//! (water volumes on a lattice), [`walls`] (boundary particles on fixed blocks), [`penalty`]
-//! (paper Eq. 22 both ways), [`dt`] (stable step), [`gauges`] (wave gauges and pressure probes)
-//! and [`system`] (what a solver owns besides its equations). [`validation`] holds the
-//! validation cases run by `fluid-validate` and by the tests.
+//! They are listed once, in [`REGISTRY`], which the node binary, `fluid-validate`,
+//! `fluid-bench` and the coupler's sweeps read. The shared parts: [`kernel`]/[`kernels`]
+//! (smoothing kernels), [`particles`] (struct-of-arrays state), [`neighbors`] (cell grid,
+//! counting sort), [`fill`] (water volumes on a lattice), [`boundary`] (the blocks' boundary
+//! particles, [`walls`] on fixed blocks and [`bodies`] on moving ones), [`penalty`] (paper Eq. 22
+//! both ways), [`dt`] (stable step), [`gauges`] (wave gauges and pressure probes) and
+//! [`system`]. [`validation`] holds the cases run by `fluid-validate` and by the tests.
 
+pub mod bodies;
+pub mod boundary;
 pub mod dt;
 pub mod fill;
 pub mod gauges;
@@ -19,24 +26,51 @@ pub mod muller;
 pub mod neighbors;
 pub mod particles;
 pub mod penalty;
+pub mod scheme;
+pub mod sph;
 pub mod system;
 pub mod validation;
 pub mod walls;
 pub mod wcsph;
 
-use shared::solver::{FluidSolver, SetupContext, SolverError};
+use scheme::Scheme;
+use shared::registry::{Entry, Registry, check_params};
+use shared::scene::{FieldError, Scene};
+use shared::solver::{SetupContext, SolverError};
+use sph::{Sph, SphSolver};
 
-/// Solver names accepted by `--solver`.
-pub const SOLVERS: &[&str] = &["muller", "wcsph"];
+/// Every fluid solver, by name: add a scheme here with one `entry` line.
+pub static REGISTRY: Registry<dyn SphSolver> = Registry {
+    role: "fluid",
+    entries: &[entry::<wcsph::Wcsph>(), entry::<muller::Muller>()],
+};
 
-/// Builds the named solver for a scene.
-pub fn build(name: &str, ctx: &SetupContext) -> Result<Box<dyn FluidSolver>, SolverError> {
-    match name {
-        "muller" => Ok(Box::new(muller::Muller::new(ctx)?)),
-        "wcsph" => Ok(Box::new(wcsph::Wcsph::new(ctx)?)),
-        other => Err(SolverError::Failed(format!(
-            "unknown fluid solver '{other}': choose one of {}",
-            SOLVERS.join(", ")
-        ))),
+/// The registry entry of scheme `S`: built as [`Sph<S>`], its parameters in `[fluid.<S::NAME>]`.
+pub const fn entry<S: Scheme>() -> Entry<dyn SphSolver> {
+    Entry {
+        name: S::NAME,
+        description: S::DESCRIPTION,
+        build: build_scheme::<S>,
+        check: check_scheme::<S>,
+    }
+}
+
+fn build_scheme<S: Scheme>(ctx: &SetupContext) -> Result<Box<dyn SphSolver>, SolverError> {
+    Ok(Box::new(Sph::<S>::new(ctx)?))
+}
+
+fn check_scheme<S: Scheme>(scene: &Scene) -> Vec<FieldError> {
+    match &scene.fluid {
+        Some(f) => check_params::<S::Params>(&f.solvers, "fluid", S::NAME),
+        None => Vec::new(),
+    }
+}
+
+/// The fluid registry's checks of a scene: `[fluid] solver` names a solver, every
+/// `[fluid.<name>]` table belongs to one and holds valid parameters.
+pub fn check_scene(scene: &Scene) -> Vec<FieldError> {
+    match &scene.fluid {
+        Some(f) => REGISTRY.check(scene, &f.solvers, &f.solver),
+        None => Vec::new(),
     }
 }

@@ -8,11 +8,57 @@
 use crate::dt::StepLimits;
 use crate::kernel::Kernel;
 use crate::kernels::{Poly6, Spiky, ViscosityKernel};
-use crate::system::{FluidSystem, Initial, WallMode};
+use crate::scheme::{Layout, Scheme};
+use crate::system::{FluidSystem, Initial};
 use rayon::prelude::*;
+use serde::Deserialize;
 use shared::math::{Real, Vector};
-use shared::protocol::{BlockLoad, BlockState};
-use shared::solver::{FluidSolver, SetupContext, Solver, SolverError, StepReport};
+use shared::registry::{ParamCheck, SolverParams};
+use shared::solver::{SolverError, StepReport};
+
+/// `[fluid.muller]`: parameters of the paper's SPH. Unset values are derived from the scene.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MullerParams {
+    /// Gas constant k in p = k(ρ − ρ0) (paper Eq. 17) [m²/s²]; default c² with c = 10·sqrt(2 g H).
+    pub stiffness: Option<f64>,
+    /// Dynamic viscosity μ in paper Eq. 18 [Pa·s]; default ρ0·ν, raised to what the resolution needs.
+    pub viscosity: Option<f64>,
+    /// Kernel support h over dx (poly6 / spiky / viscosity kernels vanish at r = h); default 2.
+    pub support_ratio: Option<f64>,
+    /// Step limit factor on the CFL, force and viscous limits; default 0.25.
+    pub cfl: Option<f64>,
+    /// Clip negative pressure to zero (p = max(k(ρ − ρ0), 0)); default true. `false` is the
+    /// paper's Eq. 17 as printed: summed densities are low at a free surface, so the printed
+    /// form sucks surface particles inward hard enough to make still water boil.
+    pub clamp_negative_pressure: Option<bool>,
+}
+
+impl SolverParams for MullerParams {
+    fn check(&self, c: &mut ParamCheck) {
+        c.positive(
+            "stiffness",
+            self.stiffness,
+            "give k in m²/s², or leave it out for c² with c = 10·sqrt(2 g H)",
+        );
+        c.non_negative(
+            "viscosity",
+            self.viscosity,
+            "give μ in Pa·s, or leave it out",
+        );
+        if let Some(r) = self.support_ratio
+            && !(r.is_finite() && r >= 1.0)
+        {
+            c.fail(
+                "support_ratio",
+                r,
+                "must be a finite number >= 1 (the support must reach the nearest neighbours)",
+                "2.0 is the paper's h = 2 dx",
+            );
+        }
+        c.positive("cfl", self.cfl, "e.g. cfl = 0.25");
+    }
+}
 
 /// Mean compression above which a step carries a warning (the weakly compressible promise).
 const COMPRESSION_WARNING: Real = 0.01;
@@ -20,7 +66,6 @@ const COMPRESSION_WARNING: Real = 0.01;
 const WARNING_EVERY: u64 = 1000;
 
 pub struct Muller {
-    pub sys: FluidSystem,
     poly6: Poly6,
     spiky: Spiky,
     viscosity_kernel: ViscosityKernel,
@@ -32,7 +77,6 @@ pub struct Muller {
     pub rest_density: Real,
     clamp: bool,
     limits: StepLimits,
-    dt_next: Real,
     last_warning: Option<u64>,
 }
 
@@ -57,78 +101,20 @@ pub fn lattice_density(kernel: &Poly6, dx: Real, mass: Real) -> Real {
 }
 
 impl Muller {
-    pub fn new(ctx: &SetupContext) -> Result<Self, SolverError> {
-        let init = Initial::from_scene(ctx.scene)?;
-        let spec = &init.fluid.muller;
-        let dx = init.fluid.dx;
-        let rho0 = init.fluid.density;
-        let h = spec.support_ratio.unwrap_or(2.0) * dx;
-        let c = init.default_sound_speed();
-        let stiffness = spec.stiffness.unwrap_or(c * c);
-        let sound = stiffness.sqrt();
-        // μ = ρ0·max(ν, ν_num): water's own viscosity is far below what a particle spacing can
-        // resolve; ν_num = α·h·c/10 with α = 0.05 is the viscosity Monaghan's artificial term
-        // with that α adds in 3D (Monaghan 2005, ν = αhc/(2(d+2))), enough to damp the
-        // particle-scale noise of the explicit scheme.
-        let viscosity = spec
-            .viscosity
-            .unwrap_or(rho0 * init.fluid.kinematic_viscosity.max(0.05 * h * sound / 10.0));
-        let poly6 = Poly6::new(h);
-        let mass = rho0 * dx.powi(3);
-        let rest_density = lattice_density(&poly6, dx, mass);
-        let walls = WallMode::from_spec(&init.fluid)?;
-        // Initial pressure for output and probes: hydrostatic where asked (Eq. 12 fixes density
-        // from positions, so the lattice itself settles by ρ0gH/k, 0.5 % of H at the default k).
-        let density = init
-            .fill
-            .depth
-            .iter()
-            .map(|d| rest_density + rho0 * init.gravity.norm() * d / stiffness)
-            .collect();
-        let mut sys = FluidSystem::new(ctx, "muller", &init, density, h, walls, sound)?;
-        // The particles were sorted by cell: pressures from their own (permuted) densities.
-        let k = stiffness;
-        sys.particles
-            .pressure
-            .par_iter_mut()
-            .zip(sys.particles.density.par_iter())
-            .for_each(|(p, r)| *p = k * (r - rest_density));
-        let limits = StepLimits {
-            h,
-            sound_speed: sound,
-            viscosity: viscosity / rho0,
-            penalty_stiffness: sys.penalty.stiffness,
-            mass,
-            cfl: spec.cfl.unwrap_or(0.25),
-        };
-        let dt_next = limits.propose(0.0, init.gravity.norm()).0;
-        Ok(Self {
-            sys,
-            poly6,
-            spiky: Spiky::new(h),
-            viscosity_kernel: ViscosityKernel::new(h),
-            stiffness,
-            viscosity,
-            rest_density,
-            clamp: spec.clamp_negative_pressure.unwrap_or(true),
-            limits,
-            dt_next,
-            last_warning: None,
-        })
+    /// ρ0 + p/k: the density Eq. 17 gives a pressure (the boundary particles' density).
+    fn density_of(&self, p: Real) -> Real {
+        self.rest_density + p / self.stiffness
     }
 
-    /// Eq. 12 (fluid and wall particles both carry mass), then Eq. 17.
-    fn density_and_pressure(&mut self) {
-        let sys = &mut self.sys;
+    /// Eq. 12 (fluid and boundary particles both carry mass), then Eq. 17.
+    fn density_and_pressure(&self, sys: &mut FluidSystem) {
         let (m, k, rho_ref, clamp) = (sys.mass, self.stiffness, self.rest_density, self.clamp);
         let h2 = self.poly6.support().powi(2);
         let poly6 = &self.poly6;
         let self_weight = poly6.value_r2(0.0);
-        let (lists, wall_lists) = (&sys.fluid_lists, &sys.wall_lists);
+        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
         let p = &mut sys.particles;
         let pos = &p.position;
-        let walls = sys.walls.as_ref();
-        let (bodies, body_lists) = (sys.bodies.as_ref(), &sys.body_lists);
         p.density
             .par_iter_mut()
             .zip(p.pressure.par_iter_mut())
@@ -142,54 +128,28 @@ impl Muller {
                         sum += poly6.value_r2(r2);
                     }
                 }
-                if let Some(w) = walls {
-                    for &j in wall_lists.of(i) {
-                        let r2 = (xi - w.position[j as usize]).norm_squared();
-                        if r2 < h2 {
-                            sum += poly6.value_r2(r2);
-                        }
-                    }
-                }
-                if let Some(b) = bodies {
-                    for &j in body_lists.of(i) {
-                        let r2 = (xi - b.set.position[j as usize]).norm_squared();
-                        if r2 < h2 {
-                            sum += poly6.value_r2(r2);
-                        }
+                for b in boundary.neighbors(i) {
+                    let r2 = (xi - b.position()).norm_squared();
+                    if r2 < h2 {
+                        sum += poly6.value_r2(r2);
                     }
                 }
                 *rho = m * sum;
                 let pressure = k * (*rho - rho_ref);
                 *pr = if clamp { pressure.max(0.0) } else { pressure };
             });
-        if let Some(w) = sys.walls.as_mut() {
-            w.update(&self.poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
-                rho_ref + p / k
+        sys.boundary
+            .update(poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
+                self.density_of(p)
             });
-        }
-        self.body_pressures();
-    }
-
-    /// Adami's extrapolation on the moving blocks' boundary particles (without the wall
-    /// acceleration term of Adami's Eq. 27: the solid node sends no accelerations).
-    fn body_pressures(&mut self) {
-        let (k, rho_ref) = (self.stiffness, self.rest_density);
-        let sys = &mut self.sys;
-        if let Some(b) = sys.bodies.as_mut() {
-            b.set
-                .update(&self.poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
-                    rho_ref + p / k
-                });
-        }
     }
 
     /// Eqs. 14, 18 and 20: acceleration from pressure, viscosity, gravity and Eq. 22.
-    fn accelerations(&mut self) {
-        let sys = &mut self.sys;
+    fn accelerations(&self, sys: &mut FluidSystem) {
         let (m, mu, g) = (sys.mass, self.viscosity, sys.gravity);
         let h2 = self.spiky.support().powi(2);
         let (spiky, visc) = (&self.spiky, &self.viscosity_kernel);
-        let (lists, wall_lists) = (&sys.fluid_lists, &sys.wall_lists);
+        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
         let p = &mut sys.particles;
         let (pos, vel, rho, pre, pen) = (
             &p.position,
@@ -198,8 +158,6 @@ impl Muller {
             &p.pressure,
             &p.penalty,
         );
-        let walls = sys.walls.as_ref();
-        let (bodies, body_lists) = (sys.bodies.as_ref(), &sys.body_lists);
         p.acceleration
             .par_iter_mut()
             .enumerate()
@@ -220,27 +178,14 @@ impl Muller {
                     // Eq. 18, Müller's sign: damps the velocity difference.
                     f_visc += (vel[j] - vi) * (mu * m / rho[j] * visc.laplacian(r));
                 }
-                if let Some(w) = walls {
-                    for &j in wall_lists.of(i) {
-                        let j = j as usize;
-                        let rij = xi - w.position[j];
-                        let r2 = rij.norm_squared();
-                        if r2 < h2 {
-                            f_pressure -= spiky.gradient(&rij, r2.sqrt())
-                                * (m * (pi + w.pressure[j]) / (2.0 * w.density[j]));
-                        }
-                    }
-                }
-                // Moving blocks' boundary particles (free slip); the block takes the reverse.
-                if let Some(b) = bodies {
-                    for &j in body_lists.of(i) {
-                        let j = j as usize;
-                        let rij = xi - b.set.position[j];
-                        let r2 = rij.norm_squared();
-                        if r2 < h2 {
-                            f_pressure -= spiky.gradient(&rij, r2.sqrt())
-                                * (m * (pi + b.set.pressure[j]) / (2.0 * b.set.density[j]));
-                        }
+                // Boundary particles, fixed and moving (free slip); a moving block takes the
+                // reverse (`react`).
+                for b in boundary.neighbors(i) {
+                    let rij = xi - b.position();
+                    let r2 = rij.norm_squared();
+                    if r2 < h2 {
+                        f_pressure -= spiky.gradient(&rij, r2.sqrt())
+                            * (m * (pi + b.pressure()) / (2.0 * b.density()));
                     }
                 }
                 *a = (f_pressure + f_visc) / rho[i] + g + pen[i] / m;
@@ -249,29 +194,89 @@ impl Muller {
 
     /// Mean compression: the average of max(ρ/ρ0 − 1, 0) over all particles (a free surface's
     /// low summed densities do not hide compression elsewhere).
-    fn mean_compression(&self) -> Real {
-        let rho = &self.sys.particles.density;
+    fn mean_compression(&self, sys: &FluidSystem) -> Real {
+        let rho = &sys.particles.density;
         let r0 = self.rest_density;
         let sum: Real = rho.par_iter().map(|&r| ((r - r0) / r0).max(0.0)).sum();
         sum / rho.len().max(1) as Real
     }
 }
 
-impl Solver for Muller {
-    fn name(&self) -> &str {
-        "muller"
+impl Scheme for Muller {
+    const NAME: &'static str = "muller";
+    const DESCRIPTION: &'static str = "the paper's SPH (Müller et al. 2003): summed density, linear EOS, spiky pressure, symplectic Euler";
+    type Params = MullerParams;
+    type Kernel = Poly6;
+
+    fn new(spec: MullerParams, init: &Initial) -> Result<(Self, Layout), SolverError> {
+        let dx = init.fluid.dx;
+        let rho0 = init.fluid.density;
+        let h = spec.support_ratio.unwrap_or(2.0) * dx;
+        let c = init.default_sound_speed();
+        let stiffness = spec.stiffness.unwrap_or(c * c);
+        let sound = stiffness.sqrt();
+        // μ = ρ0·max(ν, ν_num): water's own viscosity is far below what a particle spacing can
+        // resolve; ν_num = α·h·c/10 with α = 0.05 is the viscosity Monaghan's artificial term
+        // with that α adds in 3D (Monaghan 2005, ν = αhc/(2(d+2))), enough to damp the
+        // particle-scale noise of the explicit scheme.
+        let viscosity = spec
+            .viscosity
+            .unwrap_or(rho0 * init.fluid.kinematic_viscosity.max(0.05 * h * sound / 10.0));
+        let poly6 = Poly6::new(h);
+        let mass = rho0 * dx.powi(3);
+        let rest_density = lattice_density(&poly6, dx, mass);
+        // Initial pressure for output and probes: hydrostatic where asked (Eq. 12 fixes density
+        // from positions, so the lattice itself settles by ρ0gH/k, 0.5 % of H at the default k).
+        let density = init
+            .fill
+            .depth
+            .iter()
+            .map(|d| rest_density + rho0 * init.gravity.norm() * d / stiffness)
+            .collect();
+        let limits = StepLimits {
+            h,
+            sound_speed: sound,
+            viscosity: viscosity / rho0,
+            // Set in `start`, once the system has chosen the Eq. 22 spring.
+            penalty_stiffness: 0.0,
+            mass,
+            cfl: spec.cfl.unwrap_or(0.25),
+        };
+        let scheme = Self {
+            poly6,
+            spiky: Spiky::new(h),
+            viscosity_kernel: ViscosityKernel::new(h),
+            stiffness,
+            viscosity,
+            rest_density,
+            clamp: spec.clamp_negative_pressure.unwrap_or(true),
+            limits,
+            last_warning: None,
+        };
+        let layout = Layout {
+            density,
+            support: h,
+            sound_speed: sound,
+        };
+        Ok((scheme, layout))
     }
 
-    fn dt_proposal(&self) -> Real {
-        self.dt_next
+    fn start(&mut self, sys: &mut FluidSystem) {
+        // The particles were sorted by cell: pressures from their own (permuted) densities.
+        let (k, rest_density) = (self.stiffness, self.rest_density);
+        sys.particles
+            .pressure
+            .par_iter_mut()
+            .zip(sys.particles.density.par_iter())
+            .for_each(|(p, r)| *p = k * (r - rest_density));
+        self.limits.penalty_stiffness = sys.penalty.stiffness;
     }
 
-    fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
-        self.sys.begin_step();
-        self.density_and_pressure();
-        self.accelerations();
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport {
+        self.density_and_pressure(sys);
+        self.accelerations(sys);
         // Eq. 21: symplectic Euler, velocity first, then position with the new velocity.
-        let p = &mut self.sys.particles;
+        let p = &mut sys.particles;
         p.velocity
             .par_iter_mut()
             .zip(p.position.par_iter_mut())
@@ -281,8 +286,8 @@ impl Solver for Muller {
                 *x += *v * dt;
             });
         let mut report = StepReport::default();
-        let compression = self.mean_compression();
-        let steps = self.sys.steps + 1;
+        let compression = self.mean_compression(sys);
+        let steps = sys.steps + 1;
         if compression > COMPRESSION_WARNING
             && self.last_warning.is_none_or(|s| steps >= s + WARNING_EVERY)
         {
@@ -294,42 +299,37 @@ impl Solver for Muller {
                 self.stiffness
             ));
         }
-        let (v, a) = self.sys.extremes();
-        self.sys
-            .end_step(dt, &self.poly6, false, self.rest_density)?;
-        self.dt_next = self.limits.propose(v, a).0;
-        Ok(report)
+        report
     }
 
-    fn write_frame(&mut self, frame: u32, _time: Real) -> Result<(), SolverError> {
-        self.sys.write_frame(frame)
-    }
-
-    fn finish(&mut self) -> Result<(), SolverError> {
-        self.sys.finish()
-    }
-}
-
-impl FluidSolver for Muller {
-    fn read_geometry(&mut self, blocks: &[BlockState], _vertices: &[[f64; 3]]) {
-        self.sys.read_geometry(blocks);
-    }
-
-    fn write_loads(&mut self, loads: &mut [BlockLoad]) {
-        // The water's pressure on the moving blocks' boundary particles, from the pressures of
-        // the last evaluation (Eq. 12 sums are recomputed at the start of `advance`) and the wall
-        // pressures extrapolated at the new pose.
-        self.sys.prepare_bodies();
-        self.body_pressures();
-        let sys = &mut self.sys;
-        if let Some(b) = sys.bodies.as_mut() {
-            let (m, spiky, p) = (sys.mass, &self.spiky, &sys.particles);
-            // Eq. 14's pressure force of the wall particle on fluid particle i (r = x_i − x_w),
-            // as a force: m·f_pressure/ρ_i.
-            b.react(&p.position, spiky.support(), |i, pw, rw, r, len| {
+    fn react(&self, sys: &mut FluidSystem) {
+        // The pressures of the last evaluation (Eq. 12 sums are recomputed at the start of the
+        // step) and the wall pressures extrapolated at the new pose.
+        sys.boundary.update_moving(
+            &self.poly6,
+            &sys.particles,
+            &sys.gravity,
+            self.rest_density,
+            |p| self.density_of(p),
+        );
+        let (m, spiky, p) = (sys.mass, &self.spiky, &sys.particles);
+        // Eq. 14's pressure force of the wall particle on fluid particle i (r = x_i − x_w),
+        // as a force: m·f_pressure/ρ_i.
+        sys.boundary
+            .react(&p.position, spiky.support(), |i, pw, rw, r, len| {
                 spiky.gradient(r, len) * (-m * m * (p.pressure[i] + pw) / (2.0 * rw * p.density[i]))
             });
-        }
-        self.sys.write_loads(loads);
+    }
+
+    fn kernel(&self) -> &Poly6 {
+        &self.poly6
+    }
+
+    fn density_check(&self) -> (bool, Real) {
+        (false, self.rest_density)
+    }
+
+    fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real {
+        self.limits.propose(v_max, a_max).0
     }
 }

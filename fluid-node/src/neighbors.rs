@@ -1,7 +1,7 @@
 //! Neighbour search on a uniform cell grid (cell size = kernel support), particles counting-sorted
 //! by cell so that every cell, and every row of three cells along x, is one contiguous index
 //! range. A neighbour query is then 9 contiguous scans instead of 27 scattered ones, and the
-//! particle arrays stay in cell order for cache locality (DESIGN §4).
+//! particle arrays stay in cell order for cache locality.
 //!
 //! The grid covers the scene domain (plus one cell of padding), which never changes: particles
 //! outside the domain are an instability, so every particle has a cell, and the static grid of

@@ -1,44 +1,24 @@
 //! What every SPH solver here shares: the particles and their grid, the wall particles, the
 //! Eq. 22 coupling with the blocks, the instruments, the stability checks and the frame output.
-//! A solver (muller.rs, wcsph.rs) owns one [`FluidSystem`] and adds its own force evaluation and
-//! integrator.
+//! A scheme ([`crate::scheme::Scheme`]: muller.rs, wcsph.rs) adds its own force evaluation and
+//! integrator; [`crate::sph::Sph`] joins the two into a solver.
 
+use crate::bodies::BodyParticles;
+use crate::boundary::Boundary;
 use crate::fill::{Fill, fill_water};
 use crate::gauges::{FluidView, Recorder};
 use crate::kernel::Kernel;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
 use crate::penalty::{Obstacle, Penalty, resting_state};
-use crate::walls::{BodyParticles, WallParticles};
+use crate::walls::WallParticles;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
-use shared::scene::{BlockKind, FluidSpec, Scene};
+use shared::scene::{BlockKind, FluidSpec, Scene, Walls};
 use shared::solver::{SetupContext, SolverError};
 use std::path::PathBuf;
-
-/// How the fixed blocks hold the water (`[fluid] walls`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum WallMode {
-    /// Boundary particles on every block, fixed and moving (Adami et al. 2012), with Eq. 22 as
-    /// a backstop.
-    Particles,
-    /// The paper's Eq. 22 repulsion only.
-    Penalty,
-}
-
-impl WallMode {
-    pub fn from_spec(fluid: &FluidSpec) -> Result<Self, SolverError> {
-        match fluid.walls.as_deref() {
-            None | Some("particles") => Ok(WallMode::Particles),
-            Some("penalty") => Ok(WallMode::Penalty),
-            Some(other) => Err(SolverError::Failed(format!(
-                "fluid.walls = \"{other}\" is not a wall treatment: use \"particles\" or \"penalty\""
-            ))),
-        }
-    }
-}
 
 /// The scene's water, filled, and its blocks as polyhedra.
 pub struct Initial {
@@ -94,15 +74,11 @@ pub struct FluidSystem {
     pub solver: &'static str,
     pub particles: Particles,
     pub grid: CellGrid,
-    pub walls: Option<WallParticles>,
-    /// Fluid neighbours of each fluid particle (itself excluded) and wall neighbours of each
-    /// fluid particle: rebuilt at every sort.
+    /// Fluid neighbours of each fluid particle (itself excluded): rebuilt at every sort.
     pub fluid_lists: NeighborLists,
-    pub wall_lists: NeighborLists,
-    /// Boundary particles of the moving blocks and the fluid's neighbours among them (rebuilt
-    /// after every sort of the fluid and every new pose).
-    pub bodies: Option<BodyParticles>,
-    pub body_lists: NeighborLists,
+    /// The blocks' boundary particles and the fluid's neighbours among them (fixed part listed at
+    /// every sort, moving part after every sort and every new pose).
+    pub boundary: Boundary,
     pub penalty: Penalty,
     recorder: Recorder,
     pub dx: Real,
@@ -128,12 +104,12 @@ impl FluidSystem {
         init: &Initial,
         density: Vec<Real>,
         cell: Real,
-        walls: WallMode,
         sound_speed: Real,
     ) -> Result<Self, SolverError> {
         let scene = ctx.scene;
         let fluid = &init.fluid;
         let dx = fluid.dx;
+        let walls = fluid.walls;
         let mass = fluid.density * dx.powi(3);
         let lo = Vector::from(scene.domain.min);
         let hi = Vector::from(scene.domain.max);
@@ -156,7 +132,7 @@ impl FluidSystem {
         // With boundary particles the blocks, fixed and moving, hold the water by pressure;
         // Eq. 22 is then a backstop that acts only closer than half the margin, so it does not
         // bear the load.
-        let fixed_margin = if walls == WallMode::Particles {
+        let fixed_margin = if walls == Walls::Particles {
             0.5 * margin
         } else {
             margin
@@ -187,9 +163,9 @@ impl FluidSystem {
 
         // The moving blocks' boundary particles, sampled at the scene pose like the fixed ones.
         let bodies = match walls {
-            WallMode::Penalty => None,
-            WallMode::Particles if moving.is_empty() => None,
-            WallMode::Particles => {
+            Walls::Penalty => None,
+            Walls::Particles if moving.is_empty() => None,
+            Walls::Particles => {
                 let polys: Vec<Polyhedron> =
                     moving.iter().map(|&i| init.blocks[i].clone()).collect();
                 Some(BodyParticles::new(
@@ -201,9 +177,9 @@ impl FluidSystem {
                 ))
             }
         };
-        let walls = match walls {
-            WallMode::Penalty => None,
-            WallMode::Particles => {
+        let fixed = match walls {
+            Walls::Penalty => None,
+            Walls::Particles => {
                 let fixed: Vec<Polyhedron> = scene
                     .blocks
                     .iter()
@@ -234,11 +210,8 @@ impl FluidSystem {
             solver,
             particles: Particles::new(init.fill.positions.clone(), density),
             grid,
-            walls,
             fluid_lists: NeighborLists::default(),
-            wall_lists: NeighborLists::default(),
-            bodies,
-            body_lists: NeighborLists::default(),
+            boundary: Boundary::new(fixed, bodies),
             penalty,
             recorder,
             dx,
@@ -274,11 +247,7 @@ impl FluidSystem {
             self.particles.permute(order);
             let (pos, radius) = (&self.particles.position, self.grid.cell_size());
             self.fluid_lists.build(pos, pos, &self.grid, radius, true);
-            if let Some(w) = &mut self.walls {
-                self.wall_lists
-                    .build(pos, &w.position, &w.grid, radius, false);
-                w.activate(&self.wall_lists, pos, &self.grid, radius);
-            }
+            self.boundary.list_fixed(pos, &self.grid, radius);
             self.grid_valid = true;
             self.bodies_valid = false;
         }
@@ -289,12 +258,8 @@ impl FluidSystem {
     pub fn prepare_bodies(&mut self) {
         self.prepare();
         if !self.bodies_valid {
-            if let Some(b) = &mut self.bodies {
-                let (pos, radius) = (&self.particles.position, self.grid.cell_size());
-                self.body_lists
-                    .build(pos, &b.set.position, &b.set.grid, radius, false);
-                b.set.activate(&self.body_lists, pos, &self.grid, radius);
-            }
+            let (pos, radius) = (&self.particles.position, self.grid.cell_size());
+            self.boundary.list_moving(pos, &self.grid, radius);
             self.bodies_valid = true;
         }
     }
@@ -302,23 +267,19 @@ impl FluidSystem {
     /// Takes the moving blocks' poses and velocities, and carries their boundary particles.
     pub fn read_geometry(&mut self, blocks: &[BlockState]) {
         self.penalty.set_moving(blocks);
-        if let Some(b) = &mut self.bodies {
-            b.place(blocks);
-        }
+        self.boundary.place(blocks);
         self.bodies_valid = false;
         self.penalty_fresh = false;
     }
 
     /// Eq. 22 on the particles for the coming step, and its reaction on the moving blocks, plus
-    /// the pressure force of the water on their boundary particles (computed by the solver with
-    /// [`BodyParticles::react`] just before).
+    /// the pressure force of the water on their boundary particles (computed by the scheme with
+    /// [`Boundary::react`] just before).
     pub fn write_loads(&mut self, loads: &mut [BlockLoad]) {
         self.prepare_bodies();
         self.penalty
             .apply(&mut self.particles, &self.grid, Some(loads));
-        if let Some(b) = &self.bodies {
-            b.add_loads(loads);
-        }
+        self.boundary.add_loads(loads);
         self.penalty_fresh = true;
     }
 

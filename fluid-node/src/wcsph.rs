@@ -9,16 +9,74 @@
 use crate::dt::StepLimits;
 use crate::kernel::Kernel;
 use crate::kernels::WendlandC2;
-use crate::system::{FluidSystem, Initial, WallMode};
+use crate::scheme::{Layout, Scheme};
+use crate::system::{FluidSystem, Initial};
 use rayon::prelude::*;
+use serde::Deserialize;
 use shared::math::{Real, Vector};
-use shared::protocol::{BlockLoad, BlockState};
-use shared::solver::{FluidSolver, SetupContext, Solver, SolverError, StepReport};
+use shared::registry::{ParamCheck, SolverParams};
+use shared::solver::{SolverError, StepReport};
+
+/// `[fluid.wcsph]`: parameters of the weakly compressible solver. Unset values are derived.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WcsphParams {
+    /// Numerical speed of sound c0 [m/s]; default 10·sqrt(2 g H) for the deepest water H.
+    pub sound_speed: Option<f64>,
+    /// Tait exponent γ; default 7.
+    pub gamma: Option<f64>,
+    /// Artificial viscosity α (Monaghan 1992); default 0.01.
+    pub alpha: Option<f64>,
+    /// δ-SPH density diffusion coefficient (Molteni & Colagrossi 2009); default 0.1, 0 disables.
+    pub delta: Option<f64>,
+    /// Smoothing length h over dx (Wendland C2 support is 2h); default 1.3.
+    pub smoothing_ratio: Option<f64>,
+    /// `symplectic` (default) or `verlet`.
+    #[serde(default)]
+    pub integrator: Integrator,
+    /// CFL number; default 0.2.
+    pub cfl: Option<f64>,
+}
+
+impl SolverParams for WcsphParams {
+    fn check(&self, c: &mut ParamCheck) {
+        c.positive(
+            "sound_speed",
+            self.sound_speed,
+            "give c0 in m/s (≥ 10 × the largest flow speed), or leave it out",
+        );
+        if let Some(g) = self.gamma
+            && !(g.is_finite() && g >= 1.0)
+        {
+            c.fail(
+                "gamma",
+                g,
+                "must be a finite number >= 1",
+                "water is gamma = 7",
+            );
+        }
+        c.non_negative("alpha", self.alpha, "e.g. alpha = 0.01");
+        c.non_negative("delta", self.delta, "e.g. delta = 0.1; 0 disables δ-SPH");
+        if let Some(r) = self.smoothing_ratio
+            && !(r.is_finite() && r >= 0.5)
+        {
+            c.fail(
+                "smoothing_ratio",
+                r,
+                "must be a finite number >= 0.5 (the support 2h must reach the nearest neighbours)",
+                "e.g. smoothing_ratio = 1.3",
+            );
+        }
+        c.positive("cfl", self.cfl, "e.g. cfl = 0.2");
+    }
+}
 
 /// Time integration scheme.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Integrator {
     /// Predictor at t + dt/2, corrector to t + dt: two force evaluations, second order.
+    #[default]
     Symplectic,
     /// Leapfrog over two steps, one evaluation per step, an Euler step every [`VERLET_EULER_EVERY`].
     Verlet,
@@ -28,9 +86,9 @@ pub enum Integrator {
 /// them (Monaghan 1989; DualSPHysics' default).
 pub const VERLET_EULER_EVERY: u64 = 40;
 
-/// Parameters of the scheme, resolved from `[fluid.wcsph]` and the scene.
+/// The scheme's constants, resolved from `[fluid.wcsph]` and the scene.
 #[derive(Debug, Clone, Copy)]
-pub struct WcsphParams {
+pub struct WcsphConstants {
     pub sound_speed: Real,
     pub gamma: Real,
     /// B = ρ0 c0²/γ [Pa].
@@ -42,122 +100,46 @@ pub struct WcsphParams {
 }
 
 pub struct Wcsph {
-    pub sys: FluidSystem,
     kernel: WendlandC2,
-    pub params: WcsphParams,
+    pub constants: WcsphConstants,
+    rest_density: Real,
     limits: StepLimits,
-    dt_next: Real,
     /// Step of the Verlet cycle (0 = Euler).
     verlet_step: u64,
 }
 
 impl Wcsph {
-    pub fn new(ctx: &SetupContext) -> Result<Self, SolverError> {
-        let init = Initial::from_scene(ctx.scene)?;
-        let spec = &init.fluid.wcsph;
-        let dx = init.fluid.dx;
-        let rho0 = init.fluid.density;
-        let h = spec.smoothing_ratio.unwrap_or(1.3) * dx;
-        let c0 = spec
-            .sound_speed
-            .unwrap_or_else(|| init.default_sound_speed());
-        let gamma = spec.gamma.unwrap_or(7.0);
-        let integrator = match spec.integrator.as_deref() {
-            None | Some("symplectic") => Integrator::Symplectic,
-            Some("verlet") => Integrator::Verlet,
-            Some(other) => {
-                return Err(SolverError::Failed(format!(
-                    "fluid.wcsph.integrator = \"{other}\": use symplectic or verlet"
-                )));
-            }
-        };
-        let params = WcsphParams {
-            sound_speed: c0,
-            gamma,
-            b: rho0 * c0 * c0 / gamma,
-            alpha: spec.alpha.unwrap_or(0.01),
-            delta: spec.delta.unwrap_or(0.1),
-            h,
-            integrator,
-        };
-        let g = init.gravity.norm();
-        // Hydrostatic start: the Tait density of the pressure ρ0·g·depth.
-        let density = init
-            .fill
-            .depth
-            .iter()
-            .map(|d| rho0 * (1.0 + rho0 * g * d / params.b).powf(1.0 / gamma))
-            .collect();
-        let kernel = WendlandC2::new(h);
-        let walls = WallMode::from_spec(&init.fluid)?;
-        let mut sys = FluidSystem::new(ctx, "wcsph", &init, density, kernel.support(), walls, c0)?;
+    /// The Tait density of a boundary particle's pressure: ρ0(1 + p/B)^(1/γ).
+    fn density_of(&self, pw: Real) -> Real {
+        let prm = &self.constants;
+        self.rest_density * (1.0 + pw / prm.b).powf(1.0 / prm.gamma)
+    }
+
+    /// Pressure of every fluid particle from its density, then the boundary pressures (Adami).
+    fn pressures(&self, sys: &mut FluidSystem) {
+        let (prm, rho0) = (self.constants, self.rest_density);
         let p = &mut sys.particles;
         p.pressure
             .par_iter_mut()
             .zip(p.density.par_iter())
-            .for_each(|(pr, r)| *pr = tait(&params, rho0, *r));
-        let limits = StepLimits {
-            h,
-            sound_speed: c0,
-            viscosity: init.fluid.kinematic_viscosity,
-            penalty_stiffness: sys.penalty.stiffness,
-            mass: sys.mass,
-            cfl: spec.cfl.unwrap_or(0.2),
-        };
-        let dt_next = limits.propose(0.0, g).0;
-        Ok(Self {
-            sys,
-            kernel,
-            params,
-            limits,
-            dt_next,
-            verlet_step: 0,
-        })
-    }
-
-    /// Pressure of every fluid particle from its density, then the wall pressures (Adami).
-    fn pressures(&mut self) {
-        let (prm, rho0) = (self.params, self.sys.rest_density);
-        let p = &mut self.sys.particles;
-        p.pressure
-            .par_iter_mut()
-            .zip(p.density.par_iter())
             .for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
-        let sys = &mut self.sys;
-        if let Some(w) = sys.walls.as_mut() {
-            w.update(&self.kernel, &sys.particles, &sys.gravity, rho0, |pw| {
-                rho0 * (1.0 + pw / prm.b).powf(1.0 / prm.gamma)
+        sys.boundary
+            .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |pw| {
+                self.density_of(pw)
             });
-        }
-        self.body_pressures();
-    }
-
-    /// Adami's extrapolation on the moving blocks' boundary particles. The wall acceleration
-    /// term of Adami's Eq. 27 (g − a_w) is left out: the solid node sends poses and velocities,
-    /// not accelerations, and for a block near equilibrium a_w ≪ g.
-    fn body_pressures(&mut self) {
-        let (prm, rho0) = (self.params, self.sys.rest_density);
-        let sys = &mut self.sys;
-        if let Some(b) = sys.bodies.as_mut() {
-            b.set
-                .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |pw| {
-                    rho0 * (1.0 + pw / prm.b).powf(1.0 / prm.gamma)
-                });
-        }
     }
 
     /// Momentum and continuity: acceleration and dρ/dt of every particle at the current state.
-    fn rates(&mut self) {
-        self.pressures();
-        let sys = &mut self.sys;
-        let prm = self.params;
+    fn rates(&self, sys: &mut FluidSystem) {
+        self.pressures(sys);
+        let prm = self.constants;
         let (m, g, rho0) = (sys.mass, sys.gravity, sys.rest_density);
         let kernel = &self.kernel;
         let s2 = kernel.support().powi(2);
         let eta2 = 0.01 * prm.h * prm.h;
         let delta_coef = prm.delta * prm.h * prm.sound_speed;
         let inv_c2 = 1.0 / (prm.sound_speed * prm.sound_speed);
-        let (lists, wall_lists) = (&sys.fluid_lists, &sys.wall_lists);
+        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
         let p = &mut sys.particles;
         let (pos, vel, rho, pre, pen) = (
             &p.position,
@@ -166,8 +148,6 @@ impl Wcsph {
             &p.pressure,
             &p.penalty,
         );
-        let walls = sys.walls.as_ref();
-        let (bodies, body_lists) = (sys.bodies.as_ref(), &sys.body_lists);
         p.acceleration
             .par_iter_mut()
             .zip(p.density_rate.par_iter_mut())
@@ -208,47 +188,30 @@ impl Wcsph {
                         di += delta_coef * psi * m / rj;
                     }
                 }
-                if let Some(w) = walls {
-                    for &j in wall_lists.of(i) {
-                        let j = j as usize;
-                        let rij = xi - w.position[j];
-                        let r2 = rij.norm_squared();
-                        if r2 >= s2 {
-                            continue;
-                        }
-                        let grad = rij * kernel.gradient_factor(r2.sqrt());
-                        let rw = w.density[j];
-                        ai -= grad * (m * (pi_term + w.pressure[j] / (rw * rw)));
-                        // The wall is at rest: continuity with v_w = 0 (free slip: no viscosity).
-                        di += m * vi.dot(&grad);
+                // Boundary particles, fixed and moving: the same pressure term (a moving block
+                // takes its reverse, see `react`) and continuity with the wall's velocity, zero
+                // on a fixed block (Adami 2012: free slip, the wall velocity enters through
+                // v_i − v_w only).
+                for b in boundary.neighbors(i) {
+                    let rij = xi - b.position();
+                    let r2 = rij.norm_squared();
+                    if r2 >= s2 {
+                        continue;
                     }
-                }
-                // Moving blocks' boundary particles: the same pressure term (its reverse is the
-                // block's load, see `write_loads`) and continuity with the wall's rigid-body
-                // velocity (Adami 2012: free slip, the wall velocity enters through v_i − v_w).
-                if let Some(b) = bodies {
-                    for &j in body_lists.of(i) {
-                        let j = j as usize;
-                        let rij = xi - b.set.position[j];
-                        let r2 = rij.norm_squared();
-                        if r2 >= s2 {
-                            continue;
-                        }
-                        let grad = rij * kernel.gradient_factor(r2.sqrt());
-                        let rw = b.set.density[j];
-                        ai -= grad * (m * (pi_term + b.set.pressure[j] / (rw * rw)));
-                        di += m * (vi - b.velocity[j]).dot(&grad);
-                    }
+                    let grad = rij * kernel.gradient_factor(r2.sqrt());
+                    let rw = b.density();
+                    ai -= grad * (m * (pi_term + b.pressure() / (rw * rw)));
+                    di += m * (vi - b.velocity()).dot(&grad);
                 }
                 *a = ai + g + pen[i] / m;
                 *d = di;
             });
     }
 
-    fn symplectic(&mut self, dt: Real) {
+    fn symplectic(&self, sys: &mut FluidSystem, dt: Real) {
         // Predictor: half a step from (r, v, ρ)^n with the rates at n.
-        self.rates();
-        let p = &mut self.sys.particles;
+        self.rates(sys);
+        let p = &mut sys.particles;
         let half = 0.5 * dt;
         p.position0.copy_from_slice(&p.position);
         p.velocity0.copy_from_slice(&p.velocity);
@@ -266,8 +229,8 @@ impl Wcsph {
             .zip(p.density_rate.par_iter())
             .for_each(|(r, d)| *r += d * half);
         // Corrector from the rates at n + 1/2 (neighbour cells of t^n; particles moved < 0.1h).
-        self.rates();
-        let p = &mut self.sys.particles;
+        self.rates(sys);
+        let p = &mut sys.particles;
         p.velocity
             .par_iter_mut()
             .zip(p.position.par_iter_mut())
@@ -287,11 +250,11 @@ impl Wcsph {
             });
     }
 
-    fn verlet(&mut self, dt: Real) {
-        self.rates();
+    fn verlet(&mut self, sys: &mut FluidSystem, dt: Real) {
+        self.rates(sys);
         let euler = self.verlet_step.is_multiple_of(VERLET_EULER_EVERY);
         self.verlet_step += 1;
-        let p = &mut self.sys.particles;
+        let p = &mut sys.particles;
         // velocity0/density0 hold the values one step back.
         p.position
             .par_iter_mut()
@@ -326,66 +289,118 @@ impl Wcsph {
 
 /// Tait's equation of state.
 #[inline]
-pub fn tait(p: &WcsphParams, rho0: Real, rho: Real) -> Real {
+pub fn tait(p: &WcsphConstants, rho0: Real, rho: Real) -> Real {
     p.b * ((rho / rho0).powf(p.gamma) - 1.0)
 }
 
-impl Solver for Wcsph {
-    fn name(&self) -> &str {
-        "wcsph"
+impl Scheme for Wcsph {
+    const NAME: &'static str = "wcsph";
+    const DESCRIPTION: &'static str = "weakly compressible SPH (DualSPHysics standard): Tait EOS, Wendland C2, δ-SPH, artificial viscosity";
+    type Params = WcsphParams;
+    type Kernel = WendlandC2;
+
+    fn new(spec: WcsphParams, init: &Initial) -> Result<(Self, Layout), SolverError> {
+        let dx = init.fluid.dx;
+        let rho0 = init.fluid.density;
+        let h = spec.smoothing_ratio.unwrap_or(1.3) * dx;
+        let c0 = spec
+            .sound_speed
+            .unwrap_or_else(|| init.default_sound_speed());
+        let gamma = spec.gamma.unwrap_or(7.0);
+        let constants = WcsphConstants {
+            sound_speed: c0,
+            gamma,
+            b: rho0 * c0 * c0 / gamma,
+            alpha: spec.alpha.unwrap_or(0.01),
+            delta: spec.delta.unwrap_or(0.1),
+            h,
+            integrator: spec.integrator,
+        };
+        let g = init.gravity.norm();
+        // Hydrostatic start: the Tait density of the pressure ρ0·g·depth.
+        let density = init
+            .fill
+            .depth
+            .iter()
+            .map(|d| rho0 * (1.0 + rho0 * g * d / constants.b).powf(1.0 / gamma))
+            .collect();
+        let kernel = WendlandC2::new(h);
+        let limits = StepLimits {
+            h,
+            sound_speed: c0,
+            viscosity: init.fluid.kinematic_viscosity,
+            // Set in `start`, once the system has chosen the Eq. 22 spring.
+            penalty_stiffness: 0.0,
+            mass: rho0 * dx.powi(3),
+            cfl: spec.cfl.unwrap_or(0.2),
+        };
+        let layout = Layout {
+            density,
+            support: kernel.support(),
+            sound_speed: c0,
+        };
+        let scheme = Self {
+            kernel,
+            constants,
+            rest_density: rho0,
+            limits,
+            verlet_step: 0,
+        };
+        Ok((scheme, layout))
     }
 
-    fn dt_proposal(&self) -> Real {
-        self.dt_next
-    }
-
-    fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
-        self.sys.begin_step();
-        match self.params.integrator {
-            Integrator::Symplectic => self.symplectic(dt),
-            Integrator::Verlet => self.verlet(dt),
-        }
-        let (prm, rho0) = (self.params, self.sys.rest_density);
-        let p = &mut self.sys.particles;
+    fn start(&mut self, sys: &mut FluidSystem) {
+        let (prm, rho0) = (self.constants, self.rest_density);
+        let p = &mut sys.particles;
         p.pressure
             .par_iter_mut()
             .zip(p.density.par_iter())
             .for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
-        let (v, a) = self.sys.extremes();
-        self.sys.end_step(dt, &self.kernel, true, rho0)?;
-        self.dt_next = self.limits.propose(v, a).0;
-        Ok(StepReport::default())
+        self.limits.penalty_stiffness = sys.penalty.stiffness;
+        self.limits.mass = sys.mass;
     }
 
-    fn write_frame(&mut self, frame: u32, _time: Real) -> Result<(), SolverError> {
-        self.sys.write_frame(frame)
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport {
+        match self.constants.integrator {
+            Integrator::Symplectic => self.symplectic(sys, dt),
+            Integrator::Verlet => self.verlet(sys, dt),
+        }
+        let (prm, rho0) = (self.constants, self.rest_density);
+        let p = &mut sys.particles;
+        p.pressure
+            .par_iter_mut()
+            .zip(p.density.par_iter())
+            .for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
+        StepReport::default()
     }
 
-    fn finish(&mut self) -> Result<(), SolverError> {
-        self.sys.finish()
-    }
-}
-
-impl FluidSolver for Wcsph {
-    fn read_geometry(&mut self, blocks: &[BlockState], _vertices: &[[f64; 3]]) {
-        self.sys.read_geometry(blocks);
-    }
-
-    fn write_loads(&mut self, loads: &mut [BlockLoad]) {
-        // The water's pressure on the moving blocks' boundary particles at the current state
-        // (the pressures are those of the last step's end, the wall pressures are extrapolated
-        // at the new pose): exactly the reverse of what the coming predictor applies to the fluid.
-        self.sys.prepare_bodies();
-        self.body_pressures();
-        let sys = &mut self.sys;
-        if let Some(b) = sys.bodies.as_mut() {
-            let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
-            b.react(&p.position, kernel.support(), |i, pw, rw, r, len| {
+    fn react(&self, sys: &mut FluidSystem) {
+        // Exactly the reverse of what the coming predictor applies to the fluid.
+        sys.boundary.update_moving(
+            &self.kernel,
+            &sys.particles,
+            &sys.gravity,
+            self.rest_density,
+            |pw| self.density_of(pw),
+        );
+        let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
+        sys.boundary
+            .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
                 let ri = p.density[i];
                 r * (kernel.gradient_factor(len)
                     * (-m * m * (p.pressure[i] / (ri * ri) + pw / (rw * rw))))
             });
-        }
-        self.sys.write_loads(loads);
+    }
+
+    fn kernel(&self) -> &WendlandC2 {
+        &self.kernel
+    }
+
+    fn density_check(&self) -> (bool, Real) {
+        (true, self.rest_density)
+    }
+
+    fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real {
+        self.limits.propose(v_max, a_max).0
     }
 }

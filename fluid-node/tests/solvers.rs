@@ -1,8 +1,9 @@
 //! The fluid solvers through the `FluidSolver` interface, at coarse resolutions: validation cases
 //! with tolerances (the same code `fluid-validate` runs finer), output files, failure messages.
 
+use fluid_node::REGISTRY;
 use fluid_node::validation::*;
-use shared::scene::Scheme;
+use shared::scene::{Scene, Scheme};
 use shared::solver::{SetupContext, SolverError};
 
 #[test]
@@ -87,37 +88,92 @@ fn ctx_for<'a>(scene: &'a shared::scene::Scene, dir: &'a TempRunDir) -> SetupCon
 
 #[test]
 fn unknown_solver_and_wall_treatment_are_named() {
-    // A scene file naming an unknown wall treatment is refused when it is read...
+    // A scene file naming an unknown wall treatment is refused when it is read, naming the field.
     let good = still_water_scene("wcsph", 0.1, 0.025, 0.1, None);
-    let text = toml::to_string(&good)
+    let text = toml::to_string(&good).unwrap();
+    let bad = text.replace("[fluid]\n", "[fluid]\nwalls = \"magic\"\n");
+    let e = Scene::parse(&bad, "t").unwrap_err().to_string();
+    assert!(e.contains("fluid.walls") && e.contains("magic"), "{e}");
+    // An unknown solver is refused with the names there are.
+    let dir = TempRunDir::new("t").unwrap();
+    let e = REGISTRY
+        .build("dfsph", &ctx_for(&good, &dir))
+        .err()
         .unwrap()
-        .replace("[fluid]\n", "[fluid]\nwalls = \"magic\"\n");
-    let e = shared::scene::Scene::parse(&text, "t")
+        .to_string();
+    assert!(
+        e.contains("dfsph") && e.contains("muller") && e.contains("wcsph"),
+        "{e}"
+    );
+}
+
+/// Each solver reads its own table: a bad value or an unknown key in it is named with its field
+/// and line by the registry's check, and a table that belongs to no solver is refused.
+#[test]
+fn solver_tables_are_checked_by_the_registry() {
+    let good = still_water_scene("wcsph", 0.1, 0.025, 0.1, None);
+    let text = toml::to_string(&good).unwrap();
+    let checked = |extra: &str| {
+        let t = format!("{text}\n{extra}");
+        Scene::parse_checked(&t, "t", &[&fluid_node::check_scene])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    };
+    assert_eq!(
+        checked("[fluid.wcsph]\ngamma = 7.0\nintegrator = \"verlet\"\n"),
+        ""
+    );
+    let e = checked("[fluid.wcsph]\ngamma = nan\n");
+    assert!(
+        e.contains("fluid.wcsph.gamma") && e.contains("line ") && e.contains("fix"),
+        "{e}"
+    );
+    let e = checked("[fluid.wcsph]\nintegrator = \"rk4\"\n");
+    assert!(
+        e.contains("fluid.wcsph") && e.contains("rk4") && e.contains("verlet"),
+        "{e}"
+    );
+    let e = checked("[fluid.muller]\nstifness = 3.0\n");
+    assert!(e.contains("fluid.muller") && e.contains("stifness"), "{e}");
+    let e = checked("[fluid.muller]\nsupport_ratio = 0.0\n");
+    assert!(e.contains("fluid.muller.support_ratio"), "{e}");
+    let e = checked("[fluid.dfsph]\ncfl = 0.4\n");
+    assert!(
+        e.contains("fluid.dfsph") && e.contains("[fluid.wcsph]"),
+        "{e}"
+    );
+    let e = checked("").is_empty();
+    assert!(e);
+    let bad_default = text.replace("solver = \"wcsph\"", "solver = \"sph\"");
+    let e = Scene::parse_checked(&bad_default, "t", &[&fluid_node::check_scene])
         .unwrap_err()
         .to_string();
-    assert!(e.contains("fluid.walls") && e.contains("magic"), "{e}");
-    // ... and a solver handed one anyway (a scene built in code) names it too.
+    assert!(e.contains("fluid.solver") && e.contains("muller"), "{e}");
+    // A solver built from a scene whose table was never checked still refuses it, by field.
     let mut scene = good;
-    scene.fluid.as_mut().unwrap().walls = Some("magic".into());
-    let dir = TempRunDir::new("t").unwrap();
-    let e = fluid_node::build("wcsph", &ctx_for(&scene, &dir))
+    scene.fluid.as_mut().unwrap().solvers.insert(
+        "wcsph".into(),
+        toml::Value::Table(toml::from_str("sound_speed = 0.0").unwrap()),
+    );
+    let e = REGISTRY
+        .build("wcsph", &ctx_for(&scene, &dir_for_test()))
         .err()
         .unwrap()
         .to_string();
-    assert!(e.contains("walls") && e.contains("magic"), "{e}");
-    let e = fluid_node::build("dfsph", &ctx_for(&scene, &dir))
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(e.contains("dfsph") && e.contains("muller"), "{e}");
+    assert!(e.contains("fluid.wcsph.sound_speed"), "{e}");
+}
+
+fn dir_for_test() -> TempRunDir {
+    TempRunDir::new("t").unwrap()
 }
 
 #[test]
 fn a_step_far_beyond_the_proposal_stops_with_the_limit_named() {
-    for solver in fluid_node::SOLVERS {
+    for solver in REGISTRY.names() {
         let scene = dam_break_scene(solver, 2, 0.1, 6, None);
         let dir = TempRunDir::new("t").unwrap();
-        let mut s = build_sph(solver, &ctx_for(&scene, &dir)).unwrap();
+        let mut s = REGISTRY.build(solver, &ctx_for(&scene, &dir)).unwrap();
         let dt = 50.0 * s.dt_proposal();
         let mut err = None;
         for _ in 0..200 {
@@ -143,9 +199,12 @@ fn too_soft_muller_stiffness_warns_with_the_compression() {
     let mut scene = still_water_scene("muller", 0.1, 0.0125, 0.1, None);
     // A hundredth of the default k: the column compresses by several per cent.
     let c2 = 100.0 * 2.0 * 9.81 * 0.1;
-    scene.fluid.as_mut().unwrap().muller.stiffness = Some(0.01 * c2);
+    scene.fluid.as_mut().unwrap().solvers.insert(
+        "muller".into(),
+        toml::Value::Table(toml::from_str(&format!("stiffness = {}", 0.01 * c2)).unwrap()),
+    );
     let dir = TempRunDir::new("t").unwrap();
-    let mut s = build_sph("muller", &ctx_for(&scene, &dir)).unwrap();
+    let mut s = REGISTRY.build("muller", &ctx_for(&scene, &dir)).unwrap();
     let mut warning = None;
     for _ in 0..400 {
         let dt = s.dt_proposal();
@@ -163,7 +222,7 @@ fn too_soft_muller_stiffness_warns_with_the_compression() {
 fn frames_gauges_and_probes_are_written() {
     let scene = still_water_scene("wcsph", 0.1, 0.025, 0.05, None);
     let dir = TempRunDir::new("t").unwrap();
-    let mut s = build_sph("wcsph", &ctx_for(&scene, &dir)).unwrap();
+    let mut s = REGISTRY.build("wcsph", &ctx_for(&scene, &dir)).unwrap();
     let steps = run(s.as_mut(), &scene, 0.05, |_, _| {}).unwrap();
     s.write_frame(3, 0.05).unwrap();
     let vtp = std::fs::read_to_string(dir.path().join("particles_00003.vtp")).unwrap();
@@ -213,9 +272,9 @@ fn default_scene_couples_with_the_moving_wedge() {
     scene.set_dx(0.08);
     let moving = scene.moving_blocks();
     let wedge = moving[0];
-    for solver in fluid_node::SOLVERS {
+    for solver in REGISTRY.names() {
         let dir = TempRunDir::new("t").unwrap();
-        let mut s = fluid_node::build(solver, &ctx_for(&scene, &dir)).unwrap();
+        let mut s = REGISTRY.build(solver, &ctx_for(&scene, &dir)).unwrap();
         let poly = shared::geometry::Polyhedron::from_shape(&scene.blocks[wedge].shape).unwrap();
         // Put the wedge over deep water, its lowest edge just in the surface (0.035 m under the
         // still-water line, above the top particle layer: a wedge teleported deeper would put its

@@ -6,6 +6,7 @@
 //! - [`geometry`]: convex polyhedra built from scene shapes (faces, edges, mass properties).
 //! - [`protocol`]: the versioned wire types exchanged over shared memory each step.
 //! - [`strain`]: the constant strain of a deformable (12-DOF) DDA block.
+//! - [`registry`]: the solvers a node crate offers, and each solver's own parameter table.
 //! - [`solver`]: the coupling interface a solver implements (preCICE style: read, write, advance).
 //! - [`transport`]: the iceoryx2 services of one run, under a unique prefix.
 //! - [`runtime`]: the node runtime that does all the talking for a solver.
@@ -14,6 +15,7 @@ pub mod added_mass;
 pub mod geometry;
 pub mod math;
 pub mod protocol;
+pub mod registry;
 pub mod report;
 pub mod runtime;
 pub mod scene;

@@ -1,13 +1,14 @@
-//! `fluid-bench [--sizes 10000,100000,1000000] [--threads 1,2] [--solvers wcsph,muller]`:
+//! `fluid-bench [--sizes 10000,100000,1000000] [--threads 1,2] [--solvers NAME,…]` (default: every
+//! solver of the registry):
 //! particle-steps per second on a 3D dam break (a water column a × a × 2a at one end of a
 //! 4a × a tank) at about the given particle counts, with each thread count. The timed steps are
 //! the full coupling step as the node runtime drives it (`write_loads` + `advance`), after
 //! warm-up steps that let the reused buffers reach their size.
 
-use fluid_node::validation::{SphSolver, TempRunDir, build_sph};
+use fluid_node::sph::SphSolver;
+use fluid_node::validation::{TempRunDir, build};
 use shared::protocol::BlockLoad;
-use shared::scene::{Scene, Scheme};
-use shared::solver::SetupContext;
+use shared::scene::Scene;
 use std::time::Instant;
 
 fn scene(solver: &str, particles: usize) -> Scene {
@@ -53,7 +54,7 @@ fn main() {
         .iter()
         .map(|s| s.parse().expect("--threads"))
         .collect();
-    let solvers = list(&args, "--solvers", "wcsph,muller");
+    let solvers = list(&args, "--solvers", &fluid_node::REGISTRY.names().join(","));
     println!(
         "| solver | particles | threads | steps timed | s/step | particle-steps/s | µs per particle-step |"
     );
@@ -68,13 +69,7 @@ fn main() {
                 pool.install(|| {
                     let sc = scene(solver, n);
                     let dir = TempRunDir::new("bench").expect("temp dir");
-                    let ctx = SetupContext {
-                        scene: &sc,
-                        run_dir: dir.path(),
-                        scheme: Scheme::Parallel,
-                        peer_present: false,
-                    };
-                    let mut s: Box<dyn SphSolver> = build_sph(solver, &ctx).expect("solver");
+                    let mut s: Box<dyn SphSolver> = build(solver, &sc, dir.path()).expect("solver");
                     let count = s.system().len();
                     let mut loads: Vec<BlockLoad> = Vec::new();
                     let mut step = |s: &mut Box<dyn SphSolver>| {

@@ -2,7 +2,9 @@
 //! Moyce dam break n² = 2 and 1 with self-convergence) for both solvers in-process and prints a
 //! markdown table; `--out` also writes it to a file. Exits non-zero when a row fails.
 
+use fluid_node::REGISTRY;
 use fluid_node::validation::{Plan, markdown, validate_solver};
+use shared::scene::Walls;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -29,12 +31,10 @@ fn main() -> ExitCode {
     );
     let start = std::time::Instant::now();
     let mut rows = Vec::new();
-    // The paper's solver also with its own walls (Eq. 22 only), to show what boundary particles buy.
-    for (solver, walls) in [
-        ("wcsph", None),
-        ("muller", None),
-        ("muller", Some("penalty")),
-    ] {
+    // Every solver, and the paper's also with its own walls (Eq. 22 only), to show what
+    // boundary particles buy.
+    let runs = REGISTRY.names().into_iter().map(|s| (s, None));
+    for (solver, walls) in runs.chain([("muller", Some(Walls::Penalty))]) {
         rows.extend(validate_solver(solver, &plan, walls, |l| {
             eprintln!("  {l}")
         }));

@@ -37,6 +37,16 @@ pub enum SceneError {
     },
 }
 
+/// The parser's message (line, column, the offending text), led by the field it belongs to when
+/// the parser does not name it (serde reports a bad enum value without its key).
+fn syntax_message(text: &str, e: &toml::de::Error) -> String {
+    let field = e.span().and_then(|s| span::field_at(text, s.start));
+    match field {
+        Some(f) if !e.message().contains(&f) => format!("in field `{f}`: {e}"),
+        _ => e.to_string(),
+    }
+}
+
 fn render(errors: &[FieldError]) -> String {
     errors
         .iter()
@@ -48,11 +58,19 @@ fn render(errors: &[FieldError]) -> String {
 impl Scene {
     /// Reads and validates a scene file.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        Scene::load_checked(path, &[])
+    }
+
+    /// [`Self::load`] with [`Self::parse_checked`]'s extra checks.
+    pub fn load_checked(
+        path: &Path,
+        checks: &[&dyn Fn(&Scene) -> Vec<FieldError>],
+    ) -> Result<Scene, SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             path: path.display().to_string(),
             source,
         })?;
-        Scene::parse(&text, &path.display().to_string())
+        Scene::parse_checked(&text, &path.display().to_string(), checks)
     }
 
     /// The embedded default scene.
@@ -63,11 +81,24 @@ impl Scene {
 
     /// Parses and validates scene text; `origin` names it in messages.
     pub fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
+        Scene::parse_checked(text, origin, &[])
+    }
+
+    /// [`Self::parse`], plus `checks` that know more than this crate, e.g. the solver registries'
+    /// checks of each solver's own parameter table (`shared::registry::Registry::check`).
+    pub fn parse_checked(
+        text: &str,
+        origin: &str,
+        checks: &[&dyn Fn(&Scene) -> Vec<FieldError>],
+    ) -> Result<Scene, SceneError> {
         let scene: Scene = toml::from_str(text).map_err(|e| SceneError::Syntax {
             origin: origin.into(),
-            message: e.to_string(),
+            message: syntax_message(text, &e),
         })?;
         let mut errors = scene.validate();
+        for check in checks {
+            errors.extend(check(&scene));
+        }
         if errors.is_empty() {
             return Ok(scene);
         }
@@ -131,6 +162,16 @@ mod tests {
         let text = DEFAULT_SCENE.replace("[time]", "[time]\nendd = 3.0");
         let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();
         assert!(msg.contains("endd"), "{msg}");
+    }
+
+    #[test]
+    fn stray_fluid_value_is_named_with_its_line() {
+        let text = DEFAULT_SCENE.replace("\ndx = 0.04\n", "\ndx = 0.04\ndxx = 0.1\n");
+        let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();
+        assert!(
+            msg.contains("fluid.dxx") && msg.contains("line ") && msg.contains("[fluid.wcsph]"),
+            "{msg}"
+        );
     }
 
     #[test]

@@ -78,10 +78,14 @@ pub struct DomainSpec {
 }
 
 /// `[fluid]`: the water and the SPH solver settings.
+///
+/// Not `deny_unknown_fields`: every key that is not a field here is kept in [`FluidSpec::solvers`]
+/// as a solver's own parameter table (`[fluid.wcsph]`, `[fluid.muller]`, …), read by that solver
+/// (`shared::registry::params`). Validation refuses a stray value that is not a table, and the
+/// fluid registry refuses a table that names no solver.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
 pub struct FluidSpec {
-    /// Solver used when the command line names none: `muller` (the paper's) or `wcsph`.
+    /// Solver used when the command line names none (the fluid registry lists them).
     #[serde(default = "default_fluid_solver")]
     pub solver: String,
     /// Rest density ρ0 [kg/m³].
@@ -98,18 +102,44 @@ pub struct FluidSpec {
     /// `[[fluid.water]]`: volumes filled with particles on a lattice of spacing dx (minus blocks).
     #[serde(default)]
     pub water: Vec<WaterSpec>,
-    /// `[fluid.muller]`: the paper's scheme (Müller et al. 2003; paper Eqs. 11–21).
+    /// How every block, fixed or moving, holds the water.
     #[serde(default)]
-    pub muller: MullerSpec,
-    /// `[fluid.wcsph]`: weakly compressible SPH (Tait, Wendland C2, δ-SPH).
-    #[serde(default)]
-    pub wcsph: WcsphSpec,
-    /// Wall treatment of every block: `particles` (default: boundary particles in the blocks
-    /// with pressure extrapolated from the fluid, Adami et al. 2012, moved with the moving
-    /// blocks and their reaction summed into the block loads, plus Eq. 22 as a backstop) or
-    /// `penalty` (the paper's Eq. 22 repulsion only).
-    #[serde(default)]
-    pub walls: Option<String>,
+    pub walls: Walls,
+    /// `[fluid.<solver>]`: each solver's own parameter table, as written.
+    #[serde(flatten)]
+    pub solvers: SolverTables,
+}
+
+/// Solver parameter tables by solver name, kept as TOML until the solver reads its own.
+pub type SolverTables = std::collections::BTreeMap<String, toml::Value>;
+
+/// `[fluid] walls`: the wall treatment of every block.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Walls {
+    /// Boundary particles in the blocks with pressure extrapolated from the fluid (Adami, Hu &
+    /// Adams 2012), moved with the moving blocks and their reaction summed into the block loads,
+    /// plus the paper's Eq. 22 as a backstop.
+    #[default]
+    Particles,
+    /// The paper's Eq. 22 repulsion only.
+    Penalty,
+}
+
+impl Walls {
+    /// As written in a scene.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Walls::Particles => "particles",
+            Walls::Penalty => "penalty",
+        }
+    }
+}
+
+impl std::fmt::Display for Walls {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
 }
 
 fn default_fluid_solver() -> String {
@@ -137,44 +167,6 @@ pub struct WaterSpec {
 
 fn yes() -> bool {
     true
-}
-
-/// `[fluid.muller]`: parameters of the paper's SPH. Unset values are derived from the scene.
-#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct MullerSpec {
-    /// Gas constant k in p = k(ρ − ρ0) (paper Eq. 17) [m²/s²]; default c²  with c = 10·sqrt(2 g H).
-    pub stiffness: Option<f64>,
-    /// Dynamic viscosity μ in paper Eq. 18 [Pa·s]; default ρ0·ν, raised to what the resolution needs.
-    pub viscosity: Option<f64>,
-    /// Kernel support h over dx (poly6 / spiky / viscosity kernels vanish at r = h); default 2.
-    pub support_ratio: Option<f64>,
-    /// Step limit factor on the CFL, force and viscous limits; default 0.25.
-    pub cfl: Option<f64>,
-    /// Clip negative pressure to zero (p = max(k(ρ − ρ0), 0)); default true. `false` is the
-    /// paper's Eq. 17 as printed: summed densities are low at a free surface, so the printed
-    /// form sucks surface particles inward hard enough to make still water boil.
-    pub clamp_negative_pressure: Option<bool>,
-}
-
-/// `[fluid.wcsph]`: parameters of the weakly compressible solver. Unset values are derived.
-#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct WcsphSpec {
-    /// Numerical speed of sound c0 [m/s]; default 10·sqrt(2 g H) for the deepest water H.
-    pub sound_speed: Option<f64>,
-    /// Tait exponent γ; default 7.
-    pub gamma: Option<f64>,
-    /// Artificial viscosity α (Monaghan 1992); default 0.01.
-    pub alpha: Option<f64>,
-    /// δ-SPH density diffusion coefficient (Molteni & Colagrossi 2009); default 0.1, 0 disables.
-    pub delta: Option<f64>,
-    /// Smoothing length h over dx (Wendland C2 support is 2h); default 1.3.
-    pub smoothing_ratio: Option<f64>,
-    /// `symplectic` (default) or `verlet`.
-    pub integrator: Option<String>,
-    /// CFL number; default 0.2.
-    pub cfl: Option<f64>,
 }
 
 /// `[solid]`: the rock-block solver.

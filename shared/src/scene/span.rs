@@ -32,3 +32,43 @@ pub(super) fn locate(text: &str, errors: &mut [FieldError]) {
         e.line = Some(text[..span.start.min(text.len())].matches('\n').count() + 1);
     }
 }
+
+/// The dotted path of the innermost field whose value holds byte `offset` of the text (e.g.
+/// `fluid.walls`), for a parse error that carries a span but no field name.
+pub(super) fn field_at(text: &str, offset: usize) -> Option<String> {
+    let root = DeTable::parse(text).ok()?;
+    let inside = |r: std::ops::Range<usize>| r.start <= offset && offset < r.end.max(r.start + 1);
+    let mut path = String::new();
+    let mut table: Option<&DeTable<'_>> = Some(root.get_ref());
+    let mut value: Option<&DeValue<'_>> = None;
+    loop {
+        let next = match (table, value) {
+            (Some(t), _) => t
+                .iter()
+                .find(|(k, v)| inside(v.span()) || inside(k.span()))
+                .map(|(k, v)| {
+                    if !path.is_empty() {
+                        path.push('.');
+                    }
+                    path.push_str(k.get_ref());
+                    v
+                }),
+            (None, Some(DeValue::Array(a))) => a
+                .iter()
+                .enumerate()
+                .find(|(_, v)| inside(v.span()))
+                .map(|(i, v)| {
+                    path.push_str(&format!("[{i}]"));
+                    v
+                }),
+            _ => None,
+        };
+        let Some(next) = next else { break };
+        value = Some(next.get_ref());
+        table = match next.get_ref() {
+            DeValue::Table(t) => Some(t),
+            _ => None,
+        };
+    }
+    (!path.is_empty()).then_some(path)
+}

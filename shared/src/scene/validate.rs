@@ -27,6 +27,20 @@ pub struct FieldError {
     pub line: Option<usize>,
 }
 
+impl FieldError {
+    /// An error at the field `path` (table keys from the root, e.g. `["fluid", "wcsph", "gamma"]`).
+    pub fn new(path: &[&str], value: String, problem: &str, fix: &str) -> Self {
+        Self {
+            path: path.join("."),
+            segments: path.iter().map(|k| Seg::Key((*k).into())).collect(),
+            value,
+            problem: problem.into(),
+            fix: fix.into(),
+            line: None,
+        }
+    }
+}
+
 impl std::fmt::Display for FieldError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         if let Some(l) = self.line {
@@ -236,24 +250,16 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                     c.at(Seg::Index(i), |c| c.shape(&w.shape, d, true))
                 });
             }
-            if let Some(walls) = &f.walls
-                && walls != "particles"
-                && walls != "penalty"
-            {
-                c.fail("walls", walls, "is not a known wall treatment", "use \"particles\" (boundary particles) or \"penalty\" (the paper's Eq. 22 only)");
-            }
-            if let Some(integrator) = &f.wcsph.integrator
-                && integrator != "symplectic"
-                && integrator != "verlet"
-            {
-                c.key("wcsph", |c| {
+            // Keys that are not [fluid] fields are solver tables; a stray value is a typo.
+            for (key, value) in &f.solvers {
+                if !value.is_table() {
                     c.fail(
-                        "integrator",
-                        integrator,
-                        "is not a known integrator",
-                        "use \"symplectic\" or \"verlet\"",
-                    )
-                });
+                        key,
+                        value,
+                        "is not a field of [fluid]",
+                        "fields are solver, density, dx, kinematic_viscosity, density_ratio_bound, walls, water; solver parameters go in their own table, e.g. [fluid.wcsph]",
+                    );
+                }
             }
         });
     }

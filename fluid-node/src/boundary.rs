@@ -1,0 +1,174 @@
+//! One boundary-particle set for every block, fixed and moving (Adami, Hu & Adams 2012), seen by
+//! the schemes through one neighbour iterator: a scheme's pass over a fluid particle's boundary
+//! neighbours is one loop, whatever block each neighbour belongs to.
+//!
+//! Inside, the set has two parts because they move differently: the fixed blocks' particles
+//! ([`WallParticles`]) are sorted into the grid once, the moving blocks' ([`BodyParticles`]) are
+//! carried and re-sorted at every pose, and only they load a block. The iterator visits the fixed
+//! part first, then the moving part, so sums keep one fixed order (runs are deterministic).
+
+use crate::bodies::BodyParticles;
+use crate::kernel::Kernel;
+use crate::neighbors::{CellGrid, NeighborLists};
+use crate::particles::Particles;
+use crate::walls::WallParticles;
+use shared::math::{Real, Vector};
+use shared::protocol::{BlockLoad, BlockState};
+
+/// The boundary particles of all blocks, and each fluid particle's neighbours among them.
+#[derive(Debug, Clone, Default)]
+pub struct Boundary {
+    fixed: Option<WallParticles>,
+    moving: Option<BodyParticles>,
+    /// Boundary neighbours of each fluid particle in the fixed and in the moving part.
+    fixed_lists: NeighborLists,
+    moving_lists: NeighborLists,
+}
+
+/// One boundary neighbour of a fluid particle: a wall point with its extrapolated pressure, the
+/// density that pressure implies, and its velocity (zero on a fixed block).
+#[derive(Debug, Clone, Copy)]
+pub struct Near<'a> {
+    set: &'a WallParticles,
+    index: usize,
+    velocity: Option<&'a [Vector]>,
+}
+
+impl Near<'_> {
+    #[inline]
+    pub fn position(&self) -> Vector {
+        self.set.position[self.index]
+    }
+    #[inline]
+    pub fn pressure(&self) -> Real {
+        self.set.pressure[self.index]
+    }
+    #[inline]
+    pub fn density(&self) -> Real {
+        self.set.density[self.index]
+    }
+    /// The wall's material velocity (free slip: it enters the continuity equation only).
+    #[inline]
+    pub fn velocity(&self) -> Vector {
+        self.velocity.map_or(Vector::zeros(), |v| v[self.index])
+    }
+}
+
+impl Boundary {
+    /// `fixed`: the fixed blocks' particles (none for Eq. 22-only walls); `moving`: the moving
+    /// blocks' (none when no block moves or walls are Eq. 22 only).
+    pub fn new(fixed: Option<WallParticles>, moving: Option<BodyParticles>) -> Self {
+        Self {
+            fixed,
+            moving,
+            ..Self::default()
+        }
+    }
+
+    /// Number of fixed and of moving boundary particles.
+    pub fn counts(&self) -> (usize, usize) {
+        (
+            self.fixed.as_ref().map_or(0, WallParticles::len),
+            self.moving.as_ref().map_or(0, BodyParticles::len),
+        )
+    }
+
+    /// The boundary neighbours of fluid particle `i` (fixed first, then moving).
+    #[inline]
+    pub fn neighbors(&self, i: usize) -> impl Iterator<Item = Near<'_>> + '_ {
+        let fixed = self.fixed.iter().flat_map(move |set| {
+            self.fixed_lists.of(i).iter().map(move |&j| Near {
+                set,
+                index: j as usize,
+                velocity: None,
+            })
+        });
+        let moving = self.moving.iter().flat_map(move |b| {
+            self.moving_lists.of(i).iter().map(move |&j| Near {
+                set: &b.set,
+                index: j as usize,
+                velocity: Some(&b.velocity),
+            })
+        });
+        fixed.chain(moving)
+    }
+
+    /// Lists the fixed neighbours of the (just sorted) fluid and finds the wall particles near
+    /// water.
+    pub fn list_fixed(&mut self, fluid: &[Vector], grid: &CellGrid, radius: Real) {
+        if let Some(w) = &mut self.fixed {
+            self.fixed_lists
+                .build(fluid, &w.position, &w.grid, radius, false);
+            w.activate(&self.fixed_lists, fluid, grid, radius);
+        }
+    }
+
+    /// Lists the moving neighbours of the fluid (after the fluid or the blocks moved).
+    pub fn list_moving(&mut self, fluid: &[Vector], grid: &CellGrid, radius: Real) {
+        if let Some(b) = &mut self.moving {
+            self.moving_lists
+                .build(fluid, &b.set.position, &b.set.grid, radius, false);
+            b.set.activate(&self.moving_lists, fluid, grid, radius);
+        }
+    }
+
+    /// Carries the moving blocks' particles to the poses the solid node sent.
+    pub fn place(&mut self, blocks: &[BlockState]) {
+        if let Some(b) = &mut self.moving {
+            b.place(blocks);
+        }
+    }
+
+    /// Adami's pressure extrapolation on every active boundary particle, fixed then moving;
+    /// `density_of` is the scheme's inverse equation of state.
+    pub fn update<K: Kernel>(
+        &mut self,
+        kernel: &K,
+        fluid: &Particles,
+        gravity: &Vector,
+        rest_density: Real,
+        density_of: impl Fn(Real) -> Real + Sync,
+    ) {
+        if let Some(w) = &mut self.fixed {
+            w.update(kernel, fluid, gravity, rest_density, &density_of);
+        }
+        self.update_moving(kernel, fluid, gravity, rest_density, density_of);
+    }
+
+    /// [`Self::update`] on the moving part alone (after a new pose). The wall acceleration term
+    /// of Adami's Eq. 27 (g − a_w) is left out: the solid node sends poses and velocities, not
+    /// accelerations, and for a block near equilibrium a_w ≪ g.
+    pub fn update_moving<K: Kernel>(
+        &mut self,
+        kernel: &K,
+        fluid: &Particles,
+        gravity: &Vector,
+        rest_density: Real,
+        density_of: impl Fn(Real) -> Real + Sync,
+    ) {
+        if let Some(b) = &mut self.moving {
+            b.set
+                .update(kernel, fluid, gravity, rest_density, density_of);
+        }
+    }
+
+    /// The water's force on each moving block through its boundary particles:
+    /// see [`BodyParticles::react`].
+    pub fn react(
+        &mut self,
+        fluid: &[Vector],
+        support: Real,
+        pair: impl Fn(usize, Real, Real, &Vector, Real) -> Vector + Sync,
+    ) {
+        if let Some(b) = &mut self.moving {
+            b.react(fluid, support, pair);
+        }
+    }
+
+    /// Adds the last [`Self::react`] to the moving blocks' loads.
+    pub fn add_loads(&self, loads: &mut [BlockLoad]) {
+        if let Some(b) = &self.moving {
+            b.add_loads(loads);
+        }
+    }
+}

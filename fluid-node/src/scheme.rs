@@ -1,0 +1,58 @@
+//! What makes one SPH method differ from another: its kernel, equation of state, force
+//! evaluation, integrator and stable step. Everything else (particles, neighbours, the blocks'
+//! boundary particles, paper Eq. 22, instruments, checks, output) is the [`FluidSystem`] every
+//! scheme shares, and [`crate::sph::Sph`] turns any scheme into a coupled solver. A new SPH
+//! method is one file implementing this trait plus one line in [`crate::REGISTRY`].
+
+use crate::kernel::Kernel;
+use crate::system::{FluidSystem, Initial};
+use shared::math::Real;
+use shared::registry::SolverParams;
+use shared::solver::{SolverError, StepReport};
+
+/// How the system is built for a scheme.
+pub struct Layout {
+    /// Initial density of each filled particle, in fill order (e.g. hydrostatic).
+    pub density: Vec<Real>,
+    /// Kernel support: the neighbour radius and grid cell [m].
+    pub support: Real,
+    /// Speed of sound [m/s]: sets the default Eq. 22 stiffness K_S = ½ρ0c²·dx.
+    pub sound_speed: Real,
+}
+
+/// One SPH method.
+pub trait Scheme: Sized + Send + 'static {
+    /// `--solver` name, and the scene table `[fluid.<NAME>]` that holds [`Self::Params`].
+    const NAME: &'static str;
+    /// One line for `--list` and the docs.
+    const DESCRIPTION: &'static str;
+    /// The scheme's own parameters (every field optional; unset ones are derived).
+    type Params: SolverParams;
+    /// The kernel the instruments interpolate with.
+    type Kernel: Kernel;
+
+    /// Derives the scheme from its parameters and the filled scene.
+    fn new(params: Self::Params, init: &Initial) -> Result<(Self, Layout), SolverError>;
+
+    /// Once the system exists (particles sorted by cell, Eq. 22 stiffness known): initial
+    /// pressures and step limits.
+    fn start(&mut self, sys: &mut FluidSystem);
+
+    /// Force evaluation(s) and integration over `dt`. The system has begun the step (grid and
+    /// Eq. 22 forces current); it checks, re-sorts and samples after.
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport;
+
+    /// At a new pose of the moving blocks: their boundary pressures, then the water's force on
+    /// them, pair by pair the reverse of this scheme's pressure force on the fluid
+    /// ([`crate::boundary::Boundary::react`]).
+    fn react(&self, sys: &mut FluidSystem);
+
+    fn kernel(&self) -> &Self::Kernel;
+
+    /// Density check after a step: whether a low density is an instability too (false for
+    /// summed densities, low at a free surface by construction), and the reference density.
+    fn density_check(&self) -> (bool, Real);
+
+    /// Largest stable step for the current largest speed and acceleration.
+    fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real;
+}

@@ -1,0 +1,95 @@
+//! Any [`Scheme`] as a coupled solver: [`Sph`] implements the coupling interface
+//! ([`Solver`], [`FluidSolver`]) once, for every scheme.
+
+use crate::scheme::Scheme;
+use crate::system::{FluidSystem, Initial};
+use shared::math::Real;
+use shared::protocol::{BlockLoad, BlockState};
+use shared::registry::solver_params;
+use shared::solver::{FluidSolver, SetupContext, Solver, SolverError, StepReport};
+
+/// An SPH solver: the shared system and one scheme.
+pub struct Sph<S: Scheme> {
+    pub sys: FluidSystem,
+    pub scheme: S,
+    dt_next: Real,
+}
+
+/// A fluid solver whose particles the validation, benchmarks and sweeps can look at.
+pub trait SphSolver: FluidSolver {
+    fn system(&self) -> &FluidSystem;
+}
+
+impl<S: Scheme> Sph<S> {
+    /// Fills the scene's water and builds the scheme from its table `[fluid.<S::NAME>]`.
+    pub fn new(ctx: &SetupContext) -> Result<Self, SolverError> {
+        let init = Initial::from_scene(ctx.scene)?;
+        let params = solver_params::<S::Params>(&init.fluid.solvers, "fluid", S::NAME)?;
+        let (mut scheme, layout) = S::new(params, &init)?;
+        let mut sys = FluidSystem::new(
+            ctx,
+            S::NAME,
+            &init,
+            layout.density,
+            layout.support,
+            layout.sound_speed,
+        )?;
+        scheme.start(&mut sys);
+        let dt_next = scheme.dt_proposal(0.0, init.gravity.norm());
+        Ok(Self {
+            sys,
+            scheme,
+            dt_next,
+        })
+    }
+}
+
+impl<S: Scheme> SphSolver for Sph<S> {
+    fn system(&self) -> &FluidSystem {
+        &self.sys
+    }
+}
+
+impl<S: Scheme> Solver for Sph<S> {
+    fn name(&self) -> &str {
+        S::NAME
+    }
+
+    fn dt_proposal(&self) -> Real {
+        self.dt_next
+    }
+
+    fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
+        self.sys.begin_step();
+        let report = self.scheme.step(&mut self.sys, dt);
+        let (v, a) = self.sys.extremes();
+        let (low, reference) = self.scheme.density_check();
+        self.sys
+            .end_step(dt, self.scheme.kernel(), low, reference)?;
+        self.dt_next = self.scheme.dt_proposal(v, a);
+        Ok(report)
+    }
+
+    fn write_frame(&mut self, frame: u32, _time: Real) -> Result<(), SolverError> {
+        self.sys.write_frame(frame)
+    }
+
+    fn finish(&mut self) -> Result<(), SolverError> {
+        self.sys.finish()
+    }
+}
+
+impl<S: Scheme> FluidSolver for Sph<S> {
+    fn read_geometry(&mut self, blocks: &[BlockState], _vertices: &[[f64; 3]]) {
+        self.sys.read_geometry(blocks);
+    }
+
+    fn write_loads(&mut self, loads: &mut [BlockLoad]) {
+        // The water's pressure on the moving blocks' boundary particles at the current state:
+        // the fluid pressures of the last step's end, the wall pressures extrapolated at the new
+        // pose. Then Eq. 22 for the coming step.
+        self.sys.prepare_bodies();
+        self.scheme.react(&mut self.sys);
+        self.sys.write_loads(loads);
+    }
+}

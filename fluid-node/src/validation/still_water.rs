@@ -1,0 +1,113 @@
+//! Still water in a closed tank: pressure against depth, p = ρ0 g (η − z), and the free surface.
+
+use super::*;
+
+/// Still water: a box of water of depth `depth` at rest in a closed tank.
+pub fn still_water_scene(
+    solver: &str,
+    depth: f64,
+    dx: f64,
+    end: f64,
+    walls: Option<Walls>,
+) -> Scene {
+    let (l, w) = (2.0 * depth, depth);
+    let text = format!(
+        "name = \"still_water\"\n[time]\nend = {end}\ndt_max = 1e-3\n[domain]\nmin = [0.0, 0.0, 0.0]\nmax = [{l}, {w}, {h}]\n\
+         [output]\ninterval = {end}\n{fluid}\n[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [{l}, {w}, {depth}] }}\n\n\
+         {tank}\
+         [[gauge]]\nname = \"centre\"\nx = {cx}\ny = {cy}\n\n\
+         [[probe]]\nname = \"p25\"\nposition = [{cx}, {cy}, {z75}]\n\n\
+         [[probe]]\nname = \"p50\"\nposition = [{cx}, {cy}, {z50}]\n\n\
+         [[probe]]\nname = \"p75\"\nposition = [{cx}, {cy}, {z25}]\n",
+        h = 2.0 * depth,
+        fluid = fluid_table(solver, dx, walls),
+        tank = tank(l, w, 2.0 * depth, 0.2 * depth),
+        cx = 0.5 * l + 0.25 * dx,
+        cy = 0.5 * w + 0.25 * dx,
+        z75 = 0.75 * depth,
+        z50 = 0.5 * depth,
+        z25 = 0.25 * depth,
+    );
+    Scene::parse(&text, "still_water (generated)").expect("generated still-water scene is valid")
+}
+
+/// Result of a still-water run.
+#[derive(Debug, Clone)]
+pub struct StillWater {
+    /// (depth below the initial surface over depth, measured p, hydrostatic ρ0 g (η − z)) at the
+    /// probes, averaged over the second half of the run.
+    pub probes: Vec<(f64, f64, f64)>,
+    /// Largest |p − p_ref| over ρ0 g H.
+    pub max_error: f64,
+    /// Mean free-surface elevation over the second half, and the initial depth.
+    pub surface: f64,
+    pub depth: f64,
+    pub particles: usize,
+    pub steps: u64,
+}
+
+/// Runs still water and reads the probe and gauge CSV files the solver wrote.
+pub fn still_water(
+    solver: &str,
+    depth: f64,
+    dx: f64,
+    end: f64,
+    walls: Option<Walls>,
+) -> Result<StillWater, SolverError> {
+    let scene = still_water_scene(solver, depth, dx, end, walls);
+    let dir = TempRunDir::new("still")?;
+    let mut s = build(solver, &scene, dir.path())?;
+    let particles = s.system().len();
+    let steps = run(s.as_mut(), &scene, end, |_, _| {})?;
+    drop(s);
+    let gauges = read_csv(&dir.path().join("gauges.csv"))?;
+    let probes = read_csv(&dir.path().join("probes.csv"))?;
+    let late = |rows: &[Vec<f64>], col: usize| {
+        let sel: Vec<f64> = rows
+            .iter()
+            .filter(|r| r[0] >= 0.5 * end)
+            .map(|r| r[col])
+            .collect();
+        sel.iter().sum::<f64>() / sel.len().max(1) as f64
+    };
+    let surface = late(&gauges, 1);
+    let fluid = scene.fluid.as_ref().expect("fluid");
+    let rho_g = fluid.density * scene.gravity[2].abs();
+    let zs = [0.75 * depth, 0.5 * depth, 0.25 * depth];
+    let probes: Vec<(f64, f64, f64)> = zs
+        .iter()
+        .enumerate()
+        .map(|(k, &z)| {
+            (
+                (depth - z) / depth,
+                late(&probes, k + 1),
+                rho_g * (surface - z),
+            )
+        })
+        .collect();
+    let max_error = probes
+        .iter()
+        .map(|(_, p, r)| (p - r).abs() / (rho_g * depth))
+        .fold(0.0, f64::max);
+    Ok(StillWater {
+        probes,
+        max_error,
+        surface,
+        depth,
+        particles,
+        steps,
+    })
+}
+
+fn read_csv(path: &Path) -> Result<Vec<Vec<f64>>, SolverError> {
+    let text = std::fs::read_to_string(path)?;
+    Ok(text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse::<f64>().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect())
+}

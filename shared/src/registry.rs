@@ -1,0 +1,185 @@
+//! The solvers a node crate offers, in one list: name, description, constructor and the check of
+//! the solver's own parameter table. The node binary (`--solver NAME`), the validation and bench
+//! binaries and the coupler's sweeps all read the same list, so adding a solver is one file and
+//! one line here.
+//!
+//! Each solver owns its parameters: a serde type deserialised from its own table of the scene
+//! (`[fluid.wcsph]`, `[solid.implicit]`, …), kept by [`crate::scene`] as raw TOML until the
+//! solver reads it with [`params`].
+
+use crate::scene::{FieldError, Scene, SolverTables};
+use crate::solver::{SetupContext, SolverError};
+use serde::de::DeserializeOwned;
+
+/// A solver's parameter table: deserialised from `[<role>.<name>]` (every field optional, with
+/// the solver's defaults), then checked value by value.
+pub trait SolverParams: DeserializeOwned + Default {
+    /// Pushes one error per impossible value, through `check.fail(field, value, problem, fix)`.
+    fn check(&self, check: &mut ParamCheck);
+}
+
+/// Collects the errors of one solver table, naming each field by its full path
+/// (`fluid.wcsph.gamma`).
+pub struct ParamCheck {
+    table: Vec<String>,
+    errors: Vec<FieldError>,
+}
+
+impl ParamCheck {
+    /// Reports `field` of this table as `value`: `problem`; fix: `fix`.
+    pub fn fail(&mut self, field: &str, value: impl std::fmt::Debug, problem: &str, fix: &str) {
+        let mut path: Vec<&str> = self.table.iter().map(String::as_str).collect();
+        path.push(field);
+        self.errors
+            .push(FieldError::new(&path, format!("{value:?}"), problem, fix));
+    }
+
+    /// `value` must be finite and > 0 (`None` means the solver derives it).
+    pub fn positive(&mut self, field: &str, value: Option<f64>, fix: &str) {
+        if let Some(v) = value
+            && !(v.is_finite() && v > 0.0)
+        {
+            self.fail(field, v, "must be a positive finite number", fix);
+        }
+    }
+
+    /// `value` must be finite and ≥ 0.
+    pub fn non_negative(&mut self, field: &str, value: Option<f64>, fix: &str) {
+        if let Some(v) = value
+            && !(v.is_finite() && v >= 0.0)
+        {
+            self.fail(field, v, "must be a finite number >= 0", fix);
+        }
+    }
+}
+
+/// Reads solver `name`'s table `[<role>.<name>]` into `P` (defaults where the table or a field is
+/// absent) and checks it. `role` is `fluid` or `solid`.
+pub fn params<P: SolverParams>(
+    tables: &SolverTables,
+    role: &str,
+    name: &str,
+) -> Result<P, Vec<FieldError>> {
+    let p: P = match tables.get(name) {
+        None => P::default(),
+        Some(value) => value.clone().try_into().map_err(|e: toml::de::Error| {
+            vec![FieldError::new(
+                &[role, name],
+                "{…}".into(),
+                e.message().trim(),
+                &format!("see the fields of [{role}.{name}] in `{role}-node --list` or docs/ARCHITECTURE.md"),
+            )]
+        })?,
+    };
+    let mut check = ParamCheck {
+        table: vec![role.into(), name.into()],
+        errors: Vec::new(),
+    };
+    p.check(&mut check);
+    if check.errors.is_empty() {
+        Ok(p)
+    } else {
+        Err(check.errors)
+    }
+}
+
+/// [`params`]'s errors alone, for a registry entry's `check`.
+pub fn check_params<P: SolverParams>(
+    tables: &SolverTables,
+    role: &str,
+    name: &str,
+) -> Vec<FieldError> {
+    params::<P>(tables, role, name).err().unwrap_or_default()
+}
+
+/// [`params`] for a solver's constructor: the errors as one [`SolverError`].
+pub fn solver_params<P: SolverParams>(
+    tables: &SolverTables,
+    role: &str,
+    name: &str,
+) -> Result<P, SolverError> {
+    params(tables, role, name).map_err(|errors| {
+        SolverError::Failed(
+            errors
+                .iter()
+                .map(|e| e.to_string())
+                .collect::<Vec<_>>()
+                .join("; "),
+        )
+    })
+}
+
+/// One solver of a node crate.
+pub struct Entry<S: ?Sized> {
+    /// As given to `--solver` and in the scene's `solver = "…"`.
+    pub name: &'static str,
+    /// One line for `--list` and the docs.
+    pub description: &'static str,
+    /// Builds the solver for a scene; it reads its own table with [`solver_params`].
+    pub build: fn(&SetupContext) -> Result<Box<S>, SolverError>,
+    /// Checks the solver's own table of the scene, naming each bad field.
+    pub check: fn(&Scene) -> Vec<FieldError>,
+}
+
+/// The solvers of one role (`fluid` or `solid`), in the order they are listed.
+pub struct Registry<S: ?Sized + 'static> {
+    pub role: &'static str,
+    pub entries: &'static [Entry<S>],
+}
+
+impl<S: ?Sized> Registry<S> {
+    pub fn names(&self) -> Vec<&'static str> {
+        self.entries.iter().map(|e| e.name).collect()
+    }
+
+    /// The entry called `name`, or an error listing the names there are.
+    pub fn get(&self, name: &str) -> Result<&Entry<S>, SolverError> {
+        self.entries.iter().find(|e| e.name == name).ok_or_else(|| {
+            SolverError::Failed(format!(
+                "unknown {} solver '{name}'; fix: use one of {}",
+                self.role,
+                self.names().join(", ")
+            ))
+        })
+    }
+
+    pub fn build(&self, name: &str, ctx: &SetupContext) -> Result<Box<S>, SolverError> {
+        (self.get(name)?.build)(ctx)
+    }
+
+    /// Checks the scene's solver tables of this role: every `[<role>.<name>]` must name a solver
+    /// here, and each solver's table must hold valid parameters. Also checks the role's default
+    /// `solver = "…"`.
+    pub fn check(&self, scene: &Scene, tables: &SolverTables, default: &str) -> Vec<FieldError> {
+        let role = self.role;
+        let mut errors = Vec::new();
+        let known = self
+            .names()
+            .iter()
+            .map(|n| format!("[{role}.{n}]"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        if self.get(default).is_err() {
+            errors.push(FieldError::new(
+                &[role, "solver"],
+                format!("{default:?}"),
+                &format!("is not a {role} solver"),
+                &format!("use one of {}", self.names().join(", ")),
+            ));
+        }
+        for name in tables.keys() {
+            if self.get(name).is_err() {
+                errors.push(FieldError::new(
+                    &[role, name],
+                    "{…}".into(),
+                    &format!("is neither a field of [{role}] nor a {role} solver's table"),
+                    &format!("solver tables are {known}; check the spelling"),
+                ));
+            }
+        }
+        for e in self.entries {
+            errors.extend((e.check)(scene));
+        }
+        errors
+    }
+}
