@@ -1,4 +1,4 @@
-//! Verification cases with closed-form references (DESIGN §8): free fall, a block on an
+//! Verification cases with closed-form references (docs/REFERENCES.md §2): free fall, a block on an
 //! incline that sticks or slides (with and without cohesion), slide-or-topple, the restitution
 //! of an undamped penalty bounce for both schemes, the explicit scheme pushed past its limit,
 //! a stack at rest, the embedded default scene's wedge, and a spinning block that must not

@@ -1,4 +1,4 @@
-//! The co-simulation backbone (issue 2), tested with real processes: the coupler and two
+//! The co-simulation backbone, tested with real processes: the coupler and two
 //! nodes talking over iceoryx2. The toy nodes (tests::toy) check every geometry message they
 //! receive against the exact motion, so a message from the wrong step fails the run.
 

@@ -1,7 +1,7 @@
 //! Buoyancy through the whole coupled system (real coupler, fluid-node and solid-node processes
 //! over shared memory): a block of density 500 floats at draft (ρ_b/ρ_w)·h, a block of density
-//! 2500 sinks and comes to rest on the bottom (DESIGN §8, issue 5), and a soft (deformable,
-//! 12-DOF) floating block takes the strain the hydrostatic pressure gives it (issue 6).
+//! 2500 sinks and comes to rest on the bottom, and a soft (deformable, 12-DOF) floating block
+//! takes the strain the hydrostatic pressure gives it (references: docs/REFERENCES.md §3.1–3.3).
 //!
 //! The scenes are scenes/validation/{floating,sinking}_block.toml: a quasi-2D slab tank at
 //! dx = 0.02 m (about 2 400 particles). The floating block starts at its equilibrium draft and

@@ -1,5 +1,6 @@
-//! The whole system on the paper's sliding wedge (issue 5), coarse: all three processes with
-//! the real solvers, checked against physics rather than stored numbers.
+//! The whole system on the paper's sliding wedge (Geraili Mikola & Sitar 2014, Example 2;
+//! docs/REFERENCES.md §3.4), coarse: all three processes with the real solvers, checked against
+//! physics rather than stored numbers.
 
 mod common;
 use common::*;

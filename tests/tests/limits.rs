@@ -1,6 +1,7 @@
 //! Each method fails where theory says it does, and the failure is caught and named rather than
-//! written out (issue 6); and a scene runs only the nodes it needs. Every run here is a real
-//! `coupler run` with real nodes; the stepping is pushed with `--dt-factor`.
+//! written out (the theory: docs/REFERENCES.md §4); and a scene runs only the nodes it needs.
+//! Every run here is a real `coupler run` with real nodes; the stepping is pushed with
+//! `--dt-factor`.
 //!
 //! - explicit DDA: the central-difference scheme diverges above ω·dt = 2. Its proposal is
 //!   0.5 · 2/ω_max, so dt × 1.5 (ω·dt = 1.5) must complete and dt × 3 (ω·dt = 3) must stop with
