@@ -5,7 +5,7 @@ use crate::output::{RunDir, Summary};
 use crate::session::{RunOptions, Session};
 use clap::Args;
 use shared::protocol::Role;
-use shared::scene::{Scene, Scheme};
+use shared::scene::Scheme;
 use shared::transport::RunId;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -15,10 +15,12 @@ pub struct RunArgs {
     /// Scene file (TOML). Without one, the embedded default scene runs: the paper's sliding
     /// wedge (scenes/sliding_wedge.toml).
     pub scene: Option<PathBuf>,
-    /// Fluid solver (overrides the scene): muller or wcsph.
+    /// Fluid solver (overrides the scene): a name from the fluid registry (wcsph, muller, …;
+    /// `coupler check` lists them).
     #[arg(long)]
     pub fluid_solver: Option<String>,
-    /// Solid solver (overrides the scene): explicit or implicit.
+    /// Solid solver (overrides the scene): a name from the solid registry (explicit, implicit, …;
+    /// `coupler check` lists them).
     #[arg(long)]
     pub solid_solver: Option<String>,
     /// Coupling scheme (overrides the scene).
@@ -81,15 +83,10 @@ pub fn run(args: RunArgs) -> u8 {
 }
 
 fn run_inner(args: RunArgs) -> Result<u8, String> {
-    let (mut scene, origin) = match &args.scene {
-        Some(path) => (
-            Scene::load(path).map_err(|e| e.to_string())?,
-            path.display().to_string(),
-        ),
-        None => (
-            Scene::default_scene(),
-            shared::scene::DEFAULT_SCENE_ORIGIN.to_string(),
-        ),
+    let mut scene = crate::scenes::load(args.scene.as_deref()).map_err(|e| e.to_string())?;
+    let origin = match &args.scene {
+        Some(path) => path.display().to_string(),
+        None => shared::scene::DEFAULT_SCENE_ORIGIN.to_string(),
     };
     if let Some(dx) = args.dx {
         if !(dx.is_finite() && dx > 0.0) {
@@ -112,7 +109,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         scene.time.end = end;
     }
     // Overrides must leave a valid scene too.
-    let problems = scene.validate();
+    let problems = crate::scenes::problems(&scene);
     if !problems.is_empty() {
         let list: Vec<String> = problems.iter().map(|e| format!("  {e}")).collect();
         return Err(format!(

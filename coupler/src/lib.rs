@@ -12,6 +12,7 @@ pub mod progress;
 pub mod resolution;
 pub mod runner;
 pub mod runup;
+pub mod scenes;
 pub mod session;
 pub mod solid_sweep;
 pub mod speed_accuracy;

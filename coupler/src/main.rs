@@ -55,10 +55,7 @@ fn main() -> ExitCode {
         Cmd::Chart(args) => ExitCode::from(coupler::speed_accuracy::run(args)),
         Cmd::Stability(args) => ExitCode::from(coupler::stability::run(args)),
         Cmd::Check { scene } => {
-            let loaded = match &scene {
-                Some(p) => shared::scene::Scene::load(p),
-                None => Ok(shared::scene::Scene::default_scene()),
-            };
+            let loaded = coupler::scenes::load(scene.as_deref());
             match loaded {
                 Ok(s) => {
                     println!(
@@ -69,6 +66,7 @@ fn main() -> ExitCode {
                         if s.has_fluid() { "yes" } else { "no" },
                         s.gauges.len()
                     );
+                    println!("solvers:\n{}", coupler::scenes::solver_list());
                     ExitCode::SUCCESS
                 }
                 Err(e) => {

@@ -91,7 +91,8 @@ fn unknown_solver_and_wall_treatment_are_named() {
     // A scene file naming an unknown wall treatment is refused when it is read, naming the field.
     let good = still_water_scene("wcsph", 0.1, 0.025, 0.1, None);
     let text = toml::to_string(&good).unwrap();
-    let bad = text.replace("[fluid]\n", "[fluid]\nwalls = \"magic\"\n");
+    let bad = text.replace("walls = \"particles\"", "walls = \"magic\"");
+    assert_ne!(bad, text);
     let e = Scene::parse(&bad, "t").unwrap_err().to_string();
     assert!(e.contains("fluid.walls") && e.contains("magic"), "{e}");
     // An unknown solver is refused with the names there are.

@@ -34,41 +34,35 @@ pub(super) fn locate(text: &str, errors: &mut [FieldError]) {
 }
 
 /// The dotted path of the innermost field whose value holds byte `offset` of the text (e.g.
-/// `fluid.walls`), for a parse error that carries a span but no field name.
+/// `fluid.walls`), for a parse error that carries a span but no field name. Searched depth
+/// first: a `[table]`'s own span covers its header only, not the keys under it.
 pub(super) fn field_at(text: &str, offset: usize) -> Option<String> {
     let root = DeTable::parse(text).ok()?;
+    search(root.get_ref(), "", offset)
+}
+
+fn search(table: &DeTable<'_>, prefix: &str, offset: usize) -> Option<String> {
     let inside = |r: std::ops::Range<usize>| r.start <= offset && offset < r.end.max(r.start + 1);
-    let mut path = String::new();
-    let mut table: Option<&DeTable<'_>> = Some(root.get_ref());
-    let mut value: Option<&DeValue<'_>> = None;
-    loop {
-        let next = match (table, value) {
-            (Some(t), _) => t
-                .iter()
-                .find(|(k, v)| inside(v.span()) || inside(k.span()))
-                .map(|(k, v)| {
-                    if !path.is_empty() {
-                        path.push('.');
-                    }
-                    path.push_str(k.get_ref());
-                    v
-                }),
-            (None, Some(DeValue::Array(a))) => a
-                .iter()
-                .enumerate()
-                .find(|(_, v)| inside(v.span()))
-                .map(|(i, v)| {
-                    path.push_str(&format!("[{i}]"));
-                    v
-                }),
+    for (key, value) in table.iter() {
+        let path = if prefix.is_empty() {
+            key.get_ref().to_string()
+        } else {
+            format!("{prefix}.{}", key.get_ref())
+        };
+        let found = match value.get_ref() {
+            DeValue::Table(t) => search(t, &path, offset),
+            DeValue::Array(a) => a.iter().enumerate().find_map(|(i, v)| match v.get_ref() {
+                DeValue::Table(t) => search(t, &format!("{path}[{i}]"), offset),
+                _ => inside(v.span()).then(|| format!("{path}[{i}]")),
+            }),
             _ => None,
         };
-        let Some(next) = next else { break };
-        value = Some(next.get_ref());
-        table = match next.get_ref() {
-            DeValue::Table(t) => Some(t),
-            _ => None,
-        };
+        if found.is_some() {
+            return found;
+        }
+        if inside(value.span()) {
+            return Some(path);
+        }
     }
-    (!path.is_empty()).then_some(path)
+    None
 }

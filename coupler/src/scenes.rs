@@ -1,0 +1,35 @@
+//! Reading a scene as the coupler does: the schema and its validation (`shared::scene`), plus
+//! each solver registry's check of the solver tables (`[fluid.<name>]`, `[solid.<name>]`), so a
+//! bad solver parameter is named with its field and line before any node starts.
+
+use shared::scene::{DEFAULT_SCENE, DEFAULT_SCENE_ORIGIN, FieldError, Scene, SceneError};
+use std::path::Path;
+
+/// The registries' checks, in the form `Scene::parse_checked` takes.
+pub fn solver_checks(scene: &Scene) -> Vec<FieldError> {
+    fluid_node::check_scene(scene)
+}
+
+/// Loads `path`, or the embedded default scene, with every check.
+pub fn load(path: Option<&Path>) -> Result<Scene, SceneError> {
+    match path {
+        Some(p) => Scene::load_checked(p, &[&solver_checks]),
+        None => Scene::parse_checked(DEFAULT_SCENE, DEFAULT_SCENE_ORIGIN, &[&solver_checks]),
+    }
+}
+
+/// Every problem of a scene already parsed (after command-line overrides).
+pub fn problems(scene: &Scene) -> Vec<FieldError> {
+    let mut all = scene.validate();
+    all.extend(solver_checks(scene));
+    all
+}
+
+/// The solvers each node binary offers, one per line, for `coupler check`.
+pub fn solver_list() -> String {
+    let fluid = fluid_node::REGISTRY
+        .entries
+        .iter()
+        .map(|e| format!("  fluid {:<9} {}", e.name, e.description));
+    fluid.collect::<Vec<_>>().join("\n")
+}
