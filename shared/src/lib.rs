@@ -6,6 +6,7 @@
 //! - [`geometry`]: convex polyhedra built from scene shapes (faces, edges, mass properties).
 //! - [`protocol`]: the versioned wire types exchanged over shared memory each step.
 //! - [`strain`]: the constant strain of a deformable (12-DOF) DDA block.
+//! - [`step`]: the rule that grants the shared timestep (one pure function).
 //! - [`solver`]: the coupling interface a solver implements (preCICE style: read, write, advance).
 //! - [`transport`]: the iceoryx2 services of one run, under a unique prefix.
 //! - [`runtime`]: the node runtime that does all the talking for a solver.
@@ -18,6 +19,7 @@ pub mod report;
 pub mod runtime;
 pub mod scene;
 pub mod solver;
+pub mod step;
 pub mod strain;
 pub mod transport;
 pub mod vtk;
