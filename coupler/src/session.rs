@@ -1,9 +1,9 @@
 //! One coupled run: handshake, the shared timestep, and an orderly end whatever happens.
 //!
 //! Each step: dt = min(node proposals, dt_max) (times `dt_factor` in stability experiments),
-//! cut to land exactly on the next output time and the end time; the command goes to both
-//! nodes at once; the nodes exchange geometry and loads directly with each other (see
-//! `shared::runtime`) and each answers with a status and its next proposal.
+//! cut to land exactly on the next output time and the end time ([`shared::step::grant`]); the
+//! command goes to both nodes at once; the nodes exchange geometry and loads directly with each
+//! other (see `shared::runtime`) and each answers with a status and its next proposal.
 
 use crate::launch::{NodeCommand, NodeProcess, describe_exit};
 use crate::output::RunDir;
@@ -11,6 +11,7 @@ use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use shared::protocol::*;
 use shared::scene::{Scene, Scheme};
+use shared::step::{self, StepRule};
 use shared::transport::{self, Ipc, Party, Pub, Run, RunId, Sub};
 use std::time::{Duration, Instant};
 
@@ -558,7 +559,8 @@ impl Session {
         let scene = &self.opts.scene;
         let end = scene.time.end;
         let interval = scene.output.interval;
-        let (dt_max, dt_min) = (scene.time.dt_max, scene.time.dt_min);
+        let dt_max = scene.time.dt_max;
+        let rule = StepRule::new(dt_max, scene.time.dt_min).with_factor(self.opts.dt_factor);
         let mut frame: u32 = 1;
         let mut next_output = interval.min(end);
         let roles: Vec<Role> = self.peers.iter().map(|p| p.role).collect();
@@ -570,36 +572,20 @@ impl Session {
         let tol = 1e-12 * end.max(1.0);
 
         while self.time < end - tol {
-            // The shared step: the most restrictive proposal, never past dt_max.
-            let (limiting, proposal) = self.peers.iter().map(|p| (p.label(), p.proposal)).fold(
-                (String::from("dt_max"), dt_max),
-                |a, b| {
-                    if b.1 < a.1 { b } else { a }
-                },
-            );
-            if proposal.is_nan() || proposal < dt_min {
-                return Err(RunError::Collapsed {
-                    node: limiting,
+            // The shared step: the most restrictive proposal, never past dt_max, landing
+            // exactly on the next output time.
+            let target = next_output.min(end);
+            let proposals = self.peers.iter().map(|p| (p.label(), p.proposal));
+            let granted = step::grant(proposals, &rule, self.time, target).map_err(|c| {
+                RunError::Collapsed {
+                    node: c.limiting.to_string(),
                     step: self.step,
                     time: self.time,
-                    dt: proposal,
-                    dt_min,
-                });
-            }
-            let mut dt = proposal * self.opts.dt_factor;
-            // Land exactly on the next output time; split the last two steps evenly rather
-            // than leave a sliver.
-            let target = next_output.min(end);
-            let remaining = target - self.time;
-            let lands = if remaining <= dt * (1.0 + 1e-9) {
-                dt = remaining;
-                true
-            } else {
-                if remaining < 2.0 * dt {
-                    dt = 0.5 * remaining;
+                    dt: c.proposal,
+                    dt_min: c.dt_min,
                 }
-                false
-            };
+            })?;
+            let (dt, lands) = (granted.dt, granted.lands);
             let output_frame = if lands && self.opts.scene.output.vtk && (next_output <= end + tol)
             {
                 frame as i32
@@ -624,7 +610,7 @@ impl Session {
             self.stats.dt_min = self.stats.dt_min.min(dt);
             self.stats.dt_max = self.stats.dt_max.max(dt);
             self.step += 1;
-            self.time = if lands { target } else { self.time + dt };
+            self.time = granted.end_time(self.time, target);
             self.stats.steps = self.step;
             self.stats.time = self.time;
             if lands {

@@ -7,6 +7,7 @@
 //! - [`protocol`]: the versioned wire types exchanged over shared memory each step.
 //! - [`strain`]: the constant strain of a deformable (12-DOF) DDA block.
 //! - [`registry`]: the solvers a node crate offers, and each solver's own parameter table.
+//! - [`step`]: the rule that grants the shared timestep (one pure function).
 //! - [`solver`]: the coupling interface a solver implements (preCICE style: read, write, advance).
 //! - [`transport`]: the iceoryx2 services of one run, under a unique prefix.
 //! - [`runtime`]: the node runtime that does all the talking for a solver.
@@ -20,6 +21,7 @@ pub mod report;
 pub mod runtime;
 pub mod scene;
 pub mod solver;
+pub mod step;
 pub mod strain;
 pub mod transport;
 pub mod vtk;

@@ -1,0 +1,29 @@
+//! The command line every node binary accepts.
+
+use clap::Parser;
+
+/// Command line shared by every node binary.
+#[derive(Debug, Parser)]
+#[command(
+    about = "A rockwave solver node. Normally started by `coupler run`; start it by hand with the run id the coupler prints."
+)]
+pub(super) struct NodeArgs {
+    /// Solver to run (overrides the scene's choice).
+    #[arg(long)]
+    pub solver: Option<String>,
+    /// Run id (service prefix) of the coupler to join.
+    #[arg(long, required_unless_present = "list_solvers")]
+    pub prefix: Option<String>,
+    /// Seconds to wait for a coupler to answer the hello.
+    #[arg(long, default_value_t = 60.0)]
+    pub connect_timeout: f64,
+    /// Print the solvers this binary offers and exit.
+    #[arg(long)]
+    pub list_solvers: bool,
+    /// Speak this protocol version instead of the real one (tests the coupler's check).
+    #[arg(long, hide = true)]
+    pub fake_protocol_version: Option<u32>,
+    /// Stop answering after this many steps (tests the coupler's hang detection).
+    #[arg(long, hide = true)]
+    pub hang_after_steps: Option<u64>,
+}

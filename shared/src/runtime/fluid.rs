@@ -1,0 +1,193 @@
+//! The fluid node: reads the solid's geometry, writes the loads on the blocks, advances.
+//!
+//! Per step n (when a solid node runs): wait for geometry message G_n (parallel scheme) or
+//! G_{n+1} (serial scheme), hand it to the solver, compute the loads straight into shared
+//! memory and send them tagged for the solid step that consumes them (n, or n + 1), then
+//! advance. In the serial scheme the loads for solid step 0 are computed at set-up from G_0.
+//! Without a solid node the loads are still computed (on fixed walls only) through the same
+//! path, and nothing is sent.
+
+use super::FluidFactory;
+use super::args::NodeArgs;
+use super::control::{self, Control, Fatal, iox};
+use super::serve::{self, Side, StepFailure};
+use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Role};
+use crate::scene::Scheme;
+use crate::solver::{FluidSolver, Solver, StepReport};
+use crate::transport::{Ipc, Pub, Run, Sub};
+use iceoryx2::port::notifier::Notifier;
+use std::time::{Duration, Instant};
+
+/// Joins the run as its fluid node and serves it; returns the exit code.
+pub(super) fn run_node(
+    run: &Run,
+    solvers: &[&str],
+    build: FluidFactory,
+    args: &NodeArgs,
+) -> Result<u8, Fatal> {
+    let joined = control::join(run, Role::Fluid, args, GeometryIn::open)?;
+    let (control, setup) = (&joined.control, &joined.setup);
+    let Some(built) = serve::build(control, setup, solvers, args, build)? else {
+        return Ok(super::exit::SOLVER);
+    };
+    let n_moving = built.scene.moving_blocks().len();
+    let opts = serve::Options::new(&built.scene, args);
+    let mut solver = built.solver;
+    let solid = if setup.solid_present {
+        match SolidLink::open(run, joined.inbox, joined.peer_bell, n_moving) {
+            Ok(link) => Solid::Coupled(Box::new(link)),
+            Err(f) => return serve::refuse(control, solver.as_mut(), serve::fatal_to_solver(f)),
+        }
+    } else {
+        Solid::Absent
+    };
+    let mut fluid = Fluid {
+        solver,
+        solid,
+        scheme: setup.scheme,
+        n_moving,
+    };
+    serve::serve(control, &mut fluid, &opts)
+}
+
+/// The geometry subscribers (blocks and their corners), opened before the hello.
+pub(super) struct GeometryIn {
+    blocks: Sub<[BlockState], GeometryHeader>,
+    vertices: Sub<[[f64; 3]], GeometryHeader>,
+}
+
+impl GeometryIn {
+    fn open(run: &Run) -> Result<GeometryIn, Fatal> {
+        Ok(GeometryIn {
+            blocks: run
+                .geometry_blocks()?
+                .subscriber_builder()
+                .create()
+                .map_err(iox("geometry subscriber"))?,
+            vertices: run
+                .geometry_vertices()?
+                .subscriber_builder()
+                .create()
+                .map_err(iox("vertex subscriber"))?,
+        })
+    }
+}
+
+/// Whether a solid node runs: a scene without moving blocks has none.
+enum Solid {
+    Absent,
+    Coupled(Box<SolidLink>),
+}
+
+/// The data ports to and from the solid node.
+struct SolidLink {
+    geometry: GeometryIn,
+    loads: Pub<[BlockLoad], LoadsHeader>,
+    bell: Notifier<Ipc>,
+}
+
+struct Fluid {
+    solver: Box<dyn FluidSolver>,
+    solid: Solid,
+    scheme: Scheme,
+    n_moving: usize,
+}
+
+impl SolidLink {
+    fn open(
+        run: &Run,
+        geometry: GeometryIn,
+        bell: Notifier<Ipc>,
+        n_moving: usize,
+    ) -> Result<SolidLink, Fatal> {
+        let loads = run
+            .loads()?
+            .publisher_builder()
+            .initial_max_slice_len(n_moving.max(1))
+            .create()
+            .map_err(iox("loads publisher"))?;
+        Ok(SolidLink {
+            geometry,
+            loads,
+            bell,
+        })
+    }
+
+    /// Waits for geometry message `tag` (both parts) and hands it to the solver.
+    fn receive_geometry(
+        &self,
+        control: &Control,
+        solver: &mut dyn FluidSolver,
+        tag: u64,
+    ) -> Result<Duration, Fatal> {
+        let blocks = control.receive_tagged(&self.geometry.blocks, |h| h.step, tag)?;
+        let vertices = control.receive_tagged(&self.geometry.vertices, |h| h.step, tag)?;
+        let t = Instant::now();
+        // Zero copy: the solver reads straight from shared memory.
+        solver.read_geometry(blocks.payload(), vertices.payload());
+        Ok(t.elapsed())
+    }
+
+    /// Computes the coupling loads straight into a loaned shared-memory slice and sends them.
+    fn send_loads(
+        &self,
+        solver: &mut dyn FluidSolver,
+        n_moving: usize,
+        tag: u64,
+        time: f64,
+    ) -> Result<Duration, Fatal> {
+        let t = Instant::now();
+        let mut sample = self.loads.loan_slice(n_moving).map_err(iox("loan loads"))?;
+        *sample.user_header_mut() = LoadsHeader { step: tag, time };
+        solver.write_loads(sample.payload_mut());
+        sample.send().map_err(iox("send loads"))?;
+        self.bell.notify().map_err(iox("notify solid"))?;
+        Ok(t.elapsed())
+    }
+}
+
+impl Side for Fluid {
+    fn solver(&mut self) -> &mut dyn Solver {
+        self.solver.as_mut()
+    }
+
+    fn initial_exchange(&mut self, control: &Control) -> Result<(), Fatal> {
+        if let Solid::Coupled(link) = &self.solid
+            && self.scheme == Scheme::Serial
+        {
+            link.receive_geometry(control, self.solver.as_mut(), 0)?;
+            link.send_loads(self.solver.as_mut(), self.n_moving, 0, 0.0)?;
+        }
+        Ok(())
+    }
+
+    fn advance(
+        &mut self,
+        control: &Control,
+        cmd: &Command,
+    ) -> Result<(StepReport, Duration), StepFailure> {
+        let mut compute = Duration::ZERO;
+        match &self.solid {
+            Solid::Coupled(link) => {
+                // The geometry read and the loads' tag: this step (parallel) or the next
+                // (serial, which reads the solid's newest geometry).
+                let tag = match self.scheme {
+                    Scheme::Parallel => cmd.step,
+                    Scheme::Serial => cmd.step + 1,
+                };
+                compute += link.receive_geometry(control, self.solver.as_mut(), tag)?;
+                compute += link.send_loads(self.solver.as_mut(), self.n_moving, tag, cmd.time)?;
+            }
+            Solid::Absent => {
+                // Only fixed walls, still computed through the same path.
+                let t = Instant::now();
+                self.solver.write_loads(&mut []);
+                compute += t.elapsed();
+            }
+        }
+        let t = Instant::now();
+        let report = self.solver.advance(cmd.dt)?;
+        compute += t.elapsed();
+        Ok((report, compute))
+    }
+}

@@ -1,0 +1,107 @@
+//! The node runtime: everything a solver binary needs besides the solver.
+//!
+//! A node binary's `main` is one call, e.g. `runtime::fluid_main(&["muller", "wcsph"], build)`.
+//! The runtime joins the run named by `--prefix`, says hello until the coupler answers with the
+//! setup, builds the solver, and then serves commands: for each step it exchanges coupling data
+//! with the other node (see [`crate::solver`] for the order) and reports a
+//! [`Status`](crate::protocol::Status).
+//!
+//! Data tags. Geometry message k holds the blocks at t_k (the solid sends G_0 at set-up and
+//! G_{n+1} at the end of step n). A loads message is tagged with the solid step that consumes
+//! it. In the parallel scheme the fluid at step n reads G_n and its loads feed solid step n; in
+//! the serial scheme the fluid reads G_{n+1} and its loads feed solid step n+1 (the first ones
+//! are computed at set-up from G_0).
+//!
+//! Modules, by role:
+//! - `args`: the command line of every node binary;
+//! - `control`: the link to the coupler (handshake, commands, statuses, bounded waits);
+//! - `serve`: building the solver and the command loop both roles share;
+//! - `fluid`, `solid`: each role's data ports and its exchange around the solver's advance.
+
+mod args;
+mod control;
+mod fluid;
+mod serve;
+mod solid;
+
+pub use control::process_cpu_seconds;
+
+use crate::protocol::Role;
+use crate::solver::{FluidSolver, SetupContext, SolidSolver, SolverError};
+use crate::transport::{self, Run, RunId};
+use args::NodeArgs;
+use clap::Parser;
+use control::Fatal;
+use std::process::ExitCode;
+
+/// Builds a fluid solver by name.
+pub type FluidFactory = fn(&str, &SetupContext) -> Result<Box<dyn FluidSolver>, SolverError>;
+/// Builds a solid solver by name.
+pub type SolidFactory = fn(&str, &SetupContext) -> Result<Box<dyn SolidSolver>, SolverError>;
+
+/// Exit codes of a node process.
+pub mod exit {
+    /// The solver went unstable or failed; its status message says why.
+    pub const SOLVER: u8 = 2;
+    /// The transport failed or the coupler vanished.
+    pub const TRANSPORT: u8 = 3;
+    /// SIGINT or SIGTERM.
+    pub const SIGNAL: u8 = 130;
+}
+
+/// Runs a fluid node: parses the command line, handshakes, then serves steps until told to stop.
+pub fn fluid_main(solvers: &[&str], build: FluidFactory) -> ExitCode {
+    node_main(Role::Fluid, solvers, |run, args| {
+        fluid::run_node(run, solvers, build, args)
+    })
+}
+
+/// Runs a solid node.
+pub fn solid_main(solvers: &[&str], build: SolidFactory) -> ExitCode {
+    node_main(Role::Solid, solvers, |run, args| {
+        solid::run_node(run, solvers, build, args)
+    })
+}
+
+/// What both roles do around serving: the command line, joining the run, and turning how the
+/// node ended into its exit code (and a message on stderr).
+fn node_main(
+    role: Role,
+    solvers: &[&str],
+    serve: impl FnOnce(&Run, &NodeArgs) -> Result<u8, Fatal>,
+) -> ExitCode {
+    let args = NodeArgs::parse();
+    if args.list_solvers {
+        println!("{}", solvers.join("\n"));
+        return ExitCode::SUCCESS;
+    }
+    let prefix = args.prefix.as_deref().unwrap_or_default();
+    let who = format!("{}-node", role.name());
+    let id = match RunId::parse(prefix) {
+        Ok(id) => id,
+        Err(e) => {
+            eprintln!("{who}: --prefix: {e}");
+            return ExitCode::from(exit::TRANSPORT);
+        }
+    };
+    // The run (this process's iceoryx2 node) is gone again before the exit is handled.
+    let served = Run::join(&id, &who)
+        .map_err(Fatal::from)
+        .and_then(|run| serve(&run, &args));
+    match served {
+        Ok(code) => ExitCode::from(code),
+        Err(Fatal::Transport(e)) => {
+            eprintln!("{who}: {e}");
+            ExitCode::from(exit::TRANSPORT)
+        }
+        Err(Fatal::CouplerGone) => {
+            eprintln!("{who}: the coupler of run {id} is gone; stopping");
+            // Nobody else may be left to tidy up: the last one out removes the run's files.
+            if !transport::run_has_live_nodes(&id) {
+                transport::remove_run_files(&id);
+            }
+            ExitCode::from(exit::TRANSPORT)
+        }
+        Err(Fatal::Signal) => ExitCode::from(exit::SIGNAL),
+    }
+}

@@ -1,0 +1,246 @@
+//! What every node does once joined: build its solver from the setup, then serve the
+//! coupler's commands (exchange, advance, write a frame, report a status) until told to stop,
+//! and report a solver's failure to the coupler, which names it.
+//!
+//! The role-specific exchange of each step is a [`Side`]; the order of the calls it makes is
+//! the step contract of [`crate::solver`].
+
+use super::args::NodeArgs;
+use super::control::{Control, Fatal, SLICE};
+use super::exit;
+use crate::protocol::{Command, CommandKind, Role, Setup, StatusCode};
+use crate::scene::Scene;
+use crate::solver::{SetupContext, Solver, SolverError, StepReport};
+use crate::transport::TransportError;
+use std::time::{Duration, Instant};
+
+/// One side of the coupling, as the command loop drives it.
+pub(super) trait Side {
+    fn solver(&mut self) -> &mut dyn Solver;
+    /// The set-up exchange, before the first status.
+    fn initial_exchange(&mut self, control: &Control) -> Result<(), Fatal>;
+    /// One step's exchange with the other node and the solver's advance (not the output
+    /// frame). Returns the solver's report and the time spent computing (not waiting).
+    fn advance(
+        &mut self,
+        control: &Control,
+        cmd: &Command,
+    ) -> Result<(StepReport, Duration), StepFailure>;
+}
+
+/// Why a step ended early: the solver failed (reported to the coupler), or the node must stop.
+pub(super) enum StepFailure {
+    Solver(SolverError),
+    Fatal(Fatal),
+}
+
+impl From<SolverError> for StepFailure {
+    fn from(e: SolverError) -> Self {
+        StepFailure::Solver(e)
+    }
+}
+
+impl From<Fatal> for StepFailure {
+    fn from(e: Fatal) -> Self {
+        StepFailure::Fatal(e)
+    }
+}
+
+/// A transport failure during the set-up exchange, reported as the solver's failure.
+pub(super) fn fatal_to_solver(f: Fatal) -> SolverError {
+    match f {
+        Fatal::Transport(e) => SolverError::Failed(format!("transport: {e}")),
+        Fatal::CouplerGone => SolverError::Failed("the coupler is gone".into()),
+        Fatal::Signal => SolverError::Failed("interrupted".into()),
+    }
+}
+
+/// A solver built from the setup, with the scene it was built for.
+pub(super) struct Built<S: ?Sized> {
+    pub solver: Box<S>,
+    pub scene: Scene,
+}
+
+/// Builds the solver the setup (or this node's own `--solver`, which wins) names. A failure is
+/// reported to the coupler and gives `None`.
+pub(super) fn build<S: ?Sized>(
+    control: &Control,
+    setup: &Setup,
+    solvers: &[&str],
+    args: &NodeArgs,
+    factory: fn(&str, &SetupContext) -> Result<Box<S>, SolverError>,
+) -> Result<Option<Built<S>>, Fatal> {
+    let role = control.role();
+    let name = args.solver.clone().unwrap_or_else(|| match role {
+        Role::Fluid => setup.fluid_solver.clone(),
+        Role::Solid => setup.solid_solver.clone(),
+    });
+    let scene = match setup.scene() {
+        Ok(scene) => scene,
+        Err(e) => {
+            control.report(StatusCode::Failed, 0, 0.0, 0.0, 0.0, &e)?;
+            return Ok(None);
+        }
+    };
+    let ctx = SetupContext {
+        scene: &scene,
+        run_dir: &setup.run_dir,
+        scheme: setup.scheme,
+        peer_present: match role {
+            Role::Fluid => setup.solid_present,
+            Role::Solid => setup.fluid_present,
+        },
+    };
+    let built = if !solvers.contains(&name.as_str()) {
+        Err(SolverError::Failed(format!(
+            "unknown {} solver '{name}': this binary offers {}",
+            role.name(),
+            solvers.join(", ")
+        )))
+    } else {
+        factory(&name, &ctx)
+    };
+    match built {
+        Ok(solver) => Ok(Some(Built { solver, scene })),
+        Err(e) => {
+            control.report(StatusCode::Failed, 0, 0.0, 0.0, 0.0, &format!("{e}"))?;
+            Ok(None)
+        }
+    }
+}
+
+/// How the loop runs, from the scene and the command line.
+pub(super) struct Options {
+    /// Write frame 0 at set-up (frames after it are asked for by the coupler).
+    pub write_vtk: bool,
+    /// Test hook: stop answering from this step on.
+    pub hang_after: Option<u64>,
+}
+
+impl Options {
+    pub fn new(scene: &Scene, args: &NodeArgs) -> Options {
+        Options {
+            write_vtk: scene.output.vtk,
+            hang_after: args.hang_after_steps,
+        }
+    }
+}
+
+/// Reports a failure of the set-up (before the loop) and flushes what the solver wrote.
+pub(super) fn refuse(
+    control: &Control,
+    solver: &mut dyn Solver,
+    e: SolverError,
+) -> Result<u8, Fatal> {
+    let result = fail(control, solver, e, 0, 0.0);
+    let _ = solver.finish();
+    result
+}
+
+/// Serves the coupler's commands until told to stop, whatever the outcome leaving the
+/// solver's outputs flushed. Returns the exit code.
+pub(super) fn serve(control: &Control, side: &mut dyn Side, opts: &Options) -> Result<u8, Fatal> {
+    let result = serve_inner(control, side, opts);
+    // Outputs written so far stay readable whatever happened.
+    let _ = side.solver().finish();
+    result
+}
+
+fn serve_inner(control: &Control, side: &mut dyn Side, opts: &Options) -> Result<u8, Fatal> {
+    let t0 = Instant::now();
+    if let Err(f) = side.initial_exchange(control) {
+        return fail(control, side.solver(), fatal_to_solver(f), 0, 0.0);
+    }
+    if opts.write_vtk
+        && let Err(e) = side.solver().write_frame(0, 0.0)
+    {
+        return fail(control, side.solver(), e, 0, 0.0);
+    }
+    let dt = side.solver().dt_proposal();
+    control.report(
+        StatusCode::Ok,
+        0,
+        0.0,
+        dt,
+        t0.elapsed().as_secs_f64(),
+        "ready",
+    )?;
+
+    loop {
+        let cmd = control.next_command()?;
+        match cmd.kind {
+            k if k == CommandKind::Stop as u32 => {
+                if let Err(e) = side.solver().finish() {
+                    return fail(control, side.solver(), e, cmd.step, cmd.time);
+                }
+                control.report(StatusCode::Stopped, cmd.step, cmd.time, 0.0, 0.0, "stopped")?;
+                return Ok(0);
+            }
+            k if k == CommandKind::Advance as u32 => {
+                if opts.hang_after.is_some_and(|n| cmd.step >= n) {
+                    // Test hook: behave like a node stuck in an endless computation.
+                    loop {
+                        std::thread::sleep(SLICE);
+                        if control.run().termination_requested() {
+                            return Err(Fatal::Signal);
+                        }
+                    }
+                }
+                match step(control, side, &cmd) {
+                    Ok((report, compute)) => {
+                        let (code, msg) = match &report.warning {
+                            Some(w) => (StatusCode::Warning, w.as_str()),
+                            None => (StatusCode::Ok, ""),
+                        };
+                        let dt = side.solver().dt_proposal();
+                        control.report(code, cmd.step, cmd.time + cmd.dt, dt, compute, msg)?;
+                    }
+                    Err(StepFailure::Solver(e)) => {
+                        return fail(control, side.solver(), e, cmd.step, cmd.time);
+                    }
+                    Err(StepFailure::Fatal(f)) => return Err(f),
+                }
+            }
+            other => {
+                return Err(Fatal::Transport(TransportError::Iceoryx(format!(
+                    "unknown command kind {other}"
+                ))));
+            }
+        }
+    }
+}
+
+/// One step: the side's exchange and advance, then the output frame when asked for. Returns
+/// the solver's report and the seconds spent computing.
+fn step(
+    control: &Control,
+    side: &mut dyn Side,
+    cmd: &Command,
+) -> Result<(StepReport, f64), StepFailure> {
+    let (report, mut compute) = side.advance(control, cmd)?;
+    if cmd.output_frame >= 0 {
+        let t = Instant::now();
+        side.solver()
+            .write_frame(cmd.output_frame as u32, cmd.time + cmd.dt)?;
+        compute += t.elapsed();
+    }
+    Ok((report, compute.as_secs_f64()))
+}
+
+/// Reports the solver's failure, naming the solver; the node then exits with
+/// [`exit::SOLVER`].
+fn fail(
+    control: &Control,
+    solver: &mut dyn Solver,
+    e: SolverError,
+    step: u64,
+    time: f64,
+) -> Result<u8, Fatal> {
+    let code = match e {
+        SolverError::Unstable(_) => StatusCode::Unstable,
+        SolverError::Failed(_) => StatusCode::Failed,
+    };
+    let name = solver.name().to_string();
+    control.report(code, step, time, 0.0, 0.0, &format!("[{name}] {e}"))?;
+    Ok(exit::SOLVER)
+}

@@ -1,0 +1,236 @@
+//! The solid node: reads the water's loads on the blocks, advances, writes the geometry.
+//!
+//! At set-up the solid sends geometry message G_0 (the blocks at t = 0). Per step n (when a
+//! fluid node runs): wait for the loads tagged n, hand them to the solver and to the
+//! added-mass watch, advance, then write G_{n+1} straight into shared memory and send it.
+//! A step whose loads the watch finds unstable (the water's added mass dominates a light
+//! block: the instability of partitioned coupling, see [`crate::added_mass`]) fails as
+//! unstable before the solver advances.
+
+use super::SolidFactory;
+use super::args::NodeArgs;
+use super::control::{self, Control, Fatal, iox};
+use super::serve::{self, Side, StepFailure};
+use crate::added_mass::AddedMassMonitor;
+use crate::geometry::Polyhedron;
+use crate::math::Vector;
+use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Role};
+use crate::scene::{BlockKind, Scene};
+use crate::solver::{SolidSolver, Solver, SolverError, StepReport};
+use crate::transport::{Ipc, Pub, Run, Sub};
+use iceoryx2::port::notifier::Notifier;
+use std::time::{Duration, Instant};
+
+/// Joins the run as its solid node and serves it; returns the exit code.
+pub(super) fn run_node(
+    run: &Run,
+    solvers: &[&str],
+    build: SolidFactory,
+    args: &NodeArgs,
+) -> Result<u8, Fatal> {
+    let joined = control::join(run, Role::Solid, args, open_loads_in)?;
+    let (control, setup) = (&joined.control, &joined.setup);
+    let Some(built) = serve::build(control, setup, solvers, args, build)? else {
+        return Ok(super::exit::SOLVER);
+    };
+    let scene = &built.scene;
+    let n_moving = scene.moving_blocks().len();
+    let opts = serve::Options::new(scene, args);
+    let added_mass = scene
+        .fluid
+        .as_ref()
+        .map(|fluid| added_mass_monitor(scene, fluid.density));
+    let mut solver = built.solver;
+    let fluid = if setup.fluid_present {
+        let link = FluidLink::open(
+            run,
+            joined.inbox,
+            joined.peer_bell,
+            n_moving,
+            solver.vertex_count(),
+            added_mass,
+        );
+        match link {
+            Ok(link) => Fluid::Coupled(Box::new(link)),
+            Err(f) => return serve::refuse(control, solver.as_mut(), serve::fatal_to_solver(f)),
+        }
+    } else {
+        Fluid::Absent
+    };
+    let mut solid = Solid {
+        solver,
+        fluid,
+        n_moving,
+    };
+    serve::serve(control, &mut solid, &opts)
+}
+
+type LoadsIn = Sub<[BlockLoad], LoadsHeader>;
+
+/// The loads subscriber, opened before the hello.
+fn open_loads_in(run: &Run) -> Result<LoadsIn, Fatal> {
+    run.loads()?
+        .subscriber_builder()
+        .create()
+        .map_err(iox("loads subscriber"))
+}
+
+/// The added-mass watch over the scene's moving blocks (kinematic ones cannot be moved by
+/// their loads: infinite mass).
+fn added_mass_monitor(scene: &Scene, water_density: f64) -> AddedMassMonitor {
+    let blocks = scene
+        .moving_blocks()
+        .into_iter()
+        .map(|i| {
+            let b = &scene.blocks[i];
+            let volume = Polyhedron::from_shape(&b.shape).map_or(f64::NAN, |p| p.volume);
+            let mass = match b.kind {
+                BlockKind::Free => b.density * volume,
+                _ => f64::INFINITY,
+            };
+            (b.name.clone(), mass, b.density)
+        })
+        .collect();
+    AddedMassMonitor::new(blocks, Vector::from(scene.gravity).norm(), water_density)
+}
+
+/// Whether a fluid node runs: a dry scene has none.
+enum Fluid {
+    Absent,
+    Coupled(Box<FluidLink>),
+}
+
+/// The data ports to and from the fluid node, and the watch on what arrives.
+struct FluidLink {
+    loads: LoadsIn,
+    blocks: Pub<[BlockState], GeometryHeader>,
+    vertices: Pub<[[f64; 3]], GeometryHeader>,
+    bell: Notifier<Ipc>,
+    /// The watch on the loads for the added-mass instability (when the scene has water).
+    added_mass: Option<AddedMassMonitor>,
+}
+
+struct Solid {
+    solver: Box<dyn SolidSolver>,
+    fluid: Fluid,
+    n_moving: usize,
+}
+
+impl FluidLink {
+    fn open(
+        run: &Run,
+        loads: LoadsIn,
+        bell: Notifier<Ipc>,
+        n_moving: usize,
+        vertex_count: usize,
+        added_mass: Option<AddedMassMonitor>,
+    ) -> Result<FluidLink, Fatal> {
+        let blocks = run
+            .geometry_blocks()?
+            .publisher_builder()
+            .initial_max_slice_len(n_moving.max(1))
+            .create()
+            .map_err(iox("geometry publisher"))?;
+        let vertices = run
+            .geometry_vertices()?
+            .publisher_builder()
+            .initial_max_slice_len(vertex_count.max(1))
+            .create()
+            .map_err(iox("vertex publisher"))?;
+        Ok(FluidLink {
+            loads,
+            blocks,
+            vertices,
+            bell,
+            added_mass,
+        })
+    }
+
+    /// Waits for loads message `tag` and hands it to the solver; also what the added-mass
+    /// watch makes of them.
+    fn receive_loads(
+        &mut self,
+        control: &Control,
+        solver: &mut dyn SolidSolver,
+        tag: u64,
+    ) -> Result<(Duration, Option<String>), Fatal> {
+        let sample = control.receive_tagged(&self.loads, |h| h.step, tag)?;
+        let t = Instant::now();
+        solver.read_loads(sample.payload());
+        let added_mass = self
+            .added_mass
+            .as_mut()
+            .and_then(|m| m.observe(sample.payload()));
+        Ok((t.elapsed(), added_mass))
+    }
+
+    /// Writes the solver's geometry straight into loaned shared memory and sends it.
+    fn send_geometry(
+        &self,
+        solver: &dyn SolidSolver,
+        n_moving: usize,
+        tag: u64,
+        time: f64,
+    ) -> Result<Duration, Fatal> {
+        let t = Instant::now();
+        let nv = solver.vertex_count();
+        let header = GeometryHeader {
+            step: tag,
+            time,
+            vertex_count: nv as u32,
+            _reserved: 0,
+        };
+        let mut blocks = self
+            .blocks
+            .loan_slice(n_moving)
+            .map_err(iox("loan geometry"))?;
+        let mut vertices = self.vertices.loan_slice(nv).map_err(iox("loan vertices"))?;
+        *blocks.user_header_mut() = header;
+        *vertices.user_header_mut() = header;
+        solver.write_geometry(blocks.payload_mut(), vertices.payload_mut());
+        vertices.send().map_err(iox("send vertices"))?;
+        blocks.send().map_err(iox("send geometry"))?;
+        self.bell.notify().map_err(iox("notify fluid"))?;
+        Ok(t.elapsed())
+    }
+}
+
+impl Side for Solid {
+    fn solver(&mut self) -> &mut dyn Solver {
+        self.solver.as_mut()
+    }
+
+    fn initial_exchange(&mut self, _control: &Control) -> Result<(), Fatal> {
+        if let Fluid::Coupled(link) = &self.fluid {
+            link.send_geometry(self.solver.as_ref(), self.n_moving, 0, 0.0)?;
+        }
+        Ok(())
+    }
+
+    fn advance(
+        &mut self,
+        control: &Control,
+        cmd: &Command,
+    ) -> Result<(StepReport, Duration), StepFailure> {
+        let mut compute = Duration::ZERO;
+        if let Fluid::Coupled(link) = &mut self.fluid {
+            let (t, added_mass) = link.receive_loads(control, self.solver.as_mut(), cmd.step)?;
+            compute += t;
+            if let Some(msg) = added_mass {
+                return Err(StepFailure::Solver(SolverError::Unstable(msg)));
+            }
+        }
+        let t = Instant::now();
+        let report = self.solver.advance(cmd.dt)?;
+        compute += t.elapsed();
+        if let Fluid::Coupled(link) = &self.fluid {
+            compute += link.send_geometry(
+                self.solver.as_ref(),
+                self.n_moving,
+                cmd.step + 1,
+                cmd.time + cmd.dt,
+            )?;
+        }
+        Ok((report, compute))
+    }
+}
