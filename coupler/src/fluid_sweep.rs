@@ -6,6 +6,7 @@ use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, DamBreak};
 use shared::protocol::BlockLoad;
 use shared::solver::SolverError;
+use shared::step::StepRule;
 use std::time::Instant;
 
 /// Column height over width of the dam break the sweeps run.
@@ -98,18 +99,18 @@ fn run(
     };
     let mut curve = vec![(0.0, front(s.as_ref()) / A)];
     let mut loads: Vec<BlockLoad> = Vec::new();
+    // As the coupler does with --dt-factor: the granted step (proposal within the scene's
+    // limits) multiplied by the factor.
+    let rule = StepRule::new(scene.time.dt_max, scene.time.dt_min).with_factor(dt_factor);
     let (mut t, mut steps) = (0.0, 0u64);
     let started = Instant::now();
-    while t < end - 1e-12 {
-        s.write_loads(&mut loads);
-        // As the coupler does with --dt-factor: grant min(proposal, dt_max), then multiply.
-        let dt = (s.dt_proposal().min(scene.time.dt_max) * dt_factor).min(end - t);
-        let report = s.advance(dt)?;
+    while t < end {
+        let (reached, report) = validation::step(s.as_mut(), &rule, t, end, &mut loads)?;
         if let Some(w) = report.warning {
             *warnings += 1;
             *last_warning = Some(w);
         }
-        t += dt;
+        t = reached;
         steps += 1;
         curve.push((t * scale, front(s.as_ref()) / A));
     }

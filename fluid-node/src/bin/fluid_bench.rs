@@ -6,9 +6,10 @@
 //! warm-up steps that let the reused buffers reach their size.
 
 use fluid_node::sph::SphSolver;
-use fluid_node::validation::{TempRunDir, build};
+use fluid_node::validation::{self, TempRunDir, build};
 use shared::protocol::BlockLoad;
 use shared::scene::Scene;
+use shared::step::StepRule;
 use std::time::Instant;
 
 fn scene(solver: &str, particles: usize) -> Scene {
@@ -72,10 +73,13 @@ fn main() {
                     let mut s: Box<dyn SphSolver> = build(solver, &sc, dir.path()).expect("solver");
                     let count = s.system().len();
                     let mut loads: Vec<BlockLoad> = Vec::new();
+                    // Granted as the coupler grants it, towards the scene's end (never reached).
+                    let rule = StepRule::new(sc.time.dt_max, sc.time.dt_min);
+                    let mut t = 0.0;
                     let mut step = |s: &mut Box<dyn SphSolver>| {
-                        s.write_loads(&mut loads);
-                        let dt = s.dt_proposal();
-                        s.advance(dt).expect("stable");
+                        t = validation::step(s.as_mut(), &rule, t, sc.time.end, &mut loads)
+                            .expect("stable")
+                            .0;
                     };
                     for _ in 0..3 {
                         step(&mut s);

@@ -13,7 +13,8 @@ use crate::REGISTRY;
 use crate::sph::SphSolver;
 use shared::protocol::BlockLoad;
 use shared::scene::{Scene, Scheme, Walls};
-use shared::solver::{SetupContext, SolverError};
+use shared::solver::{SetupContext, SolverError, StepReport};
+use shared::step::{StepRule, grant};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -59,8 +60,31 @@ pub fn build(name: &str, scene: &Scene, dir: &Path) -> Result<Box<dyn SphSolver>
     REGISTRY.build(name, &ctx)
 }
 
-/// Drives a solver the way the node runtime does (write_loads, advance by the proposed dt)
-/// until `end`, calling `observe` after every step.
+/// One step of a solver alone, granted by the coupler's rule ([`shared::step::grant`]: its
+/// proposal bounded by the scene's dt limits, times `rule.dt_factor`, landing on `target`), the
+/// way the node runtime drives it (write_loads, advance). Returns the time reached and the
+/// step's report; a collapsed proposal is an instability.
+pub fn step(
+    solver: &mut dyn SphSolver,
+    rule: &StepRule,
+    time: f64,
+    target: f64,
+    loads: &mut [BlockLoad],
+) -> Result<(f64, StepReport), SolverError> {
+    solver.write_loads(loads);
+    let g = grant(
+        [(solver.name().to_string(), solver.dt_proposal())],
+        rule,
+        time,
+        target,
+    )
+    .map_err(|c| SolverError::Unstable(format!("step collapsed: {c}")))?;
+    let report = solver.advance(g.dt)?;
+    Ok((g.end_time(time, target), report))
+}
+
+/// Steps a solver alone until `end` ([`step`] with the scene's limits), calling `observe` after
+/// every step.
 pub fn run(
     solver: &mut dyn SphSolver,
     scene: &Scene,
@@ -68,14 +92,11 @@ pub fn run(
     mut observe: impl FnMut(&dyn SphSolver, f64),
 ) -> Result<u64, SolverError> {
     let mut loads = vec![BlockLoad::default(); scene.moving_blocks().len()];
-    let mut t = 0.0;
-    let mut steps = 0;
+    let rule = StepRule::new(scene.time.dt_max, scene.time.dt_min);
+    let (mut t, mut steps) = (0.0, 0);
     observe(solver, t);
-    while t < end - 1e-12 {
-        solver.write_loads(&mut loads);
-        let dt = solver.dt_proposal().min(scene.time.dt_max).min(end - t);
-        solver.advance(dt)?;
-        t += dt;
+    while t < end {
+        t = step(solver, &rule, t, end, &mut loads)?.0;
         steps += 1;
         observe(solver, t);
     }
