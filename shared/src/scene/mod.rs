@@ -17,6 +17,10 @@ pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/sliding_wedge.toml
 /// Where [`DEFAULT_SCENE`] lives in the repository, for messages.
 pub const DEFAULT_SCENE_ORIGIN: &str = "scenes/sliding_wedge.toml (embedded default)";
 
+/// A check a scene must also pass, from a crate that knows more than this one (e.g. a solver
+/// registry's `check_scene`): every problem as a [`FieldError`].
+pub type SceneCheck = dyn Fn(&Scene) -> Vec<FieldError>;
+
 /// Why a scene could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
@@ -62,10 +66,7 @@ impl Scene {
     }
 
     /// [`Self::load`] with [`Self::parse_checked`]'s extra checks.
-    pub fn load_checked(
-        path: &Path,
-        checks: &[&dyn Fn(&Scene) -> Vec<FieldError>],
-    ) -> Result<Scene, SceneError> {
+    pub fn load_checked(path: &Path, checks: &[&SceneCheck]) -> Result<Scene, SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             path: path.display().to_string(),
             source,
@@ -89,7 +90,7 @@ impl Scene {
     pub fn parse_checked(
         text: &str,
         origin: &str,
-        checks: &[&dyn Fn(&Scene) -> Vec<FieldError>],
+        checks: &[&SceneCheck],
     ) -> Result<Scene, SceneError> {
         let scene: Scene = toml::from_str(text).map_err(|e| SceneError::Syntax {
             origin: origin.into(),
@@ -170,6 +171,22 @@ mod tests {
         let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();
         assert!(
             msg.contains("fluid.dxx") && msg.contains("line ") && msg.contains("[fluid.wcsph]"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn stray_solid_value_is_named_with_its_line() {
+        let text = DEFAULT_SCENE.replace(
+            "solver = \"explicit\"\n",
+            "solver = \"explicit\"\nsafety_factor = 0.5\n",
+        );
+        assert_ne!(text, DEFAULT_SCENE);
+        let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();
+        assert!(
+            msg.contains("solid.safety_factor")
+                && msg.contains("line ")
+                && msg.contains("[solid.implicit]"),
             "{msg}"
         );
     }
