@@ -7,7 +7,9 @@ use std::path::Path;
 
 /// The registries' checks, in the form `Scene::parse_checked` takes.
 pub fn solver_checks(scene: &Scene) -> Vec<FieldError> {
-    fluid_node::check_scene(scene)
+    let mut all = fluid_node::check_scene(scene);
+    all.extend(solid_node::check_scene(scene));
+    all
 }
 
 /// Loads `path`, or the embedded default scene, with every check.
@@ -31,5 +33,9 @@ pub fn solver_list() -> String {
         .entries
         .iter()
         .map(|e| format!("  fluid {:<9} {}", e.name, e.description));
-    fluid.collect::<Vec<_>>().join("\n")
+    let solid = solid_node::REGISTRY
+        .entries
+        .iter()
+        .map(|e| format!("  solid {:<9} {}", e.name, e.description));
+    fluid.chain(solid).collect::<Vec<_>>().join("\n")
 }

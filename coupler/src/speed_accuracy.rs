@@ -74,7 +74,9 @@ struct Plan {
     solid_dt: &'static [f64],
     coupled_dx: &'static [f64],
     coupled_fluid: &'static [&'static str],
-    coupled_solid: &'static [&'static str],
+    /// The solid solvers of the coupled runs (a function: the registry's list is built at run
+    /// time).
+    coupled_solid: fn() -> Vec<&'static str>,
     coupled_end: f64,
     /// One finer run of the paper's pairing (wcsph + explicit, parallel): the 3 % check.
     coupled_fine: Option<f64>,
@@ -87,7 +89,7 @@ const FULL: Plan = Plan {
     solid_dt: &[0.25, 0.5, 1.0, 1.5],
     coupled_dx: &[0.04, 0.02],
     coupled_fluid: &["wcsph", "muller"],
-    coupled_solid: &["explicit", "implicit"],
+    coupled_solid: || solid_node::REGISTRY.names(),
     coupled_end: 1.0,
     coupled_fine: Some(0.01),
 };
@@ -99,7 +101,8 @@ const QUICK: Plan = Plan {
     solid_dt: &[0.5, 1.0],
     coupled_dx: &[0.04, 0.02],
     coupled_fluid: &["wcsph"],
-    coupled_solid: &["explicit"],
+    // The paper's scheme only.
+    coupled_solid: || vec![solid_node::verification::EXPLICIT],
     coupled_end: 1.0,
     coupled_fine: None,
 };
@@ -260,7 +263,7 @@ fn solid(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
         inc.alpha, inc.phi
     );
     let mut samples = Vec::new();
-    for solver in ["explicit", "implicit"] {
+    for solver in solid_node::REGISTRY.names() {
         for &k in plan.solid_k {
             for &f in plan.solid_dt {
                 let r = solid_sweep::incline(solver, k, f);
@@ -298,7 +301,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
     let mut samples = Vec::new();
     let mut configs = Vec::new();
     for &fluid in plan.coupled_fluid {
-        for &solid in plan.coupled_solid {
+        for solid in (plan.coupled_solid)() {
             for scheme in [Scheme::Parallel, Scheme::Serial] {
                 for &dx in plan.coupled_dx {
                     configs.push(Config {

@@ -224,7 +224,7 @@ fn coupled_trial(scratch: &Scratch, method: &str, value: f64, config: &Config) -
 fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
     println!("dt factor: every step × factor of the method's own proposal");
     let mut trials = Vec::new();
-    for solver in ["explicit", "implicit"] {
+    for solver in solid_node::REGISTRY.names() {
         for &f in plan.dt_factors {
             // Undamped springs, k = 1e6 N/m: the explicit proposal is 0.5·2/ω_max, Ω = 1.
             let r = solid_sweep::resting(solver, 1e6, f, None, 1.0);
@@ -294,7 +294,7 @@ fn stiffness_map(plan: &Plan, out: &Path) -> Result<(), String> {
         "contact stiffness at fixed dt = {STIFFNESS_DT} s (block {m} kg on four springs; explicit limit ω·dt = 2 at k = m/dt² = {k_crit:.2e} N/m)"
     );
     let mut trials = Vec::new();
-    for solver in ["explicit", "implicit"] {
+    for solver in solid_node::REGISTRY.names() {
         for &k in plan.stiffness {
             let r = solid_sweep::resting(solver, k, 1.0, Some(STIFFNESS_DT), 1.0);
             let t = Trial {
@@ -316,7 +316,7 @@ fn density_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String>
         "block-to-water density ratio under each coupling scheme (floating-block tank, real processes)"
     );
     let mut trials = Vec::new();
-    for solid in ["explicit", "implicit"] {
+    for solid in solid_node::REGISTRY.names() {
         for scheme in [Scheme::Parallel, Scheme::Serial] {
             for &ratio in plan.density {
                 let config = Config {

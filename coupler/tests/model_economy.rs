@@ -42,7 +42,7 @@ fn crowded_floor(n: usize) -> shared::scene::Scene {
 
 #[test]
 fn fixed_blocks_have_no_unknowns_and_no_contacts_among_themselves() {
-    for solver in ["explicit", "implicit"] {
+    for solver in solid_node::REGISTRY.names() {
         let mut h = Harness::new(&crowded_floor(20), solver).unwrap();
         let rock = h.solver.block_index("rock").unwrap();
         // Only the free block is integrated.
@@ -89,7 +89,7 @@ fn blocks_are_rigid_unless_the_scene_asks() {
     // A free block spinning and landing on the floor keeps every corner-to-corner distance:
     // rigid 6-DOF bodies with exactly integrated rotations, unless the scene gives it
     // `elastic`, when it has 12 unknowns and the landing deforms it.
-    for solver in ["explicit", "implicit"] {
+    for solver in solid_node::REGISTRY.names() {
         for elastic in [false, true] {
             let extra = if elastic {
                 "\nelastic = { young_modulus = 1e6, poisson_ratio = 0.25 }"

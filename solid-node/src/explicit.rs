@@ -26,12 +26,53 @@
 //! and the limit Δt ≤ 2/ω_max then includes their elastic modes (see [`crate::stability`]).
 
 use crate::energy::EnergyMonitor;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Scheme};
 use crate::stability::{self, Estimate};
 use crate::world::World;
+use serde::Deserialize;
 use shared::math::{Real, Vector};
+use shared::registry::{ParamCheck, SolverParams};
+use shared::scene::Scene;
 use shared::solver::{SolverError, StepReport};
 use shared::strain::Strain;
+
+/// `[solid.explicit]`: parameters of the central difference scheme.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct ExplicitParams {
+    /// Fraction of the explicit limit 2/ω_max used as the step (paper Eq. 8); default 0.5.
+    pub safety_factor: f64,
+}
+
+impl Default for ExplicitParams {
+    fn default() -> Self {
+        Self { safety_factor: 0.5 }
+    }
+}
+
+impl SolverParams for ExplicitParams {
+    fn check(&self, c: &mut ParamCheck) {
+        let s = self.safety_factor;
+        if !(s.is_finite() && s > 0.0 && s <= 10.0) {
+            c.fail(
+                "safety_factor",
+                s,
+                "must be a finite number in (0, 10]",
+                "0.5 is safe; > 1 exceeds 2/ω_max (paper Eq. 8)",
+            );
+        }
+    }
+}
+
+impl Scheme for CentralDifference {
+    const NAME: &'static str = "explicit";
+    const DESCRIPTION: &'static str = "the paper's central difference (Eqs. 5–8): no global matrix, step bounded by safety_factor · 2/ω_max";
+    type Params = ExplicitParams;
+
+    fn integrator(params: &ExplicitParams, _scene: &Scene) -> Box<dyn Integrator> {
+        Box::new(CentralDifference::new(params.safety_factor))
+    }
+}
 
 pub struct CentralDifference {
     /// v_{n−½} of each block (indexed like `World::blocks`).
@@ -81,7 +122,7 @@ impl CentralDifference {
 
 /// What an instability report says bounds the step.
 fn limit_hint(world: &World, est: &Estimate) -> String {
-    const BASE: &str = "central difference is stable only below 2, paper Eq. 8; reduce dt or [solid].safety_factor";
+    const BASE: &str = "central difference is stable only below 2, paper Eq. 8; reduce dt or [solid.explicit] safety_factor";
     match est.elastic {
         Some(i) => {
             let b = &world.blocks[i];
@@ -98,7 +139,7 @@ fn limit_hint(world: &World, est: &Estimate) -> String {
 
 impl Integrator for CentralDifference {
     fn name(&self) -> &'static str {
-        "explicit"
+        <Self as Scheme>::NAME
     }
 
     fn init(&mut self, world: &mut World) {

@@ -15,7 +15,7 @@
 //! Open–close iterations (Shi 1993): each contact starts the step in its last state (open,
 //! locked, sliding); after each solve the states are re-derived from the new gaps and the
 //! Mohr–Coulomb limit, and the solve repeats until no state changes. If that takes more than
-//! `[solid].max_open_close` solves, or a block moves more than `[solid].displacement_limit` of
+//! `[solid.implicit] max_open_close` solves, or a block moves more than `displacement_limit` of
 //! its size, the step is cut by 3 and retried (Shi's rule). Cuts happen inside one
 //! `advance(dt)`: it takes as many sub-steps as needed and still ends exactly at t + dt.
 //!
@@ -35,15 +35,73 @@ use crate::block::Block;
 use crate::contact::{Contact, ContactState, tangents};
 use crate::energy::EnergyMonitor;
 use crate::friction::Joint;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Scheme};
 use crate::linear_system::{BlockMat, BlockSystem, BlockVec, SolveError};
 use crate::penalty::PenaltyModel;
 use crate::stability;
 use crate::world::World;
+use serde::Deserialize;
 use shared::math::{Matrix, Point, Real, Rotation, Vector};
-use shared::scene::SolidSpec;
+use shared::registry::{ParamCheck, SolverParams};
+use shared::scene::Scene;
 use shared::solver::{SolverError, StepReport};
 use shared::strain::{self, Strain};
+
+/// `[solid.implicit]`: parameters of Shi's scheme.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImplicitParams {
+    /// Largest displacement per step over the block size before the step is cut; default 0.01.
+    pub displacement_limit: f64,
+    /// Open–close iterations before the step is cut (Shi 1993: 6).
+    pub max_open_close: u32,
+}
+
+impl Default for ImplicitParams {
+    fn default() -> Self {
+        Self {
+            displacement_limit: 0.01,
+            max_open_close: 6,
+        }
+    }
+}
+
+impl SolverParams for ImplicitParams {
+    fn check(&self, c: &mut ParamCheck) {
+        c.positive(
+            "displacement_limit",
+            Some(self.displacement_limit),
+            "e.g. displacement_limit = 0.01",
+        );
+        if self.max_open_close == 0 {
+            c.fail(
+                "max_open_close",
+                self.max_open_close,
+                "must be at least 1 (every step needs one solve)",
+                "Shi's value is max_open_close = 6",
+            );
+        }
+    }
+}
+
+/// The registry's `implicit` scheme: [`Newmark<6>`] for a scene of rigid blocks, [`Newmark<12>`]
+/// when the scene has a deformable block.
+pub struct Implicit;
+
+impl Scheme for Implicit {
+    const NAME: &'static str = "implicit";
+    const DESCRIPTION: &'static str = "Shi's DDA Newmark (β = ½, γ = 1, paper Eq. 4) with open–close iterations: unconditionally stable, damps contact bounces";
+    type Params = ImplicitParams;
+
+    fn integrator(params: &ImplicitParams, scene: &Scene) -> Box<dyn Integrator> {
+        // 12 unknowns per block only when the scene asks for a deformable one.
+        if scene.blocks.iter().any(|b| b.elastic.is_some()) {
+            Box::new(Newmark::<12>::new(params))
+        } else {
+            Box::new(Newmark::<6>::new(params))
+        }
+    }
+}
 
 /// Relative residual of the conjugate gradient solve.
 const SOLVE_TOLERANCE: Real = 1e-11;
@@ -190,7 +248,7 @@ fn mass_matrix<const N: usize>(b: &Block) -> BlockMat<N> {
 }
 
 impl<const N: usize> Newmark<N> {
-    pub fn new(spec: &SolidSpec) -> Newmark<N> {
+    pub fn new(spec: &ImplicitParams) -> Newmark<N> {
         assert!(N == 6 || N == 12, "blocks have 6 or 12 unknowns");
         Newmark {
             max_open_close: spec.max_open_close.max(1),
@@ -539,7 +597,7 @@ impl<const N: usize> Newmark<N> {
 
 impl<const N: usize> Integrator for Newmark<N> {
     fn name(&self) -> &'static str {
-        "implicit"
+        Implicit::NAME
     }
 
     fn init(&mut self, world: &mut World) {

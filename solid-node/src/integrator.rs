@@ -4,10 +4,25 @@
 use crate::energy::EnergyMonitor;
 use crate::world::World;
 use shared::math::Real;
+use shared::registry::SolverParams;
+use shared::scene::Scene;
 use shared::solver::{SolverError, StepReport};
 
+/// A time integration scheme as [`crate::REGISTRY`] lists it: its name, its parameter table
+/// `[solid.<NAME>]` and how it makes its [`Integrator`] for a scene.
+pub trait Scheme {
+    /// As given to `--solver` and in `[solid] solver = "…"`.
+    const NAME: &'static str;
+    /// One line for `--list` and the docs.
+    const DESCRIPTION: &'static str;
+    /// The scheme's own parameters, read from `[solid.<NAME>]`.
+    type Params: SolverParams;
+    /// The integrator for `scene` with checked parameters.
+    fn integrator(params: &Self::Params, scene: &Scene) -> Box<dyn Integrator>;
+}
+
 pub trait Integrator: Send {
-    /// The `--solver` name.
+    /// The `--solver` name (its [`Scheme::NAME`]).
     fn name(&self) -> &'static str;
     /// Prepares the scheme's own state from the world at t = 0 (contacts already detected).
     fn init(&mut self, world: &mut World);

@@ -10,7 +10,9 @@
 //! - [`world`]: the block system shared by the integrators;
 //! - [`explicit`] (paper Eqs. 5–8) and [`implicit`] (Shi's Newmark β = ½, γ = 1, paper Eq. 4);
 //! - [`stability`], [`energy`]: the explicit limit 2/ω_max and the detection of instability;
-//! - [`dda`]: the [`SolidSolver`] the node runtime drives; [`output`]: CSV and VTK files;
+//! - [`dda`]: the [`shared::solver::SolidSolver`] the node runtime drives, built by a scheme
+//!   of [`REGISTRY`] (read by the node binary, `solid-validate`, `solid-bench` and the
+//!   coupler's sweeps); [`output`]: CSV and VTK files;
 //! - [`verification`]: the cases `solid-validate` runs and the tests reuse.
 
 pub mod block;
@@ -32,32 +34,46 @@ pub mod stability;
 pub mod verification;
 pub mod world;
 
-use shared::solver::{SetupContext, SolidSolver, SolverError};
+use dda::DdaSolver;
+use integrator::Scheme;
+use shared::registry::{Entry, Registry, check_params, solver_params};
+use shared::scene::{FieldError, Scene};
+use shared::solver::{SetupContext, SolverError};
 
-/// Solver names accepted by `--solver`.
-pub const SOLVERS: &[&str] = &["explicit", "implicit"];
+/// Every solid solver, by name: add a scheme here with one `entry` line. Each builds the same
+/// [`DdaSolver`] (blocks, contacts, loads, outputs) around its own [`integrator::Integrator`];
+/// its parameters sit in `[solid.<name>]`, the contact physics in `[solid.contact]`.
+pub static REGISTRY: Registry<DdaSolver> = Registry {
+    role: "solid",
+    entries: &[
+        entry::<explicit::CentralDifference>(),
+        entry::<implicit::Implicit>(),
+    ],
+};
 
-/// Builds the named solver for a scene.
-pub fn build(name: &str, ctx: &SetupContext) -> Result<Box<dyn SolidSolver>, SolverError> {
-    Ok(Box::new(build_dda(name, ctx)?))
+/// The registry entry of scheme `S`: a [`DdaSolver`] with `S`'s integrator, its parameters in
+/// `[solid.<S::NAME>]`.
+pub const fn entry<S: Scheme>() -> Entry<DdaSolver> {
+    Entry {
+        name: S::NAME,
+        description: S::DESCRIPTION,
+        build: build_scheme::<S>,
+        check: check_scheme::<S>,
+    }
 }
 
-/// Like [`build`], with the concrete type (for verification and benchmarks).
-pub fn build_dda(name: &str, ctx: &SetupContext) -> Result<dda::DdaSolver, SolverError> {
-    let solid = &ctx.scene.solid;
-    let integrator: Box<dyn integrator::Integrator> = match name {
-        "explicit" => Box::new(explicit::CentralDifference::new(solid.safety_factor)),
-        // 12 unknowns per block only when the scene asks for a deformable one.
-        "implicit" if ctx.scene.blocks.iter().any(|b| b.elastic.is_some()) => {
-            Box::new(implicit::Newmark::<12>::new(solid))
-        }
-        "implicit" => Box::new(implicit::Newmark::<6>::new(solid)),
-        other => {
-            return Err(SolverError::Failed(format!(
-                "unknown solid solver '{other}'; fix: use one of {}",
-                SOLVERS.join(", ")
-            )));
-        }
-    };
-    dda::DdaSolver::new(ctx, integrator)
+fn build_scheme<S: Scheme>(ctx: &SetupContext) -> Result<Box<DdaSolver>, SolverError> {
+    let params: S::Params = solver_params(&ctx.scene.solid.solvers, "solid", S::NAME)?;
+    let integrator = S::integrator(&params, ctx.scene);
+    Ok(Box::new(DdaSolver::new(ctx, integrator)?))
+}
+
+fn check_scheme<S: Scheme>(scene: &Scene) -> Vec<FieldError> {
+    check_params::<S::Params>(&scene.solid.solvers, "solid", S::NAME)
+}
+
+/// The solid registry's checks of a scene: `[solid] solver` names a solver, every
+/// `[solid.<name>]` table belongs to one and holds valid parameters.
+pub fn check_scene(scene: &Scene) -> Vec<FieldError> {
+    REGISTRY.check(scene, &scene.solid.solvers, &scene.solid.solver)
 }

@@ -21,6 +21,10 @@ const G: Real = shared::math::STANDARD_GRAVITY;
 
 pub use shared::report::{Row, Tolerance, markdown};
 
+/// The central difference scheme's registry name: the cases whose reference is that scheme's
+/// own (its limit 2/ω_max, paper Eq. 8; its restitution and period) choose by it.
+pub const EXPLICIT: &str = <crate::explicit::CentralDifference as crate::integrator::Scheme>::NAME;
+
 pub mod deformable;
 
 // ---------------------------------------------------------------------------------------------
@@ -65,7 +69,8 @@ pub fn block_toml(
     )
 }
 
-/// A whole scene: header, `[solid]` lines, `[solid.contact]` lines, blocks.
+/// A whole scene: header, `[solid]` lines (solver tables such as `[solid.implicit]` may follow
+/// them), `[solid.contact]` lines, blocks. Checked by [`crate::check_scene`] too.
 pub fn scene(
     name: &str,
     gravity: [Real; 3],
@@ -87,7 +92,7 @@ pub fn scene(
         -h,
         blocks.join("\n")
     );
-    Scene::parse(&text, name)
+    Scene::parse_checked(&text, name, &[&crate::check_scene])
         .unwrap_or_else(|e| panic!("verification scene {name} is invalid: {e}\n{text}"))
 }
 
@@ -113,7 +118,7 @@ impl Harness {
             scheme: Scheme::Parallel,
             peer_present: false,
         };
-        let solver = crate::build_dda(solver, &ctx)?;
+        let solver = *crate::REGISTRY.build(solver, &ctx)?;
         Ok(Harness { solver, dir })
     }
 
@@ -460,7 +465,7 @@ pub fn bounce(solver: &str, omega_dt: Real, phase: Real) -> Result<Real, SolverE
         "bounce",
         [0.0, 0.0, 0.0],
         5.0,
-        "displacement_limit = 10.0",
+        "[solid.implicit]\ndisplacement_limit = 10.0",
         &format!("normal_stiffness = {k}\nshear_ratio = 0.0"),
         &[
             block_toml(
@@ -529,7 +534,7 @@ pub fn restitution_rows(solver: &str) -> Vec<Row> {
     // Central difference near Ω = 2 is left to the resting-block rows: a single contact
     // there lasts one or two steps and its restitution is whatever the touch-down phase makes
     // it (0.5 to 2.7 at Ω = 1.9).
-    let omegas: &[Real] = if solver == "explicit" {
+    let omegas: &[Real] = if solver == EXPLICIT {
         &[0.1, 0.5, 1.0, 1.5]
     } else {
         &[0.05, 0.1, 0.2, 0.5, 1.0]
@@ -543,7 +548,7 @@ pub fn restitution_rows(solver: &str) -> Vec<Row> {
                 Ok((e, spread)) => {
                     let quantity =
                         format!("e, mean of {BOUNCE_PHASES} phases (spread {spread:.3})");
-                    if solver == "explicit" {
+                    if solver == EXPLICIT {
                         // Contact onset and release fall between steps: an energy error that
                         // depends on the phase and grows with Ω (bounded below 2).
                         let tol = if w <= 1.0 { 0.02 } else { 0.15 };
@@ -596,7 +601,7 @@ pub fn resting_block(omega_dt: Real, duration: Real) -> Result<Real, SolverError
             ),
         ],
     );
-    let mut h = Harness::new(&s, "explicit")?;
+    let mut h = Harness::new(&s, EXPLICIT)?;
     let mut worst: Real = 0.0;
     let steps = (duration / dt).ceil() as usize;
     for _ in 0..steps {
@@ -636,17 +641,17 @@ pub fn limit_rows(
     let first = match result {
         Ok(r) => Row::numeric(
             case,
-            "explicit",
+            EXPLICIT,
             "largest energy ratio (1 = all energy supplied)",
             1.0,
             r,
             Tolerance::AtMost(1.05),
         ),
-        Err(e) => Row::failed(case, "explicit", "energy ratio", &e),
+        Err(e) => Row::failed(case, EXPLICIT, "energy ratio", &e),
     };
     let (case, result) = unstable;
     let categorical =
-        |measured: &str| Row::categorical(case, "explicit", "outcome", expected, measured);
+        |measured: &str| Row::categorical(case, EXPLICIT, "outcome", expected, measured);
     let second = match result {
         Ok(r) => categorical(&format!("completed, energy ratio {r:.3}")),
         Err(SolverError::Unstable(msg)) => {
@@ -792,7 +797,7 @@ pub fn spinning_block(solver: &str) -> Row {
         "spin",
         [0.0, 0.0, 0.0],
         5.0,
-        "displacement_limit = 10.0",
+        "[solid.implicit]\ndisplacement_limit = 10.0",
         "",
         &[block_toml(
             "rock",
@@ -837,19 +842,20 @@ pub fn spinning_block(solver: &str) -> Row {
 /// All cases for both solvers (`quick` shortens the stack run to 3 s).
 pub fn run_all(quick: bool) -> Vec<Row> {
     let mut rows = Vec::new();
-    for solver in crate::SOLVERS {
+    let solvers = crate::REGISTRY.names();
+    for &solver in &solvers {
         rows.push(free_fall(solver));
         rows.push(spinning_block(solver));
         rows.extend(incline_rows(solver));
         rows.extend(slide_or_topple(solver));
         rows.extend(restitution_rows(solver));
-        if *solver == "explicit" {
+        if solver == EXPLICIT {
             rows.extend(explicit_limit_rows());
         }
         rows.push(stack_row(solver, if quick { 3.0 } else { 10.0 }));
         rows.extend(default_wedge_rows(solver));
     }
-    for solver in crate::SOLVERS {
+    for &solver in &solvers {
         rows.extend(deformable::rows(solver));
     }
     rows

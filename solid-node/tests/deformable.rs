@@ -5,7 +5,8 @@ use shared::math::{Matrix, Point, Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::solver::{SolidSolver, Solver};
 use shared::strain::{self, Strain};
-use solid_node::verification::{Harness, block_toml, box_corners, scene};
+use solid_node::explicit::ExplicitParams;
+use solid_node::verification::{EXPLICIT, Harness, block_toml, box_corners, scene};
 
 const ELASTIC: &str = "elastic = { young_modulus = 5e6, poisson_ratio = 0.25 }";
 
@@ -20,7 +21,7 @@ fn blocks_at(deformable: bool, gravity: Real, contact: &str, z: Real) -> shared:
         "two",
         [0.0, 0.0, -gravity],
         10.0,
-        "displacement_limit = 10.0",
+        "[solid.implicit]\ndisplacement_limit = 10.0",
         contact,
         &[
             block_toml(
@@ -50,7 +51,7 @@ fn blocks_at(deformable: bool, gravity: Real, contact: &str, z: Real) -> shared:
 
 #[test]
 fn unknowns_are_six_per_rigid_and_twelve_per_deformable_block() {
-    for solver in solid_node::SOLVERS {
+    for solver in solid_node::REGISTRY.names() {
         let h = Harness::new(&two_blocks(false, 9.81, ""), solver).unwrap();
         assert_eq!(h.solver.unknowns(), 12, "{solver}: two rigid free blocks");
         assert!(h.world().deformable.is_empty());
@@ -86,7 +87,7 @@ fn rigid_explicit_proposal_has_no_elastic_mode() {
     let s = cube("");
     let h = Harness::new(&s, "explicit").unwrap();
     let m = h.block("cube").mass;
-    let expect = s.solid.safety_factor * 2.0 / (6.0 * 1e6 / m).sqrt();
+    let expect = safety_factor(&s) * 2.0 / (6.0 * 1e6 / m).sqrt();
     let rigid = h.solver.dt_proposal();
     assert!((rigid / expect - 1.0).abs() < 1e-9, "{rigid} vs {expect}");
 
@@ -96,9 +97,9 @@ fn rigid_explicit_proposal_has_no_elastic_mode() {
     let w_el = solid_node::elastic::cube_frequencies(5e8, 0.25, 2000.0, 0.5).0;
     let soft = h.solver.dt_proposal();
     assert!(soft < rigid, "{soft} vs {rigid}");
-    assert!(soft * w_el <= 2.0 * s.solid.safety_factor + 1e-12);
+    assert!(soft * w_el <= 2.0 * safety_factor(&s) + 1e-12);
     assert!(
-        soft * w_el > 0.9 * 2.0 * s.solid.safety_factor,
+        soft * w_el > 0.9 * 2.0 * safety_factor(&s),
         "{}",
         soft * w_el
     );
@@ -168,7 +169,7 @@ fn geometry_message_carries_the_strain() {
 #[test]
 fn strain_load_from_the_fluid_strains_the_block() {
     let g = Strain::new(300.0, 300.0, 300.0, 0.0, 0.0, 0.0);
-    for solver in solid_node::SOLVERS {
+    for solver in solid_node::REGISTRY.names() {
         let s = two_blocks(true, 0.0, "");
         let mut h = Harness::new(&s, solver).unwrap();
         let soft = h.solver.block_index("soft").unwrap();
@@ -179,7 +180,7 @@ fn strain_load_from_the_fluid_strains_the_block() {
             ..Default::default()
         };
         let mut peak: Real = 0.0;
-        let omega_dt = if *solver == "explicit" { 0.05 } else { 1.0 };
+        let omega_dt = if solver == EXPLICIT { 0.05 } else { 1.0 };
         let dt = omega_dt / el.omega2.sqrt();
         for _ in 0..1000 {
             h.solver.read_loads(&[load, load]);
@@ -187,7 +188,7 @@ fn strain_load_from_the_fluid_strains_the_block() {
             peak = peak.max(h.block("soft").strain()[0]);
         }
         let e = h.block("soft").strain();
-        if *solver == "explicit" {
+        if solver == EXPLICIT {
             assert!(
                 (peak / (2.0 * target[0]) - 1.0).abs() < 0.01,
                 "{peak} vs 2·{}",
@@ -211,12 +212,12 @@ fn strain_load_from_the_fluid_strains_the_block() {
 /// spinning one neither grows nor strains (the rotation is carried exactly, co-rotationally).
 #[test]
 fn gravity_and_spin_do_not_strain() {
-    for solver in solid_node::SOLVERS {
+    for solver in solid_node::REGISTRY.names() {
         let s = scene(
             "spin",
             [0.0, 0.0, -9.81],
             20.0,
-            "displacement_limit = 10.0",
+            "[solid.implicit]\ndisplacement_limit = 10.0",
             "",
             &[block_toml(
                 "soft",
@@ -300,4 +301,11 @@ fn contact_compresses_a_deformable_block() {
     let rigid = h.solver.block_index("rigid").unwrap();
     assert_eq!(w.contact_strain[rigid], Strain::zeros());
     let _ = Vector::zeros();
+}
+
+/// `[solid.explicit] safety_factor` of a scene, as the explicit scheme reads it.
+fn safety_factor(s: &shared::scene::Scene) -> Real {
+    shared::registry::params::<ExplicitParams>(&s.solid.solvers, "solid", EXPLICIT)
+        .unwrap()
+        .safety_factor
 }

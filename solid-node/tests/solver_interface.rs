@@ -5,7 +5,8 @@ use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::scene::{MotionSpec, Scene, Scheme, ShapeSpec};
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError};
-use solid_node::verification::{Harness, block_toml, box_corners, scene};
+use solid_node::explicit::ExplicitParams;
+use solid_node::verification::{EXPLICIT, Harness, block_toml, box_corners, scene};
 
 fn space_scene(extra_blocks: &[String]) -> Scene {
     let mut blocks = vec![block_toml(
@@ -20,7 +21,7 @@ fn space_scene(extra_blocks: &[String]) -> Scene {
         "space",
         [0.0, 0.0, 0.0],
         20.0,
-        "displacement_limit = 10.0",
+        "[solid.implicit]\ndisplacement_limit = 10.0",
         "",
         &blocks,
     )
@@ -36,11 +37,11 @@ fn unknown_solver_is_refused_with_the_choices() {
         scheme: Scheme::Parallel,
         peer_present: false,
     };
-    let Err(SolverError::Failed(msg)) = solid_node::build("verlet", &ctx) else {
+    let Err(SolverError::Failed(msg)) = solid_node::REGISTRY.build("verlet", &ctx) else {
         panic!("accepted an unknown solver")
     };
     assert!(
-        msg.contains("explicit") && msg.contains("implicit"),
+        msg.contains("verlet") && msg.contains("fix: use one of explicit, implicit"),
         "{msg}"
     );
 }
@@ -65,7 +66,7 @@ fn non_convex_block_is_rejected_by_name() {
         scheme: Scheme::Parallel,
         peer_present: false,
     };
-    let Err(SolverError::Failed(msg)) = solid_node::build("explicit", &ctx) else {
+    let Err(SolverError::Failed(msg)) = solid_node::REGISTRY.build("explicit", &ctx) else {
         panic!("accepted a concave block")
     };
     assert!(
@@ -78,7 +79,7 @@ fn non_convex_block_is_rejected_by_name() {
 /// principal axis ω = τ/I t, for both schemes (constant loads are integrated exactly).
 #[test]
 fn fluid_loads_move_the_block() {
-    for solver in solid_node::SOLVERS {
+    for solver in solid_node::REGISTRY.names() {
         let s = space_scene(&[]);
         let mut h = Harness::new(&s, solver).unwrap();
         let (m, izz) = (h.block("rock").mass, h.block("rock").inertia[(2, 2)]);
@@ -119,7 +120,7 @@ fn fluid_loads_move_the_block() {
 /// lists the moving blocks in scene order with their world corners.
 #[test]
 fn kinematic_piston_and_geometry_message() {
-    for solver in solid_node::SOLVERS {
+    for solver in solid_node::REGISTRY.names() {
         let piston = block_toml(
             "piston",
             "kinematic",
@@ -181,7 +182,7 @@ fn kinematic_piston_and_geometry_message() {
 /// A piston pushing a free block: the block is moved (contact with a kinematic block works).
 #[test]
 fn piston_pushes_a_block() {
-    for solver in solid_node::SOLVERS {
+    for solver in solid_node::REGISTRY.names() {
         let floor = block_toml(
             "floor",
             "fixed",
@@ -221,12 +222,12 @@ fn piston_pushes_a_block() {
 
 #[test]
 fn leaving_the_domain_is_unstable() {
-    for solver in solid_node::SOLVERS {
+    for solver in solid_node::REGISTRY.names() {
         let s = scene(
             "escape",
             [0.0, 0.0, 0.0],
             1.0,
-            "displacement_limit = 10.0",
+            "[solid.implicit]\ndisplacement_limit = 10.0",
             "",
             &[block_toml(
                 "rock",
@@ -255,7 +256,7 @@ fn leaving_the_domain_is_unstable() {
 
 #[test]
 fn non_finite_load_is_unstable_not_nan_output() {
-    for solver in solid_node::SOLVERS {
+    for solver in solid_node::REGISTRY.names() {
         let mut h = Harness::new(&space_scene(&[]), solver).unwrap();
         h.solver.read_loads(&[BlockLoad {
             block: 0,
@@ -280,7 +281,7 @@ fn implicit_substeps_end_exactly_on_the_coupler_step() {
         "fast",
         [0.0, 0.0, 0.0],
         50.0,
-        "displacement_limit = 0.01",
+        "[solid.implicit]\ndisplacement_limit = 0.01",
         "",
         &[block_toml(
             "rock",
@@ -346,7 +347,7 @@ fn default_stiffness_and_dt_proposal() {
     // dt = safety · 2/ω_max, with ω_max from the contact springs: at least the vertical mode
     // sqrt(4k/m) and, for this block, below the set-up floor's worst face (its side: rocking
     // about the short axis, ω² = k·4·0.2²/I = 9.6 k/m).
-    let omega = 2.0 * s.solid.safety_factor / h.solver.dt_proposal();
+    let omega = 2.0 * safety_factor(&s) / h.solver.dt_proposal();
     let w_vertical = (4.0 * k / b.mass).sqrt();
     assert!(
         omega >= w_vertical && omega <= (9.6 * k / b.mass).sqrt() * 1.0001,
@@ -396,9 +397,136 @@ fn outputs_csv_and_vtp() {
 fn piston_only_scene_runs() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/wave_maker.toml");
     let s = shared::scene::Scene::load(&path).unwrap();
-    for solver in solid_node::SOLVERS {
+    for solver in solid_node::REGISTRY.names() {
         let mut h = Harness::new(&s, solver).unwrap();
         h.run_until(0.5, Some(2e-3), |_| {}).unwrap();
         assert!((h.time() - 0.5).abs() < 1e-12, "{solver}");
     }
+}
+
+/// `[solid.explicit] safety_factor` of a scene, as the explicit scheme reads it.
+fn safety_factor(s: &shared::scene::Scene) -> Real {
+    shared::registry::params::<ExplicitParams>(&s.solid.solvers, "solid", EXPLICIT)
+        .unwrap()
+        .safety_factor
+}
+
+/// The solid registry checks `[solid] solver` and each solver's own table `[solid.<name>]`:
+/// every bad value, unknown key or unknown table is named with its field, line and fix.
+#[test]
+fn solver_tables_are_checked_by_the_registry() {
+    let base = "name = \"t\"\n[time]\nend = 1.0\n[domain]\nmin = [-5.0, -5.0, -5.0]\nmax = [5.0, 5.0, 5.0]\n\
+                [solid]\nsolver = \"implicit\"\n[solid.contact]\nfriction_angle = 30.0\n\
+                [[block]]\nname = \"rock\"\nkind = \"free\"\ndensity = 2000.0\n\
+                shape = { type = \"box\", min = [-0.1, -0.1, -0.1], max = [0.1, 0.1, 0.1] }\n";
+    let checked = |text: &str| {
+        Scene::parse_checked(text, "t", &[&solid_node::check_scene])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    };
+    let with = |extra: &str| format!("{base}{extra}");
+    // The line of `key` in `text`, as the error should name it.
+    let line_of = |text: &str, key: &str| {
+        let n = text.lines().position(|l| l.starts_with(key)).unwrap() + 1;
+        format!("line {n}: ")
+    };
+    assert_eq!(checked(base), "");
+    assert_eq!(
+        checked(&with(
+            "[solid.implicit]\nmax_open_close = 8\ndisplacement_limit = 0.02\n\
+             [solid.explicit]\nsafety_factor = 0.4\n"
+        )),
+        ""
+    );
+    for (table, field, value) in [
+        ("implicit", "max_open_close", "0"),
+        ("implicit", "displacement_limit", "nan"),
+        ("implicit", "displacement_limit", "-0.01"),
+        ("explicit", "safety_factor", "inf"),
+        ("explicit", "safety_factor", "0.0"),
+    ] {
+        let t = with(&format!("[solid.{table}]\n{field} = {value}\n"));
+        let e = checked(&t);
+        assert!(
+            e.contains(&format!("{}solid.{table}.{field} = ", line_of(&t, field)))
+                && e.contains("fix: "),
+            "{e}"
+        );
+    }
+    // An unknown key: serde names it and what the table holds.
+    let t = with("[solid.implicit]\nmax_open_closed = 3\n");
+    let e = checked(&t);
+    assert!(
+        e.contains(&format!(
+            "{}solid.implicit = ",
+            line_of(&t, "[solid.implicit]")
+        )) && e.contains("max_open_closed")
+            && e.contains("max_open_close"),
+        "{e}"
+    );
+    // A table that names no solver, and a stray value in [solid].
+    let t = with("[solid.rk4]\nsafety_factor = 0.5\n");
+    let e = checked(&t);
+    assert!(
+        e.contains(&format!("{}solid.rk4 = ", line_of(&t, "[solid.rk4]")))
+            && e.contains("[solid.explicit], [solid.implicit]"),
+        "{e}"
+    );
+    let t = base.replace("[solid]\n", "[solid]\nmax_open_close = 6\n");
+    let e = checked(&t);
+    assert!(
+        e.contains(&format!(
+            "{}solid.max_open_close = ",
+            line_of(&t, "max_open_close")
+        )) && e.contains("[solid.implicit]"),
+        "{e}"
+    );
+    // A bad default solver.
+    let t = base.replace("solver = \"implicit\"", "solver = \"verlet\"");
+    let e = checked(&t);
+    assert!(
+        e.contains(&format!(
+            "{}solid.solver = \"verlet\"",
+            line_of(&t, "solver")
+        )) && e.contains("explicit, implicit"),
+        "{e}"
+    );
+    // A scene whose tables were never checked: building the solver still refuses, by field.
+    let s = Scene::parse(&with("[solid.implicit]\nmax_open_close = 0\n"), "t").unwrap();
+    let dir = std::env::temp_dir();
+    let ctx = SetupContext {
+        scene: &s,
+        run_dir: &dir,
+        scheme: Scheme::Parallel,
+        peer_present: false,
+    };
+    let Err(SolverError::Failed(msg)) = solid_node::REGISTRY.build("implicit", &ctx) else {
+        panic!("built a solver from a bad table")
+    };
+    assert!(msg.contains("solid.implicit.max_open_close"), "{msg}");
+    // The explicit scheme does not read [solid.implicit].
+    assert!(Harness::new(&s, "explicit").is_ok());
+}
+
+/// Every scene of the repository passes the solid registry's checks.
+#[test]
+fn repository_scenes_pass_the_solid_checks() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let mut dirs = vec![root];
+    let mut seen = 0;
+    while let Some(dir) = dirs.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if path.extension().is_some_and(|e| e == "toml") {
+                if let Err(e) = Scene::load_checked(&path, &[&solid_node::check_scene]) {
+                    panic!("{e}");
+                }
+                seen += 1;
+            }
+        }
+    }
+    assert!(seen > 0);
 }

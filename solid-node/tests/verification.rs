@@ -2,6 +2,15 @@
 
 use solid_node::verification::{self as v, Row};
 
+/// `case`'s rows for every solver of the registry.
+fn each<R: IntoIterator<Item = Row>>(case: impl Fn(&'static str) -> R) -> Vec<Row> {
+    solid_node::REGISTRY
+        .names()
+        .into_iter()
+        .flat_map(case)
+        .collect()
+}
+
 fn check(rows: &[Row]) {
     let failed: Vec<&Row> = rows.iter().filter(|r| !r.pass).collect();
     assert!(
@@ -13,33 +22,27 @@ fn check(rows: &[Row]) {
 
 #[test]
 fn free_fall_is_exact() {
-    check(&[v::free_fall("explicit"), v::free_fall("implicit")]);
+    check(&each(|s| [v::free_fall(s)]));
 }
 
 #[test]
 fn spinning_block_keeps_its_size() {
-    check(&[v::spinning_block("explicit"), v::spinning_block("implicit")]);
+    check(&each(|s| [v::spinning_block(s)]));
 }
 
 #[test]
 fn incline_sticks_and_slides() {
-    let mut rows = v::incline_rows("explicit");
-    rows.extend(v::incline_rows("implicit"));
-    check(&rows);
+    check(&each(v::incline_rows));
 }
 
 #[test]
 fn slide_or_topple_classification() {
-    let mut rows = v::slide_or_topple("explicit");
-    rows.extend(v::slide_or_topple("implicit"));
-    check(&rows);
+    check(&each(v::slide_or_topple));
 }
 
 #[test]
 fn restitution_of_both_schemes() {
-    let mut rows = v::restitution_rows("explicit");
-    rows.extend(v::restitution_rows("implicit"));
-    check(&rows);
+    check(&each(v::restitution_rows));
 }
 
 #[test]
@@ -49,14 +52,12 @@ fn explicit_past_its_limit_is_reported_unstable() {
 
 #[test]
 fn stack_stays_at_rest() {
-    check(&[v::stack_row("explicit", 3.0), v::stack_row("implicit", 3.0)]);
+    check(&each(|s| [v::stack_row(s, 3.0)]));
 }
 
 #[test]
 fn default_scene_wedge_slides_smoothly() {
-    let mut rows = v::default_wedge_rows("explicit");
-    rows.extend(v::default_wedge_rows("implicit"));
-    check(&rows);
+    check(&each(v::default_wedge_rows));
 }
 
 #[test]
@@ -74,16 +75,12 @@ fn newmark_restitution_tends_to_shi_asymptote() {
 
 #[test]
 fn deformable_block_resting_strain() {
-    let mut rows = v::deformable::resting_rows("explicit");
-    rows.extend(v::deformable::resting_rows("implicit"));
-    check(&rows);
+    check(&each(v::deformable::resting_rows));
 }
 
 #[test]
 fn deformable_block_free_vibration() {
-    let mut rows = v::deformable::vibration_rows("explicit");
-    rows.extend(v::deformable::vibration_rows("implicit"));
-    check(&rows);
+    check(&each(v::deformable::vibration_rows));
 }
 
 #[test]
@@ -93,10 +90,7 @@ fn deformable_block_explicit_limit_names_the_elastic_mode() {
 
 #[test]
 fn stiff_deformable_block_slides_like_the_rigid_one() {
-    check(&[
-        v::deformable::incline_rigid_vs_deformable("explicit"),
-        v::deformable::incline_rigid_vs_deformable("implicit"),
-    ]);
+    check(&each(|s| [v::deformable::incline_rigid_vs_deformable(s)]));
 }
 
 #[test]

@@ -176,6 +176,22 @@ mod tests {
     }
 
     #[test]
+    fn stray_solid_value_is_named_with_its_line() {
+        let text = DEFAULT_SCENE.replace(
+            "solver = \"explicit\"\n",
+            "solver = \"explicit\"\nsafety_factor = 0.5\n",
+        );
+        assert_ne!(text, DEFAULT_SCENE);
+        let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();
+        assert!(
+            msg.contains("solid.safety_factor")
+                && msg.contains("line ")
+                && msg.contains("[solid.implicit]"),
+            "{msg}"
+        );
+    }
+
+    #[test]
     fn unknown_wall_treatment_is_named() {
         let text = DEFAULT_SCENE.replace("\ndx = 0.04\n", "\ndx = 0.04\nwalls = \"sponge\"\n");
         let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();

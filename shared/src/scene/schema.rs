@@ -1,7 +1,9 @@
 //! The scene file, field by field. Units are SI throughout (m, s, kg, Pa, N); angles in degrees.
 //!
 //! A scene is a TOML document. Every table rejects unknown keys, so a misspelt field is an error
-//! that names the field rather than a silently ignored line.
+//! that names the field rather than a silently ignored line. `[fluid]` and `[solid]` keep the
+//! tables that are not their fields as solver parameter tables, which the solver registries
+//! check (`shared::registry`).
 
 use serde::{Deserialize, Serialize};
 
@@ -170,24 +172,24 @@ fn yes() -> bool {
 }
 
 /// `[solid]`: the rock-block solver.
+///
+/// Not `deny_unknown_fields`: every key that is not a field here is kept in [`SolidSpec::solvers`]
+/// as a solver's own parameter table (`[solid.explicit]`: `safety_factor`; `[solid.implicit]`:
+/// `displacement_limit`, `max_open_close`), read by that solver (`shared::registry::params`).
+/// Validation refuses a stray value that is not a table, and the solid registry refuses a table
+/// that names no solver. `[solid.contact]` is the blocks' physics, shared by every solver.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
 pub struct SolidSpec {
-    /// Solver used when the command line names none: `explicit` (the paper's) or `implicit` (Shi's).
+    /// Solver used when the command line names none (the solid registry lists them):
+    /// `explicit` (the paper's) or `implicit` (Shi's).
     #[serde(default = "default_solid_solver")]
     pub solver: String,
     /// Contact springs and joint strength between blocks.
     #[serde(default)]
     pub contact: ContactSpec,
-    /// Fraction of the explicit limit 2/ω_max used as the step (paper Eq. 8); default 0.5.
-    #[serde(default = "default_safety")]
-    pub safety_factor: f64,
-    /// Largest displacement per step over the block size before the implicit solver cuts dt.
-    #[serde(default = "default_displacement_limit")]
-    pub displacement_limit: f64,
-    /// Open–close iterations before the implicit solver cuts dt (Shi: 6).
-    #[serde(default = "default_open_close")]
-    pub max_open_close: u32,
+    /// `[solid.<solver>]`: each solver's own parameter table, as written.
+    #[serde(flatten)]
+    pub solvers: SolverTables,
 }
 
 impl Default for SolidSpec {
@@ -195,24 +197,13 @@ impl Default for SolidSpec {
         Self {
             solver: default_solid_solver(),
             contact: ContactSpec::default(),
-            safety_factor: default_safety(),
-            displacement_limit: default_displacement_limit(),
-            max_open_close: default_open_close(),
+            solvers: SolverTables::new(),
         }
     }
 }
 
 fn default_solid_solver() -> String {
     "explicit".into()
-}
-fn default_safety() -> f64 {
-    0.5
-}
-fn default_displacement_limit() -> f64 {
-    0.01
-}
-fn default_open_close() -> u32 {
-    6
 }
 
 /// `[solid.contact]`: block–block contact (penalty springs, Mohr–Coulomb).

@@ -265,19 +265,17 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
     }
 
     c.key("solid", |c| {
-        if !(s.solid.safety_factor > 0.0 && s.solid.safety_factor <= 10.0) {
-            c.fail(
-                "safety_factor",
-                s.solid.safety_factor,
-                "must be in (0, 10]",
-                "0.5 is safe; > 1 exceeds 2/ω_max",
-            );
+        // Keys that are not [solid] fields are solver tables; a stray value is a typo.
+        for (key, value) in &s.solid.solvers {
+            if !value.is_table() {
+                c.fail(
+                    key,
+                    value,
+                    "is not a field of [solid]",
+                    "fields are solver, contact; solver parameters go in their own table, e.g. [solid.implicit]",
+                );
+            }
         }
-        c.positive(
-            "displacement_limit",
-            s.solid.displacement_limit,
-            "e.g. displacement_limit = 0.01",
-        );
         c.key("contact", |c| {
             let k = &s.solid.contact;
             if let Some(kn) = k.normal_stiffness {

@@ -3,10 +3,11 @@
 //! that vertex–face and edge–edge contacts both occur). Prints a markdown table.
 //!
 //! Options: `--steps N` timed steps per case (default 200), `--warm N` steps before timing
-//! (default 300), `--sizes 10,100,1000`, `--solvers explicit,implicit`, `--elastic E` to make
-//! every block of the pile deformable (12 unknowns) with Young's modulus E [Pa], ν = 0.25,
-//! `--elastic-one E` only the first (the rest rigid: what a scene with one deformable block
-//! costs the implicit scheme, whose blocks are then all 12×12).
+//! (default 300), `--sizes 10,100,1000`, `--solvers explicit,implicit` (default: every solver
+//! of `solid_node::REGISTRY`), `--elastic E` to make every block of the pile deformable
+//! (12 unknowns) with Young's modulus E [Pa], ν = 0.25, `--elastic-one E` only the first (the
+//! rest rigid: what a scene with one deformable block costs the implicit scheme, whose blocks
+//! are then all 12×12).
 
 use shared::solver::Solver;
 use solid_node::verification::{Harness, block_toml, box_corners, scene};
@@ -92,7 +93,11 @@ fn main() {
     for &n in &sizes {
         let scene = pile(n, elastic, only_first);
         let solvers: Vec<String> = arg("--solvers").map_or(
-            solid_node::SOLVERS.iter().map(|s| s.to_string()).collect(),
+            solid_node::REGISTRY
+                .names()
+                .into_iter()
+                .map(String::from)
+                .collect(),
             |s| s.split(',').map(String::from).collect(),
         );
         for solver in &solvers {

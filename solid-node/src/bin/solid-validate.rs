@@ -8,9 +8,10 @@ fn main() -> std::process::ExitCode {
     let deformable = std::env::args().any(|a| a == "--deformable");
     let start = std::time::Instant::now();
     let rows = if deformable {
-        solid_node::SOLVERS
-            .iter()
-            .flat_map(|s| solid_node::verification::deformable::rows(s))
+        solid_node::REGISTRY
+            .names()
+            .into_iter()
+            .flat_map(solid_node::verification::deformable::rows)
             .collect()
     } else {
         solid_node::verification::run_all(quick)

@@ -15,7 +15,7 @@
 //!   unstable, naming the elastic mode, at 2.5.
 //! - rigid against stiff deformable on the sliding incline: the same distance.
 
-use super::{Harness, Incline, Row, Tolerance, block_toml, box_corners, scene};
+use super::{EXPLICIT, Harness, Incline, Row, Tolerance, block_toml, box_corners, scene};
 use crate::elastic::cube_frequencies;
 use shared::math::Real;
 use shared::solver::{Solver, SolverError};
@@ -158,7 +158,7 @@ fn vibrating_cube(solver: &str, mode: Mode, amplitude: Real) -> Result<Harness, 
         "soft_vibration",
         [0.0, 0.0, 0.0],
         5.0,
-        "displacement_limit = 10.0",
+        "[solid.implicit]\ndisplacement_limit = 10.0",
         "",
         &[block_toml(
             "soft",
@@ -264,7 +264,7 @@ pub fn vibration_rows(solver: &str) -> Vec<Row> {
     let mut rows = Vec::new();
     for mode in [Mode::Shear, Mode::Volumetric] {
         let exact = 2.0 * PI / mode.omega();
-        if solver == "explicit" {
+        if solver == EXPLICIT {
             let omega_dt = 0.05;
             let case = format!(
                 "deformable cube free vibration, {}, Ω = {omega_dt}",
@@ -333,7 +333,7 @@ pub fn vibration_rows(solver: &str) -> Vec<Row> {
 /// The soft cube vibrating in its volumetric mode (the stiffest) at Ω = ω_elastic·Δt for
 /// `steps` steps: the largest energy ratio, or the error.
 pub fn elastic_limit(omega_dt: Real, steps: usize) -> Result<Real, SolverError> {
-    let mut h = vibrating_cube("explicit", Mode::Volumetric, 1e-3)?;
+    let mut h = vibrating_cube(EXPLICIT, Mode::Volumetric, 1e-3)?;
     let dt = omega_dt / Mode::Volumetric.omega();
     let mut worst: Real = 0.0;
     for _ in 0..steps {
@@ -362,11 +362,11 @@ pub fn elastic_limit_rows() -> Vec<Row> {
     );
     // The proposal itself keeps the elastic mode below the limit.
     let case = "deformable cube in space: explicit dt proposal";
-    rows.push(match vibrating_cube("explicit", Mode::Volumetric, 0.0) {
-        Err(e) => Row::failed(case, "explicit", "ω_elastic · dt_proposal", &e),
+    rows.push(match vibrating_cube(EXPLICIT, Mode::Volumetric, 0.0) {
+        Err(e) => Row::failed(case, EXPLICIT, "ω_elastic · dt_proposal", &e),
         Ok(h) => Row::numeric(
             case,
-            "explicit",
+            EXPLICIT,
             "ω_elastic · dt_proposal",
             2.0,
             Mode::Volumetric.omega() * h.solver.dt_proposal(),
@@ -417,7 +417,7 @@ pub fn incline_rigid_vs_deformable(solver: &str) -> Row {
 pub fn rows(solver: &str) -> Vec<Row> {
     let mut rows = resting_rows(solver);
     rows.extend(vibration_rows(solver));
-    if solver == "explicit" {
+    if solver == EXPLICIT {
         rows.extend(elastic_limit_rows());
     }
     rows.push(incline_rigid_vs_deformable(solver));
