@@ -4,6 +4,7 @@
 //! past the explicit limit ω·dt = 2 by the dt factor or by the stiffness.
 
 use shared::solver::{Solver, SolverError};
+use shared::step::grant;
 use solid_node::verification::{self, Harness, Incline};
 use std::time::Instant;
 
@@ -35,13 +36,12 @@ pub struct InclineRun {
     pub steps: u64,
 }
 
-/// Advances with dt = min(proposal, dt_max) × factor, as the coupler does with --dt-factor.
+/// Advances with the granted step × factor, as the coupler does with --dt-factor.
 fn advance_to(h: &mut Harness, end: f64, dt_factor: f64) -> Result<u64, SolverError> {
+    let rule = h.rule.with_factor(dt_factor);
     let mut steps = 0;
     while h.time() < end - 1e-12 {
-        let dt =
-            (h.solver.dt_proposal().min(h.solver.world.dt_max) * dt_factor).min(end - h.time());
-        h.solver.advance(dt)?;
+        h.step(&rule, end)?;
         steps += 1;
     }
     Ok(steps)
@@ -152,9 +152,22 @@ pub fn resting(
     };
     let mut worst: f64 = 0.0;
     let mut dt_largest: f64 = 0.0;
+    let rule = h.rule.with_factor(dt_factor);
     while h.time() < duration - 1e-12 {
-        let dt = fixed_dt
-            .unwrap_or_else(|| h.solver.dt_proposal().min(h.solver.world.dt_max) * dt_factor);
+        let proposal = [(h.solver.name(), h.solver.dt_proposal())];
+        let dt = match fixed_dt {
+            Some(dt) => dt,
+            None => match grant(proposal, &rule, h.time(), duration) {
+                Ok(g) => g.dt,
+                Err(c) => {
+                    return Resting {
+                        stable: false,
+                        omega_dt: omega * dt_largest,
+                        detail: format!("step collapsed: {c}"),
+                    };
+                }
+            },
+        };
         dt_largest = dt_largest.max(dt);
         match h.solver.advance(dt) {
             Ok(_) => worst = worst.max(h.solver.energy.ratio),

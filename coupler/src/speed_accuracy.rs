@@ -73,7 +73,7 @@ struct Plan {
     solid_k: &'static [f64],
     solid_dt: &'static [f64],
     coupled_dx: &'static [f64],
-    coupled_fluid: &'static [&'static str],
+    coupled_fluid: fn() -> Vec<&'static str>,
     /// The solid solvers of the coupled runs (a function: the registry's list is built at run
     /// time).
     coupled_solid: fn() -> Vec<&'static str>,
@@ -88,7 +88,7 @@ const FULL: Plan = Plan {
     solid_k: &[1e6, 1e7, 1e8, 1e9],
     solid_dt: &[0.25, 0.5, 1.0, 1.5],
     coupled_dx: &[0.04, 0.02],
-    coupled_fluid: &["wcsph", "muller"],
+    coupled_fluid: || fluid_node::REGISTRY.names(),
     coupled_solid: || solid_node::REGISTRY.names(),
     coupled_end: 1.0,
     coupled_fine: Some(0.01),
@@ -100,7 +100,8 @@ const QUICK: Plan = Plan {
     solid_k: &[1e6, 1e7, 1e8],
     solid_dt: &[0.5, 1.0],
     coupled_dx: &[0.04, 0.02],
-    coupled_fluid: &["wcsph"],
+    // The default fluid solver only.
+    coupled_fluid: || vec![<fluid_node::wcsph::Wcsph as fluid_node::scheme::Scheme>::NAME],
     // The paper's scheme only.
     coupled_solid: || vec![solid_node::verification::EXPLICIT],
     coupled_end: 1.0,
@@ -167,7 +168,7 @@ fn fluid(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
     let mut samples = Vec::new();
     let mut self_samples = Vec::new();
     let mut fits = Vec::new();
-    for solver in ["wcsph", "muller"] {
+    for solver in fluid_node::REGISTRY.names() {
         let mut at_one: Vec<DamRun> = Vec::new();
         let mut all: Vec<DamRun> = Vec::new();
         let finest = *plan.fluid_per_a.last().expect("resolutions");
@@ -300,7 +301,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
     let scratch = Scratch::new("chart")?;
     let mut samples = Vec::new();
     let mut configs = Vec::new();
-    for &fluid in plan.coupled_fluid {
+    for fluid in (plan.coupled_fluid)() {
         for solid in (plan.coupled_solid)() {
             for scheme in [Scheme::Parallel, Scheme::Serial] {
                 for &dx in plan.coupled_dx {

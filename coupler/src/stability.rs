@@ -238,7 +238,7 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
             trials.push(t);
         }
     }
-    for solver in ["muller", "wcsph"] {
+    for solver in fluid_node::REGISTRY.names() {
         for &f in plan.dt_factors {
             let r = fluid_sweep::dam_break(solver, plan.dam_per_a, f);
             let t = Trial {

@@ -13,6 +13,7 @@ use crate::world::World;
 use shared::math::{Real, Vector};
 use shared::scene::{Scene, Scheme};
 use shared::solver::{SetupContext, Solver, SolverError};
+use shared::step::{StepRule, grant};
 use std::f64::consts::PI;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -104,6 +105,8 @@ static RUN_COUNTER: AtomicUsize = AtomicUsize::new(0);
 /// A solver with its own temporary run directory (removed on drop).
 pub struct Harness {
     pub solver: DdaSolver,
+    /// The scene's step limits, as the coupler applies them.
+    pub rule: StepRule,
     dir: PathBuf,
 }
 
@@ -119,7 +122,8 @@ impl Harness {
             peer_present: false,
         };
         let solver = *crate::REGISTRY.build(solver, &ctx)?;
-        Ok(Harness { solver, dir })
+        let rule = StepRule::new(scene.time.dt_max, scene.time.dt_min);
+        Ok(Harness { solver, rule, dir })
     }
 
     pub fn world(&self) -> &World {
@@ -134,7 +138,19 @@ impl Harness {
         &self.dir
     }
 
-    /// Advances to `t_end` the way the coupler does (dt = min(proposal, dt_max, time left)),
+    /// One step towards `target`, granted by the coupler's rule ([`shared::step::grant`]: the
+    /// proposal within `rule`'s limits, times its `dt_factor`, landing on `target`); returns the
+    /// step taken. A collapsed proposal is an instability.
+    pub fn step(&mut self, rule: &StepRule, target: Real) -> Result<Real, SolverError> {
+        let proposal = [(self.solver.name(), self.solver.dt_proposal())];
+        let dt = grant(proposal, rule, self.time(), target)
+            .map(|g| g.dt)
+            .map_err(|c| SolverError::Unstable(format!("step collapsed: {c}")))?;
+        self.solver.advance(dt)?;
+        Ok(dt)
+    }
+
+    /// Advances to `t_end` the way the coupler does ([`Self::step`] with the scene's limits),
     /// or with a fixed `dt`; calls `each` after every step.
     pub fn run_until(
         &mut self,
@@ -142,11 +158,16 @@ impl Harness {
         dt: Option<Real>,
         mut each: impl FnMut(&World),
     ) -> Result<(), SolverError> {
+        let rule = self.rule;
         while self.time() < t_end - 1e-12 {
-            let step =
-                dt.unwrap_or_else(|| self.solver.dt_proposal().min(self.solver.world.dt_max));
-            let step = step.min(t_end - self.time());
-            self.solver.advance(step)?;
+            match dt {
+                Some(dt) => {
+                    self.solver.advance(dt.min(t_end - self.time()))?;
+                }
+                None => {
+                    self.step(&rule, t_end)?;
+                }
+            }
             each(&self.solver.world);
         }
         Ok(())

@@ -72,15 +72,11 @@ pub fn step(
     loads: &mut [BlockLoad],
 ) -> Result<(f64, StepReport), SolverError> {
     solver.write_loads(loads);
-    let g = grant(
-        [(solver.name().to_string(), solver.dt_proposal())],
-        rule,
-        time,
-        target,
-    )
-    .map_err(|c| SolverError::Unstable(format!("step collapsed: {c}")))?;
-    let report = solver.advance(g.dt)?;
-    Ok((g.end_time(time, target), report))
+    let (dt, reached) = grant([(solver.name(), solver.dt_proposal())], rule, time, target)
+        .map(|g| (g.dt, g.end_time(time, target)))
+        .map_err(|c| SolverError::Unstable(format!("step collapsed: {c}")))?;
+    let report = solver.advance(dt)?;
+    Ok((reached, report))
 }
 
 /// Steps a solver alone until `end` ([`step`] with the scene's limits), calling `observe` after
