@@ -1,0 +1,88 @@
+//! Driving one solver alone, as the coupler would, in a temporary run directory.
+
+use super::*;
+
+static RUN_COUNTER: AtomicUsize = AtomicUsize::new(0);
+
+/// A solver with its own temporary run directory (removed on drop).
+pub struct Harness {
+    pub solver: DdaSolver,
+    /// The scene's step limits, as the coupler applies them.
+    pub rule: StepRule,
+    dir: PathBuf,
+}
+
+impl Harness {
+    pub fn new(scene: &Scene, solver: &str) -> Result<Harness, SolverError> {
+        let n = RUN_COUNTER.fetch_add(1, Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!("rockwave-solid-{}-{n}", std::process::id()));
+        std::fs::create_dir_all(&dir)?;
+        let ctx = SetupContext {
+            scene,
+            run_dir: &dir,
+            scheme: Scheme::Parallel,
+            peer_present: false,
+        };
+        let solver = *crate::REGISTRY.build(solver, &ctx)?;
+        let rule = StepRule::new(scene.time.dt_max, scene.time.dt_min);
+        Ok(Harness { solver, rule, dir })
+    }
+
+    pub fn world(&self) -> &World {
+        &self.solver.world
+    }
+
+    pub fn time(&self) -> Real {
+        self.solver.world.time
+    }
+
+    pub fn run_dir(&self) -> &std::path::Path {
+        &self.dir
+    }
+
+    /// One step towards `target`, granted by the coupler's rule ([`shared::step::grant`]: the
+    /// proposal within `rule`'s limits, times its `dt_factor`, landing on `target`); returns the
+    /// step taken. A collapsed proposal is an instability.
+    pub fn step(&mut self, rule: &StepRule, target: Real) -> Result<Real, SolverError> {
+        let proposal = [(self.solver.name(), self.solver.dt_proposal())];
+        let dt = grant(proposal, rule, self.time(), target)
+            .map(|g| g.dt)
+            .map_err(|c| SolverError::Unstable(format!("step collapsed: {c}")))?;
+        self.solver.advance(dt)?;
+        Ok(dt)
+    }
+
+    /// Advances to `t_end` the way the coupler does ([`Self::step`] with the scene's limits),
+    /// or with a fixed `dt`; calls `each` after every step.
+    pub fn run_until(
+        &mut self,
+        t_end: Real,
+        dt: Option<Real>,
+        mut each: impl FnMut(&World),
+    ) -> Result<(), SolverError> {
+        let rule = self.rule;
+        while self.time() < t_end - 1e-12 {
+            match dt {
+                Some(dt) => {
+                    self.solver.advance(dt.min(t_end - self.time()))?;
+                }
+                None => {
+                    self.step(&rule, t_end)?;
+                }
+            }
+            each(&self.solver.world);
+        }
+        Ok(())
+    }
+
+    pub fn block(&self, name: &str) -> &crate::block::Block {
+        let i = self.solver.block_index(name).expect("block exists");
+        &self.solver.world.blocks[i]
+    }
+}
+
+impl Drop for Harness {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
