@@ -1,5 +1,5 @@
 //! One boundary-particle set for every block, fixed and moving (Adami, Hu & Adams 2012), seen by
-//! the schemes through one neighbour iterator: a scheme's pass over a fluid particle's boundary
+//! the schemes through one neighbour iterator ([`Boundary::for_each_neighbor`]): a scheme's pass over a fluid particle's boundary
 //! neighbours is one loop, whatever block each neighbour belongs to.
 //!
 //! Inside, the set has two parts because they move differently: the fixed blocks' particles
@@ -73,24 +73,30 @@ impl Boundary {
         )
     }
 
-    /// The boundary neighbours of fluid particle `i` (fixed first, then moving).
-    #[inline]
-    pub fn neighbors(&self, i: usize) -> impl Iterator<Item = Near<'_>> + '_ {
-        let fixed = self.fixed.iter().flat_map(move |set| {
-            self.fixed_lists.of(i).iter().map(move |&j| Near {
-                set,
-                index: j as usize,
-                velocity: None,
-            })
-        });
-        let moving = self.moving.iter().flat_map(move |b| {
-            self.moving_lists.of(i).iter().map(move |&j| Near {
-                set: &b.set,
-                index: j as usize,
-                velocity: Some(&b.velocity),
-            })
-        });
-        fixed.chain(moving)
+    /// Calls `f` on each boundary neighbour of fluid particle `i`, fixed first, then moving.
+    /// An internal iterator, inlined into the scheme's pair loop: the two parts compile to two
+    /// plain loops (an external `flat_map`/`chain` iterator left a call per pair and cost 6 %
+    /// of a Müller step).
+    #[inline(always)]
+    pub fn for_each_neighbor(&self, i: usize, mut f: impl FnMut(Near<'_>)) {
+        if let Some(set) = &self.fixed {
+            for &j in self.fixed_lists.of(i) {
+                f(Near {
+                    set,
+                    index: j as usize,
+                    velocity: None,
+                });
+            }
+        }
+        if let Some(b) = &self.moving {
+            for &j in self.moving_lists.of(i) {
+                f(Near {
+                    set: &b.set,
+                    index: j as usize,
+                    velocity: Some(&b.velocity),
+                });
+            }
+        }
     }
 
     /// Lists the fixed neighbours of the (just sorted) fluid and finds the wall particles near

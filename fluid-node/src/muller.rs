@@ -128,12 +128,12 @@ impl Muller {
                         sum += poly6.value_r2(r2);
                     }
                 }
-                for b in boundary.neighbors(i) {
+                boundary.for_each_neighbor(i, |b| {
                     let r2 = (xi - b.position()).norm_squared();
                     if r2 < h2 {
                         sum += poly6.value_r2(r2);
                     }
-                }
+                });
                 *rho = m * sum;
                 let pressure = k * (*rho - rho_ref);
                 *pr = if clamp { pressure.max(0.0) } else { pressure };
@@ -180,14 +180,14 @@ impl Muller {
                 }
                 // Boundary particles, fixed and moving (free slip); a moving block takes the
                 // reverse (`react`).
-                for b in boundary.neighbors(i) {
+                boundary.for_each_neighbor(i, |b| {
                     let rij = xi - b.position();
                     let r2 = rij.norm_squared();
                     if r2 < h2 {
                         f_pressure -= spiky.gradient(&rij, r2.sqrt())
                             * (m * (pi + b.pressure()) / (2.0 * b.density()));
                     }
-                }
+                });
                 *a = (f_pressure + f_visc) / rho[i] + g + pen[i] / m;
             });
     }

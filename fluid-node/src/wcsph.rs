@@ -192,17 +192,16 @@ impl Wcsph {
                 // takes its reverse, see `react`) and continuity with the wall's velocity, zero
                 // on a fixed block (Adami 2012: free slip, the wall velocity enters through
                 // v_i − v_w only).
-                for b in boundary.neighbors(i) {
+                boundary.for_each_neighbor(i, |b| {
                     let rij = xi - b.position();
                     let r2 = rij.norm_squared();
-                    if r2 >= s2 {
-                        continue;
+                    if r2 < s2 {
+                        let grad = rij * kernel.gradient_factor(r2.sqrt());
+                        let rw = b.density();
+                        ai -= grad * (m * (pi_term + b.pressure() / (rw * rw)));
+                        di += m * (vi - b.velocity()).dot(&grad);
                     }
-                    let grad = rij * kernel.gradient_factor(r2.sqrt());
-                    let rw = b.density();
-                    ai -= grad * (m * (pi_term + b.pressure() / (rw * rw)));
-                    di += m * (vi - b.velocity()).dot(&grad);
-                }
+                });
                 *a = ai + g + pen[i] / m;
                 *d = di;
             });

@@ -75,9 +75,9 @@ fn main() {
                     let mut loads: Vec<BlockLoad> = Vec::new();
                     // Granted as the coupler grants it, towards the scene's end (never reached).
                     let rule = StepRule::new(sc.time.dt_max, sc.time.dt_min);
-                    let mut t = 0.0;
+                    let mut time = 0.0;
                     let mut step = |s: &mut Box<dyn SphSolver>| {
-                        t = validation::step(s.as_mut(), &rule, t, sc.time.end, &mut loads)
+                        time = validation::step(s.as_mut(), &rule, time, sc.time.end, &mut loads)
                             .expect("stable")
                             .0;
                     };
