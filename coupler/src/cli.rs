@@ -26,6 +26,11 @@ pub struct RunArgs {
     /// Coupling scheme (overrides the scene).
     #[arg(long)]
     pub scheme: Option<Scheme>,
+    /// Multi-rate coupling: the solid takes up to N steps of its own per coupling step, with
+    /// the water's loads held (overrides the scene's `[coupling] solid_substeps`; 1 is
+    /// single-rate).
+    #[arg(long, value_name = "N")]
+    pub solid_substeps: Option<u32>,
     /// Particle spacing [m] (overrides the scene's fluid.dx), for quick coarse runs.
     #[arg(long)]
     pub dx: Option<f64>,
@@ -107,6 +112,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     }
     if let Some(end) = args.end {
         scene.time.end = end;
+    }
+    if let Some(n) = args.solid_substeps {
+        scene.coupling.solid_substeps = n;
     }
     // Overrides must leave a valid scene too.
     let problems = crate::scenes::problems(&scene);

@@ -17,6 +17,11 @@ use std::time::{Duration, Instant};
 /// One side of the coupling, as the command loop drives it.
 pub(super) trait Side {
     fn solver(&mut self) -> &mut dyn Solver;
+    /// The step this node can take per exchange, reported to the coupler, which grants the
+    /// coupling step from these: the solver's own stable step, unless the node sub-cycles.
+    fn coupling_proposal(&mut self) -> f64 {
+        self.solver().dt_proposal()
+    }
     /// The set-up exchange, before the first status.
     fn initial_exchange(&mut self, control: &Control) -> Result<(), Fatal>;
     /// One step's exchange with the other node and the solver's advance (not the output
@@ -156,7 +161,7 @@ fn serve_inner(control: &Control, side: &mut dyn Side, opts: &Options) -> Result
     {
         return fail(control, side.solver(), e, 0, 0.0);
     }
-    let dt = side.solver().dt_proposal();
+    let dt = side.coupling_proposal();
     control.report(
         StatusCode::Ok,
         0,
@@ -192,7 +197,7 @@ fn serve_inner(control: &Control, side: &mut dyn Side, opts: &Options) -> Result
                             Some(w) => (StatusCode::Warning, w.as_str()),
                             None => (StatusCode::Ok, ""),
                         };
-                        let dt = side.solver().dt_proposal();
+                        let dt = side.coupling_proposal();
                         control.report(code, cmd.step, cmd.time + cmd.dt, dt, compute, msg)?;
                     }
                     Err(StepFailure::Solver(e)) => {

@@ -192,6 +192,17 @@ mod tests {
     }
 
     #[test]
+    fn zero_solid_substeps_are_refused() {
+        let text = format!("{DEFAULT_SCENE}\n")
+            .replace("[coupling]\n", "[coupling]\nsolid_substeps = 0\n");
+        let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();
+        assert!(
+            msg.contains("coupling.solid_substeps") && msg.contains("fix"),
+            "{msg}"
+        );
+    }
+
+    #[test]
     fn unknown_wall_treatment_is_named() {
         let text = DEFAULT_SCENE.replace("\ndx = 0.04\n", "\ndx = 0.04\nwalls = \"sponge\"\n");
         let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();

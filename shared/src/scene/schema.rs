@@ -255,7 +255,7 @@ fn default_friction() -> f64 {
 }
 
 /// `[coupling]`: the exchange between fluid and solid.
-#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CouplingSpec {
     /// `parallel` (the paper's: both sides use data from t_n) or `serial` (solid first).
@@ -267,6 +267,27 @@ pub struct CouplingSpec {
     pub penalty_damping: Option<f64>,
     /// Distance from a block face [m] within which Eq. 22 acts; default dx/2.
     pub margin: Option<f64>,
+    /// Multi-rate coupling: the solid node takes up to this many steps of its own per
+    /// coupling step, with the water's loads held, so its stability limit does not bind the
+    /// shared step (default 1: one solid step per exchange). `--solid-substeps` overrides it.
+    #[serde(default = "one")]
+    pub solid_substeps: u32,
+}
+
+fn one() -> u32 {
+    1
+}
+
+impl Default for CouplingSpec {
+    fn default() -> Self {
+        Self {
+            scheme: Scheme::default(),
+            penalty_stiffness: None,
+            penalty_damping: None,
+            margin: None,
+            solid_substeps: one(),
+        }
+    }
 }
 
 /// Coupling scheme.

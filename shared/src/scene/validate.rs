@@ -354,6 +354,14 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                 "give the Eq. 22 contact margin in metres, e.g. dx/2",
             );
         }
+        if !(1..=10_000).contains(&k.solid_substeps) {
+            c.fail(
+                "solid_substeps",
+                k.solid_substeps,
+                "must be in 1..=10000",
+                "1 is single-rate; 4 to 20 let an explicit solid sub-cycle inside a long fluid step",
+            );
+        }
     });
 
     let mut names = std::collections::HashSet::new();
