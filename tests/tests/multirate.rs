@@ -14,8 +14,8 @@ fn last_position(dir: &Path, block: &str) -> [f64; 4] {
     let text = std::fs::read_to_string(dir.join("blocks.csv")).expect("blocks.csv");
     let row = text
         .lines()
-        .filter(|l| l.split(',').nth(1) == Some(block))
-        .last()
+        .rev()
+        .find(|l| l.split(',').nth(1) == Some(block))
         .expect("rows of the block");
     let v: Vec<f64> = row
         .split(',')
