@@ -117,6 +117,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             list.join("\n")
         ));
     }
+    if let Some(e) = crate::sizes::estimate(&scene) {
+        eprintln!("coupler: estimate: {}", e.describe());
+    }
     for (flag, v) in [
         ("--connect-timeout", args.connect_timeout),
         ("--step-timeout", args.step_timeout),
@@ -136,6 +139,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         Some(s) => RunId::parse(s).map_err(|e| format!("--run-id: {e}"))?,
         None => RunId::fresh(),
     };
+    // Before anything of the run exists: a second coupler on a live run's id would stop that
+    // run and remove its files.
+    let _lock = crate::lock::RunLock::acquire(&run_id)?;
     let fluid_cmd = match &args.fluid_cmd {
         Some(c) => NodeCommand::given(Role::Fluid, c),
         None => NodeCommand::beside_me(Role::Fluid)?,
