@@ -631,6 +631,10 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
             let (Some(pi), Some(pj)) = (&polys[i], &polys[j]) else {
                 continue;
             };
+            let ((li, hi), (lj, hj)) = (pi.world_aabb(), pj.world_aabb());
+            if (0..3).any(|k| li[k] >= hj[k] || lj[k] >= hi[k]) {
+                continue; // apart or touching: the bounding boxes already tell
+            }
             let depth = crate::geometry::overlap_depth(pi, pj);
             let size = pi.radius.min(pj.radius);
             if depth > MAX_START_OVERLAP * size {
