@@ -142,6 +142,12 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     // Before anything of the run exists: a second coupler on a live run's id would stop that
     // run and remove its files.
     let _lock = crate::lock::RunLock::acquire(&run_id)?;
+    // The id is ours; files a killed run of the same id left behind would confuse the services.
+    if !shared::transport::run_has_live_nodes(&run_id)
+        && shared::transport::remove_run_files(&run_id) > 0
+    {
+        eprintln!("coupler: removed shared memory left by an earlier, dead run {run_id}");
+    }
     let fluid_cmd = match &args.fluid_cmd {
         Some(c) => NodeCommand::given(Role::Fluid, c),
         None => NodeCommand::beside_me(Role::Fluid)?,
