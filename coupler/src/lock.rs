@@ -69,6 +69,29 @@ impl RunLock {
     }
 }
 
+/// Removes the lock files of couplers that died without removing theirs (SIGKILL): a free lock
+/// is taken and dropped, which removes it; a held one is left alone. Returns how many went.
+pub fn remove_stale_locks() -> usize {
+    let Ok(entries) = std::fs::read_dir(SHM_ROOT) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().to_string();
+        let Some(id) = name
+            .strip_prefix("rockwave.")
+            .and_then(|n| n.strip_suffix(".lock"))
+            .and_then(|n| RunId::parse(n).ok())
+        else {
+            continue;
+        };
+        if RunLock::acquire(&id).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
+}
+
 impl Drop for RunLock {
     fn drop(&mut self) {
         // Removed while still locked, so nobody can take the old file after us.

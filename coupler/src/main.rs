@@ -113,7 +113,8 @@ fn main() -> ExitCode {
                     cleaned += 1;
                 }
             }
-            println!("removed the files of {cleaned} dead run(s)");
+            let locks = coupler::lock::remove_stale_locks();
+            println!("removed the files of {cleaned} dead run(s) and {locks} stale run lock(s)");
             ExitCode::SUCCESS
         }
     }
