@@ -125,6 +125,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             list.join("\n")
         ));
     }
+    if let Some(e) = crate::sizes::estimate(&scene) {
+        eprintln!("coupler: estimate: {}", e.describe());
+    }
     for (flag, v) in [
         ("--connect-timeout", args.connect_timeout),
         ("--step-timeout", args.step_timeout),
@@ -144,6 +147,15 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         Some(s) => RunId::parse(s).map_err(|e| format!("--run-id: {e}"))?,
         None => RunId::fresh(),
     };
+    // Before anything of the run exists: a second coupler on a live run's id would stop that
+    // run and remove its files.
+    let _lock = crate::lock::RunLock::acquire(&run_id)?;
+    // The id is ours; files a killed run of the same id left behind would confuse the services.
+    if !shared::transport::run_has_live_nodes(&run_id)
+        && shared::transport::remove_run_files(&run_id) > 0
+    {
+        eprintln!("coupler: removed shared memory left by an earlier, dead run {run_id}");
+    }
     let fluid_cmd = match &args.fluid_cmd {
         Some(c) => NodeCommand::given(Role::Fluid, c),
         None => NodeCommand::beside_me(Role::Fluid)?,

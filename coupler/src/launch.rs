@@ -88,7 +88,24 @@ impl NodeProcess {
     /// reach the user.
     pub fn spawn(cmd: &NodeCommand, id: &RunId) -> Result<NodeProcess, String> {
         let program = cmd.check()?;
-        let child = Command::new(&program)
+        let coupler = std::process::id() as libc::pid_t;
+        let mut command = Command::new(&program);
+        // SAFETY: the closure runs in the child between fork and exec and calls only
+        // async-signal-safe functions (prctl, getppid, _exit).
+        unsafe {
+            use std::os::unix::process::CommandExt;
+            command.pre_exec(move || {
+                // A node whose coupler dies (even by SIGKILL, e.g. during start-up) gets SIGTERM
+                // at once instead of waiting out its timeouts; if the coupler is already gone
+                // the node is not started at all.
+                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+                if libc::getppid() != coupler {
+                    libc::_exit(3);
+                }
+                Ok(())
+            });
+        }
+        let child = command
             .args(&cmd.args)
             .arg("--prefix")
             .arg(id.as_str())

@@ -55,7 +55,7 @@ fn main() -> ExitCode {
         Cmd::Chart(args) => ExitCode::from(coupler::speed_accuracy::run(args)),
         Cmd::Stability(args) => ExitCode::from(coupler::stability::run(args)),
         Cmd::Check { scene } => {
-            let loaded = coupler::scenes::load(scene.as_deref());
+            let loaded = coupler::scenes::load_as_written(scene.as_deref());
             match loaded {
                 Ok(s) => {
                     println!(
@@ -66,6 +66,9 @@ fn main() -> ExitCode {
                         if s.has_fluid() { "yes" } else { "no" },
                         s.gauges.len()
                     );
+                    if let Some(e) = coupler::sizes::estimate(&s) {
+                        println!("estimate: {}", e.describe());
+                    }
                     println!("solvers:\n{}", coupler::scenes::solver_list());
                     ExitCode::SUCCESS
                 }
@@ -110,7 +113,8 @@ fn main() -> ExitCode {
                     cleaned += 1;
                 }
             }
-            println!("removed the files of {cleaned} dead run(s)");
+            let locks = coupler::lock::remove_stale_locks();
+            println!("removed the files of {cleaned} dead run(s) and {locks} stale run lock(s)");
             ExitCode::SUCCESS
         }
     }

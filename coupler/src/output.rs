@@ -27,6 +27,12 @@ impl RunDir {
     /// Creates `path`; refuses an existing non-empty directory so that no earlier result is
     /// ever overwritten.
     pub fn create(path: &Path, scene: &Scene) -> Result<RunDir, String> {
+        if path.exists() && !path.is_dir() {
+            return Err(format!(
+                "the run directory '{}' is a file, not a directory. Fix: choose another --out (a new or empty directory)",
+                path.display()
+            ));
+        }
         if path.exists()
             && std::fs::read_dir(path)
                 .map(|mut d| d.next().is_some())

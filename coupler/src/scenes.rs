@@ -1,6 +1,7 @@
 //! Reading a scene as the coupler does: the schema and its validation (`shared::scene`), plus
 //! each solver registry's check of the solver tables (`[fluid.<name>]`, `[solid.<name>]`), so a
-//! bad solver parameter is named with its field and line before any node starts.
+//! bad solver parameter is named with its field and line before any node starts, and the size
+//! check (`crate::sizes`): a scene that cannot fit in this machine's memory is refused.
 
 use shared::scene::{DEFAULT_SCENE, DEFAULT_SCENE_ORIGIN, FieldError, Scene, SceneError};
 use std::path::Path;
@@ -10,6 +11,24 @@ pub fn solver_checks(scene: &Scene) -> Vec<FieldError> {
     let mut all = fluid_node::check_scene(scene);
     all.extend(solid_node::check_scene(scene));
     all
+}
+
+/// [`solver_checks`] and the size check, for a scene as it will run (after overrides such as
+/// `--dx`). Sizes only for a scene otherwise valid: the estimate reads its shapes.
+pub fn run_checks(scene: &Scene) -> Vec<FieldError> {
+    let all = solver_checks(scene);
+    if all.is_empty() && scene.validate().is_empty() {
+        return crate::sizes::check(scene, None);
+    }
+    all
+}
+
+/// [`load`] with the size check too: the scene runs as written (`coupler check`).
+pub fn load_as_written(path: Option<&Path>) -> Result<Scene, SceneError> {
+    match path {
+        Some(p) => Scene::load_checked(p, &[&run_checks]),
+        None => Scene::parse_checked(DEFAULT_SCENE, DEFAULT_SCENE_ORIGIN, &[&run_checks]),
+    }
 }
 
 /// Loads `path`, or the embedded default scene, with every check.
@@ -23,7 +42,7 @@ pub fn load(path: Option<&Path>) -> Result<Scene, SceneError> {
 /// Every problem of a scene already parsed (after command-line overrides).
 pub fn problems(scene: &Scene) -> Vec<FieldError> {
     let mut all = scene.validate();
-    all.extend(solver_checks(scene));
+    all.extend(run_checks(scene));
     all
 }
 

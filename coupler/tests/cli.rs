@@ -176,3 +176,288 @@ fn bad_overrides_are_named() {
     assert_ne!(o.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&o.stderr).contains("sideways"));
 }
+
+/// The default scene plus `extra`, written to `dir/name.toml`; returns the path and the line
+/// number of the line that holds `needle` (the last one).
+fn scene_with(
+    dir: &std::path::Path,
+    name: &str,
+    text: &str,
+    needle: &str,
+) -> (std::path::PathBuf, usize) {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, text).unwrap();
+    let line = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| l.contains(needle))
+        .map(|(i, _)| i + 1)
+        .last()
+        .unwrap_or_else(|| panic!("{name}: no line holds {needle:?}"));
+    (path, line)
+}
+
+/// Bad values in the solvers' own tables, and scenes too big for this machine, are refused by
+/// `coupler check` naming the field and its line.
+#[test]
+fn solver_tables_and_sizes_are_refused_by_check_naming_field_and_line() {
+    let dir = temp("tables");
+    let d = shared::scene::DEFAULT_SCENE;
+    let cases: Vec<(&str, String, &str, &str)> = vec![
+        (
+            "gamma_nan",
+            format!("{d}\n[fluid.wcsph]\ngamma = nan\n"),
+            "fluid.wcsph.gamma",
+            "gamma = nan",
+        ),
+        (
+            "sound_zero",
+            format!("{d}\n[fluid.wcsph]\nsound_speed = 0.0\n"),
+            "fluid.wcsph.sound_speed",
+            "sound_speed",
+        ),
+        (
+            "smoothing_neg",
+            format!("{d}\n[fluid.wcsph]\nsmoothing_ratio = -1.3\n"),
+            "fluid.wcsph.smoothing_ratio",
+            "smoothing_ratio",
+        ),
+        (
+            "cfl_inf",
+            format!("{d}\n[fluid.wcsph]\ncfl = inf\n"),
+            "fluid.wcsph.cfl",
+            "cfl",
+        ),
+        (
+            "support_zero",
+            format!("{d}\n[fluid.muller]\nsupport_ratio = 0.0\n"),
+            "fluid.muller.support_ratio",
+            "support_ratio",
+        ),
+        (
+            "stiffness_nan",
+            format!("{d}\n[fluid.muller]\nstiffness = nan\n"),
+            "fluid.muller.stiffness",
+            "stiffness",
+        ),
+        (
+            "unknown_table",
+            format!("{d}\n[fluid.sph2]\ngamma = 7.0\n"),
+            "fluid.sph2",
+            "[fluid.sph2]",
+        ),
+        (
+            "safety_zero",
+            format!("{d}\n[solid.explicit]\nsafety_factor = 0.0\n"),
+            "solid.explicit.safety_factor",
+            "safety_factor",
+        ),
+        (
+            "limit_neg",
+            format!("{d}\n[solid.implicit]\ndisplacement_limit = -1.0\n"),
+            "solid.implicit.displacement_limit",
+            "displacement_limit",
+        ),
+        (
+            "dx_tiny",
+            d.replace("\ndx = 0.04\n", "\ndx = 1e-300\n"),
+            "fluid.dx",
+            "dx = 1e-300",
+        ),
+        (
+            "dx_fine",
+            d.replace("\ndx = 0.04\n", "\ndx = 1e-3\n"),
+            "fluid.dx",
+            "dx = 1e-3",
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, text, field, needle) in &cases {
+        let (path, line) = scene_with(&dir, name, text, needle);
+        let o = coupler().arg("check").arg(&path).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        if o.status.code() != Some(1)
+            || !err.contains(&format!("line {line}: {field}"))
+            || !err.contains("fix:")
+        {
+            failures.push(format!("{name}: expected line {line}: {field}; got {err}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A spacing that cannot fit in this machine's memory is refused before anything is written,
+/// whether given by --dx or chosen by --target-error, with the estimate and the spacing that fits.
+#[test]
+fn runs_too_big_for_the_machine_are_refused_before_anything_is_allocated() {
+    let dir = temp("sizes");
+    for flags in [["--dx", "1e-3"], ["--target-error", "1e-9"]] {
+        let out = dir.join("run");
+        let o = coupler()
+            .arg("run")
+            .args(flags)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains("fluid.dx") && err.contains("GB of memory") && err.contains("use dx >="),
+            "{err}"
+        );
+        assert!(!out.exists());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn out_pointing_at_a_file_says_it_is_a_file() {
+    let dir = temp("outfile");
+    let file = dir.join("results.txt");
+    std::fs::write(&file, "keep me").unwrap();
+    let o = coupler()
+        .arg("run")
+        .arg("--out")
+        .arg(&file)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("is a file"), "{err}");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The pids of `pid`'s children.
+fn children(pid: u32) -> Vec<u32> {
+    std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/children"))
+        .unwrap_or_default()
+        .split_whitespace()
+        .filter_map(|s| s.parse().ok())
+        .collect()
+}
+
+/// Running (not ended, not a zombie waiting to be reaped).
+fn running(pid: u32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|s| {
+        s.rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().next())
+            .is_some_and(|state| state != "Z" && state != "X")
+    })
+}
+
+fn sigkill(child: &mut std::process::Child) {
+    // SAFETY: kill(2) on our own, not yet reaped child.
+    unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGKILL) };
+    let _ = child.wait();
+}
+
+fn wait_until(what: &str, timeout_s: f64, mut ok: impl FnMut() -> bool) {
+    let start = std::time::Instant::now();
+    while !ok() {
+        assert!(
+            start.elapsed().as_secs_f64() < timeout_s,
+            "timed out waiting: {what}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+/// A second run on the id of a live run is refused, naming the live run's pid, and leaves the
+/// first run alone; once the first coupler is killed (SIGKILL), the id is free again.
+#[test]
+fn a_live_run_id_is_refused_and_a_killed_one_is_free_again() {
+    let dir = temp("runid");
+    let id = format!("clilock{}", std::process::id());
+    let mut first = coupler()
+        .args([
+            "run", "--quiet", "--dx", "0.08", "--end", "30", "--run-id", &id, "--out",
+        ])
+        .arg(dir.join("first"))
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_until("the first run's nodes", 10.0, || {
+        children(first.id()).len() == 2
+    });
+    let o = coupler()
+        .args([
+            "run", "--quiet", "--dx", "0.08", "--end", "0.1", "--run-id", &id, "--out",
+        ])
+        .arg(dir.join("second"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(&format!("run id {id} is in use"))
+            && err.contains(&format!("pid {}", first.id())),
+        "{err}"
+    );
+    assert!(!dir.join("second").exists());
+    assert!(
+        first.try_wait().unwrap().is_none(),
+        "the first run was disturbed"
+    );
+    let nodes = children(first.id());
+    sigkill(&mut first);
+    // Its nodes leave at once (they watch their parent), and the id is free.
+    wait_until("the killed run's nodes to leave", 5.0, || {
+        !nodes.iter().any(|&p| running(p))
+    });
+    let o = coupler()
+        .args([
+            "run", "--quiet", "--dx", "0.08", "--end", "0.02", "--run-id", &id, "--out",
+        ])
+        .arg(dir.join("third"))
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Nodes started by a coupler that dies during start-up leave at once, not after their
+/// 60 s connect timeout.
+#[test]
+fn nodes_leave_when_their_coupler_dies_during_start_up() {
+    let dir = temp("startup");
+    let id = format!("clistart{}", std::process::id());
+    let mut c = coupler()
+        .args(["run", "--quiet", "--run-id", &id, "--out"])
+        .arg(dir.join("run"))
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_until("the nodes to start", 10.0, || children(c.id()).len() == 2);
+    let nodes = children(c.id());
+    sigkill(&mut c);
+    wait_until("the orphaned nodes to leave", 5.0, || {
+        !nodes.iter().any(|&p| running(p))
+    });
+    let _ = coupler().args(["clean", &id]).output();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A node that finds no coupler names the flag form of the attach command.
+#[test]
+fn a_lonely_node_names_the_attach_command() {
+    let node = std::path::Path::new(env!("CARGO_BIN_EXE_coupler")).with_file_name("fluid-node");
+    let id = format!("clilonely{}", std::process::id());
+    let o = Command::new(node)
+        .args(["--prefix", &id, "--connect-timeout", "0.3"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains(&format!("coupler run --attach --run-id {id}")),
+        "{err}"
+    );
+    let _ = coupler().args(["clean", &id]).output();
+}

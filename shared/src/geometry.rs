@@ -92,6 +92,7 @@ pub fn shape_points(shape: &ShapeSpec) -> Result<Vec<Point>, GeometryError> {
                     "give extent = [from, to] with to > from",
                 ));
             }
+            check_profile(profile)?;
             let place = |a: f64, b: f64, c: f64| match axis {
                 Axis::X => Point::new(c, a, b),
                 Axis::Y => Point::new(a, c, b),
@@ -104,6 +105,91 @@ pub fn shape_points(shape: &ShapeSpec) -> Result<Vec<Point>, GeometryError> {
         }
         ShapeSpec::Convex { vertices } => Ok(vertices.iter().map(|v| Point::from(*v)).collect()),
     }
+}
+
+/// Largest coordinate magnitude a shape may have [m]: far beyond any scene, and small enough
+/// that products of coordinates (areas, volumes, inertia) stay finite.
+pub const MAX_COORDINATE: Real = 1e9;
+
+/// A prism profile must be a simple convex polygon with its points in order around it: every
+/// turn the same way (all cross products of consecutive edges of one sign) and one turn in
+/// all (the exterior angles sum to ±2π; a star polygon turns the same way but twice or more).
+fn check_profile(profile: &[[f64; 2]]) -> Result<(), GeometryError> {
+    if let Some(q) = profile
+        .iter()
+        .find(|q| !(q[0].is_finite() && q[1].is_finite()))
+    {
+        return Err(err(
+            format!("profile point {q:?} is not finite"),
+            "give finite coordinates",
+        ));
+    }
+    let n = profile.len();
+    let edge = |i: usize| {
+        let (a, b) = (profile[i % n], profile[(i + 1) % n]);
+        [b[0] - a[0], b[1] - a[1]]
+    };
+    let (mut sign, mut turning) = (0.0_f64, 0.0_f64);
+    for i in 0..n {
+        let (e, f) = (edge(i), edge(i + 1));
+        let cross = e[0] * f[1] - e[1] * f[0];
+        let dot = e[0] * f[0] + e[1] * f[1];
+        let limit = 1e-12 * (e[0].hypot(e[1]) * f[0].hypot(f[1]));
+        let straight = cross.abs() <= limit;
+        if straight || (sign != 0.0 && cross.signum() != sign) {
+            return Err(err(
+                format!(
+                    "the prism profile is not a convex polygon in order: at point {} the outline {} \
+                     (a self-intersecting or concave outline is not a block)",
+                    (i + 1) % n,
+                    if straight {
+                        "does not turn (repeated or collinear points)"
+                    } else {
+                        "turns back the other way"
+                    }
+                ),
+                "list the profile points in order around a convex polygon, without repeats; split a concave shape into convex blocks",
+            ));
+        }
+        sign = cross.signum();
+        turning += cross.atan2(dot);
+    }
+    if (turning.abs() - std::f64::consts::TAU).abs() > 1e-6 {
+        return Err(err(
+            format!(
+                "the prism profile winds {:.0} times around its centre: its edges cross (a star, not a convex polygon)",
+                turning.abs() / std::f64::consts::TAU
+            ),
+            "list the profile points in order around a convex polygon",
+        ));
+    }
+    Ok(())
+}
+
+/// The thickness of the thinnest slab holding all `points`, as the distance of the farthest
+/// point from the plane through three well-spread ones (a, the farthest from a, the farthest
+/// from that line); `None` for fewer than 4 points. Zero means flat (coplanar or collinear).
+fn thickness(points: &[Point]) -> Option<(Real, Real)> {
+    let a = *points.first()?;
+    let far = |f: &dyn Fn(&Point) -> Real| {
+        points
+            .iter()
+            .copied()
+            .max_by(|p, q| f(p).total_cmp(&f(q)))
+            .unwrap_or(a)
+    };
+    let b = far(&|p| (p - a).norm());
+    let ab = b - a;
+    let line = |p: &Point| ab.cross(&(p - a)).norm();
+    let c = far(&line);
+    let span = line(&c) / ab.norm().max(Real::MIN_POSITIVE);
+    let n = ab.cross(&(c - a));
+    if n.norm() == 0.0 {
+        return Some((0.0, 0.0));
+    }
+    let n = n.normalize();
+    let d = far(&|p| n.dot(&(p - a)).abs());
+    Some((span, n.dot(&(d - a)).abs()))
 }
 
 impl Polyhedron {
@@ -129,8 +215,34 @@ impl Polyhedron {
                 "give finite coordinates",
             ));
         }
+        if let Some(p) = points
+            .iter()
+            .find(|p| p.coords.iter().any(|x| x.abs() > MAX_COORDINATE))
+        {
+            return Err(err(
+                format!("vertex {p} lies beyond ±{MAX_COORDINATE:e} m"),
+                "give coordinates in metres within the scene's domain",
+            ));
+        }
         let (lo, hi) = aabb(points);
         let scale = (hi - lo).norm();
+        // A flat set (all points in one plane, or on one line) has zero volume, whatever the
+        // hull makes of it: say so rather than "not convex".
+        if let Some((span, thick)) = thickness(points)
+            && (span <= 1e-9 * scale || thick <= 1e-9 * scale)
+        {
+            return Err(err(
+                format!(
+                    "the vertices are degenerate/flat: they lie {} (thickness {thick:.3e} m across a {scale:.3e} m shape): zero volume",
+                    if span <= 1e-9 * scale {
+                        "on one line"
+                    } else {
+                        "in one plane"
+                    }
+                ),
+                "give corners that span 3D",
+            ));
+        }
         let tol = 1e-9 * scale;
         for (i, a) in points.iter().enumerate() {
             if let Some(j) = points[..i].iter().position(|b| (a - b).norm() <= tol) {
@@ -244,6 +356,46 @@ impl Polyhedron {
     }
 }
 
+/// How deep the interiors of `a` and `b` (at their scene poses) overlap [m]: the smallest
+/// overlap of their projections over the separating axes of two convex polyhedra (the face
+/// normals of each and the cross products of their edges). Zero or less: they are apart or
+/// only touch.
+pub fn overlap_depth(a: &Polyhedron, b: &Polyhedron) -> Real {
+    let world = |p: &Polyhedron| -> Vec<Point> {
+        p.vertices.iter().map(|v| v + p.centroid.coords).collect()
+    };
+    let (va, vb) = (world(a), world(b));
+    let dirs = |p: &Polyhedron, v: &[Point]| -> Vec<Vector> {
+        p.edges
+            .iter()
+            .map(|e| v[e[1] as usize] - v[e[0] as usize])
+            .collect()
+    };
+    let (ea, eb) = (dirs(a, &va), dirs(b, &vb));
+    let mut axes: Vec<Vector> = a.faces.iter().chain(&b.faces).map(|f| f.normal).collect();
+    for u in &ea {
+        for w in &eb {
+            let n = u.cross(w);
+            if n.norm() > 1e-12 * u.norm() * w.norm() {
+                axes.push(n.normalize());
+            }
+        }
+    }
+    let range = |v: &[Point], n: &Vector| {
+        v.iter()
+            .fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), p| {
+                let d = n.dot(&p.coords);
+                (lo.min(d), hi.max(d))
+            })
+    };
+    axes.iter()
+        .map(|n| {
+            let ((alo, ahi), (blo, bhi)) = (range(&va, n), range(&vb, n));
+            ahi.min(bhi) - alo.max(blo)
+        })
+        .fold(Real::INFINITY, Real::min)
+}
+
 fn aabb(points: &[Point]) -> (Point, Point) {
     let mut lo = Point::from([Real::INFINITY; 3]);
     let mut hi = Point::from([Real::NEG_INFINITY; 3]);
@@ -314,6 +466,66 @@ mod tests {
         })
         .unwrap_err();
         assert!(e.problem.contains("not above"), "{e}");
+    }
+
+    #[test]
+    fn self_intersecting_or_star_profiles_are_refused() {
+        let prism = |profile: Vec<[f64; 2]>| ShapeSpec::Prism {
+            axis: Axis::Y,
+            profile,
+            extent: [0.0, 1.0],
+        };
+        let bowtie = prism(vec![[0., 0.], [1., 1.], [1., 0.], [0., 1.]]);
+        let e = Polyhedron::from_shape(&bowtie).unwrap_err();
+        assert!(e.problem.contains("not a convex polygon in order"), "{e}");
+        let star: Vec<[f64; 2]> = (0..5)
+            .map(|k| {
+                let a = k as f64 * 4.0 * std::f64::consts::PI / 5.0;
+                [a.cos(), a.sin()]
+            })
+            .collect();
+        let e = Polyhedron::from_shape(&prism(star)).unwrap_err();
+        assert!(e.problem.contains("winds 2 times"), "{e}");
+        // Either orientation of a convex outline is fine.
+        let ccw = prism(vec![[0., 0.], [1., 0.], [0., 1.]]);
+        let cw = prism(vec![[0., 0.], [0., 1.], [1., 0.]]);
+        assert!(Polyhedron::from_shape(&ccw).is_ok() && Polyhedron::from_shape(&cw).is_ok());
+    }
+
+    #[test]
+    fn flat_and_huge_vertices_are_named_as_such() {
+        let flat = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0.3, 0.3, 1e-13]];
+        let e = Polyhedron::from_shape(&ShapeSpec::Convex { vertices: flat }).unwrap_err();
+        assert!(
+            e.problem.contains("flat") && e.problem.contains("zero volume"),
+            "{e}"
+        );
+        let line = vec![[0., 0., 0.], [1., 0., 0.], [2., 0., 0.], [3., 0., 0.]];
+        let e = Polyhedron::from_shape(&ShapeSpec::Convex { vertices: line }).unwrap_err();
+        assert!(e.problem.contains("one line"), "{e}");
+        let huge = vec![
+            [0., 0., 0.],
+            [1e200, 0., 0.],
+            [0., 1e200, 0.],
+            [0., 0., 1e200],
+        ];
+        let e = Polyhedron::from_shape(&ShapeSpec::Convex { vertices: huge }).unwrap_err();
+        assert!(e.problem.contains("beyond"), "{e}");
+    }
+
+    #[test]
+    fn overlap_depth_of_boxes() {
+        let cube = |x: f64| {
+            Polyhedron::from_shape(&ShapeSpec::Box {
+                min: [x, 0.0, 0.0],
+                max: [x + 1.0, 1.0, 1.0],
+            })
+            .unwrap()
+        };
+        assert!((overlap_depth(&cube(0.0), &cube(0.0)) - 1.0).abs() < 1e-12);
+        assert!((overlap_depth(&cube(0.0), &cube(0.75)) - 0.25).abs() < 1e-12);
+        assert!(overlap_depth(&cube(0.0), &cube(1.0)).abs() < 1e-12);
+        assert!(overlap_depth(&cube(0.0), &cube(2.0)) < 0.0);
     }
 
     #[test]

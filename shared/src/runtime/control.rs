@@ -123,7 +123,7 @@ pub(super) fn join<'r, I>(
         }
         if started.elapsed().as_secs_f64() > args.connect_timeout {
             return Err(Fatal::Transport(TransportError::Iceoryx(format!(
-                "no coupler answered on run id {} within {} s (start `coupler run --attach {}`)",
+                "no coupler answered on run id {} within {} s (start `coupler run --attach --run-id {} SCENE`)",
                 run.id, args.connect_timeout, run.id
             ))));
         }

@@ -96,7 +96,8 @@ impl Scene {
             origin: origin.into(),
             message: syntax_message(text, &e),
         })?;
-        let mut errors = scene.validate();
+        let mut errors = span::array_lengths(text);
+        errors.extend(scene.validate());
         for check in checks {
             errors.extend(check(&scene));
         }

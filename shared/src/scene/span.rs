@@ -66,3 +66,96 @@ fn search(table: &DeTable<'_>, prefix: &str, offset: usize) -> Option<String> {
     }
     None
 }
+
+/// The length every fixed-size array field must have: serde reads `[f64; 3]` from the first
+/// three elements of a TOML array and ignores the rest, so `min = [0, 0, 0, 7]` would be
+/// silently truncated. `Some((n, true))`: each element of the array is an array of `n`.
+fn fixed_length(key: &str) -> Option<(usize, bool)> {
+    match key {
+        "gravity" | "min" | "max" | "velocity" | "angular_velocity" | "amplitude" | "position" => {
+            Some((3, false))
+        }
+        "extent" => Some((2, false)),
+        "vertices" => Some((3, true)),
+        "profile" => Some((2, true)),
+        _ => None,
+    }
+}
+
+/// Every fixed-size array of the scene text with another number of elements than its field
+/// has (solver parameter tables, `[fluid.<name>]` and `[solid.<name>]`, are the solvers' own).
+pub(super) fn array_lengths(text: &str) -> Vec<FieldError> {
+    let mut errors = Vec::new();
+    if let Ok(root) = DeTable::parse(text) {
+        walk(root.get_ref(), &mut Vec::new(), &mut errors);
+    }
+    errors
+}
+
+fn walk(table: &DeTable<'_>, path: &mut Vec<Seg>, errors: &mut Vec<FieldError>) {
+    let solver_table = |path: &[Seg], key: &str| matches!(path, [Seg::Key(r)] if (r == "fluid" && key != "water") || (r == "solid" && key != "contact"));
+    for (key, value) in table.iter() {
+        let key = key.get_ref();
+        if solver_table(path, key) && matches!(value.get_ref(), DeValue::Table(_)) {
+            continue;
+        }
+        path.push(Seg::Key(key.to_string()));
+        match (value.get_ref(), fixed_length(key)) {
+            (DeValue::Array(a), Some((n, nested))) => {
+                let bad = if nested {
+                    a.iter().enumerate().find_map(|(i, v)| match v.get_ref() {
+                        DeValue::Array(inner) if inner.len() != n => Some((i, inner.len())),
+                        _ => None,
+                    })
+                } else {
+                    (a.len() != n).then_some((usize::MAX, a.len()))
+                };
+                if let Some((i, len)) = bad {
+                    let mut segments = path.clone();
+                    if i != usize::MAX {
+                        segments.push(Seg::Index(i));
+                    }
+                    errors.push(FieldError {
+                        path: render_path(&segments),
+                        segments,
+                        value: format!("{len} numbers"),
+                        problem: format!(
+                            "must hold exactly {n} numbers{}",
+                            if n == 3 { " (x, y, z)" } else { "" }
+                        ),
+                        fix: format!("give {n} numbers; extra ones are not ignored silently"),
+                        line: None,
+                    });
+                }
+            }
+            (DeValue::Table(t), _) => walk(t, path, errors),
+            (DeValue::Array(a), None) => {
+                for (i, v) in a.iter().enumerate() {
+                    if let DeValue::Table(t) = v.get_ref() {
+                        path.push(Seg::Index(i));
+                        walk(t, path, errors);
+                        path.pop();
+                    }
+                }
+            }
+            _ => {}
+        }
+        path.pop();
+    }
+}
+
+/// `block[2].shape.min` from its segments.
+pub(super) fn render_path(segments: &[Seg]) -> String {
+    let mut path = String::new();
+    for s in segments {
+        match s {
+            Seg::Key(k) if path.is_empty() => path.push_str(k),
+            Seg::Key(k) => {
+                path.push('.');
+                path.push_str(k)
+            }
+            Seg::Index(i) => path.push_str(&format!("[{i}]")),
+        }
+    }
+    path
+}

@@ -54,6 +54,18 @@ impl std::fmt::Display for FieldError {
     }
 }
 
+/// Largest domain coordinate [m]: a 10 000 km box holds any landslide tsunami.
+const MAX_DOMAIN: f64 = 1e7;
+/// Most output frames a run may ask for (time.end / output.interval).
+const MAX_FRAMES: f64 = 1e4;
+/// Smallest block, as a fraction of the domain diagonal (cube root of the volume).
+const MIN_BLOCK_OF_DOMAIN: f64 = 1e-6;
+/// Overlap of two moving blocks at the start, as a fraction of the smaller one's radius, above
+/// which their interiors are taken to overlap (rounding in the corner coordinates stays below).
+const MAX_START_OVERLAP: f64 = 1e-6;
+/// Fastest prescribed block motion [m/s]; a landslide is tens of m/s.
+const MAX_SPEED: f64 = 1e3;
+
 /// Collects errors while walking the scene.
 struct Checker {
     path: Vec<Seg>,
@@ -77,17 +89,7 @@ impl Checker {
         if !field.is_empty() {
             segments.push(Seg::Key(field.into()));
         }
-        let mut path = String::new();
-        for s in &segments {
-            match s {
-                Seg::Key(k) if path.is_empty() => path.push_str(k),
-                Seg::Key(k) => {
-                    path.push('.');
-                    path.push_str(k)
-                }
-                Seg::Index(i) => path.push_str(&format!("[{i}]")),
-            }
-        }
+        let path = super::span::render_path(&segments);
         self.errors.push(FieldError {
             path,
             segments,
@@ -110,7 +112,64 @@ impl Checker {
         }
     }
 
+    /// A name written into CSV headers and cells, JSON keys and messages: not empty, no
+    /// separator, quote or control character, no spaces at either end (CSV readers trim them).
+    fn label(&mut self, field: &str, name: &str, what: &str) {
+        let bad = name
+            .chars()
+            .find(|ch| matches!(ch, ',' | '"' | '\'' | ';') || ch.is_control());
+        if name.trim().is_empty() {
+            self.fail(
+                field,
+                name,
+                "is empty",
+                &format!("give the {what} a short name"),
+            );
+        } else if let Some(ch) = bad {
+            self.fail(
+                field,
+                name,
+                &format!("holds {ch:?}, which breaks the CSV and JSON outputs"),
+                "use letters, digits, spaces, '_', '-' or '.'",
+            );
+        } else if name.trim() != name {
+            self.fail(
+                field,
+                name,
+                "starts or ends with white space",
+                "remove the spaces around the name",
+            );
+        }
+    }
+
     fn shape(&mut self, shape: &ShapeSpec, domain: &DomainSpec, must_be_inside: bool) {
+        // Coordinates far outside the domain are typos (a fixed block may reach past the
+        // domain, not by more than ten times its size): say so before the geometry does.
+        let diag = (0..3)
+            .map(|k| (domain.max[k] - domain.min[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if let Ok(points) = crate::geometry::shape_points(shape)
+            && diag.is_finite()
+            && let Some(p) = points.iter().find(|p| {
+                (0..3).any(|k| {
+                    !(p[k] >= domain.min[k] - 10.0 * diag && p[k] <= domain.max[k] + 10.0 * diag)
+                })
+            })
+        {
+            self.key("shape", |c| {
+                c.fail(
+                    "",
+                    shape_summary(shape),
+                    &format!(
+                        "has a corner at [{:e}, {:e}, {:e}], more than ten domain sizes ({:.3} m) outside [domain]",
+                        p[0], p[1], p[2], 10.0 * diag
+                    ),
+                    "give coordinates in metres near the domain (a typo in an exponent?)",
+                )
+            });
+            return;
+        }
         self.key("shape", |c| match Polyhedron::from_shape(shape) {
             Err(e) => c.fail("", shape_summary(shape), &e.problem, &e.fix),
             Ok(p) if must_be_inside => {
@@ -159,8 +218,30 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
             "is empty",
             "give the scene a short name, e.g. name = \"wedge\"",
         );
+    } else if s.name.starts_with('.')
+        || s.name.len() > 100
+        || !s
+            .name
+            .chars()
+            .all(|ch| ch.is_ascii_alphanumeric() || matches!(ch, '_' | '-' | '.'))
+    {
+        c.fail(
+            "name",
+            &s.name,
+            "names the run directory (runs/<name>-<run id>) and must be one plain file name: \
+             no '/', '..', spaces or other characters, not starting with '.', at most 100 characters",
+            "use letters, digits, '_', '-' and '.', e.g. name = \"sliding_wedge\"",
+        );
     }
     c.finite3("gravity", s.gravity);
+    if s.gravity.iter().any(|g| g.abs() > 1e3) {
+        c.fail(
+            "gravity",
+            s.gravity,
+            "is more than 100 g",
+            "give gravity in m/s², e.g. gravity = [0, 0, -9.81]",
+        );
+    }
 
     c.key("time", |c| {
         c.positive(
@@ -192,6 +273,16 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
     c.key("domain", |c| {
         c.finite3("min", d.min);
         c.finite3("max", d.max);
+        for (field, v) in [("min", d.min), ("max", d.max)] {
+            if v.iter().any(|x| x.abs() > MAX_DOMAIN) {
+                c.fail(
+                    field,
+                    v,
+                    &format!("lies beyond ±{MAX_DOMAIN:e} m"),
+                    "give the domain corners in metres",
+                );
+            }
+        }
         if (0..3).any(|k| d.max[k] <= d.min[k]) {
             c.fail(
                 "max",
@@ -208,6 +299,19 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
             s.output.interval,
             "give the time between frames, e.g. interval = 0.05",
         );
+        let frames = s.time.end / s.output.interval;
+        if s.output.interval > 0.0 && frames > MAX_FRAMES {
+            c.fail(
+                "interval",
+                s.output.interval,
+                &format!(
+                    "asks for {frames:.3e} frames over time.end = {} s (at most {MAX_FRAMES:.0}); \
+                     each frame is a step landed exactly and a VTK file per node",
+                    s.time.end
+                ),
+                &format!("use interval >= {:.3e}", s.time.end / MAX_FRAMES),
+            );
+        }
     });
 
     if let Some(f) = &s.fluid {
@@ -364,19 +468,57 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
         }
     });
 
+    let diag = (0..3)
+        .map(|k| (d.max[k] - d.min[k]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let polys: Vec<Option<Polyhedron>> = s
+        .blocks
+        .iter()
+        .map(|b| Polyhedron::from_shape(&b.shape).ok())
+        .collect();
     let mut names = std::collections::HashSet::new();
     for (i, b) in s.blocks.iter().enumerate() {
         c.key("block", |c| {
             c.at(Seg::Index(i), |c| {
+                c.label("name", &b.name, "block");
                 if !names.insert(b.name.as_str()) {
                     c.fail(
                         "name",
                         &b.name,
-                        "is used by an earlier block",
+                        "is used by an earlier block (blocks.csv and summary.json key blocks by name)",
                         "give every block a unique name",
                     );
                 }
                 c.shape(&b.shape, d, b.kind != BlockKind::Fixed);
+                if let Some(p) = polys[i].as_ref() {
+                    let size = p.volume.cbrt();
+                    let dx = s.fluid.as_ref().map_or(0.0, |f| f.dx);
+                    let floor = if b.kind == BlockKind::Fixed {
+                        MIN_BLOCK_OF_DOMAIN * diag
+                    } else {
+                        (MIN_BLOCK_OF_DOMAIN * diag).max(dx / 4.0)
+                    };
+                    if size < floor {
+                        c.key("shape", |c| {
+                            c.fail(
+                                "",
+                                shape_summary(&b.shape),
+                                &format!(
+                                    "block '{}' is {size:.3e} m across (the cube root of its volume), \
+                                     below {floor:.3e} m ({}): too small to simulate",
+                                    b.name,
+                                    if floor > MIN_BLOCK_OF_DOMAIN * diag {
+                                        "a quarter of fluid.dx: no particle would see it"
+                                    } else {
+                                        "1e-6 of the domain diagonal"
+                                    }
+                                ),
+                                "make the block larger, or remove it",
+                            )
+                        });
+                    }
+                }
                 if b.kind == BlockKind::Free {
                     c.positive(
                         "density",
@@ -393,8 +535,36 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                         "a kinematic block needs a prescribed motion",
                         "add motion = { type = \"sine\", amplitude = [0.1, 0, 0], period = 2.0 }",
                     ),
-                    (BlockKind::Kinematic, Some(MotionSpec::Sine { period, ramp, .. })) => {
+                    (BlockKind::Kinematic, Some(MotionSpec::Linear { velocity })) => {
                         c.key("motion", |c| {
+                            c.finite3("velocity", *velocity);
+                            if velocity.iter().any(|v| v.abs() > MAX_SPEED) {
+                                c.fail(
+                                    "velocity",
+                                    velocity,
+                                    &format!("is faster than {MAX_SPEED} m/s"),
+                                    "give the velocity in m/s",
+                                );
+                            }
+                        })
+                    }
+                    (
+                        BlockKind::Kinematic,
+                        Some(MotionSpec::Sine {
+                            amplitude,
+                            period,
+                            phase,
+                            ramp,
+                        }),
+                    ) => {
+                        c.key("motion", |c| {
+                            c.finite3("amplitude", *amplitude);
+                            if !phase.is_finite() {
+                                c.fail("phase", *phase, "must be finite", "give the phase in radians, or 0");
+                            }
+                            if ramp.is_infinite() {
+                                c.fail("ramp", *ramp, "must be finite", "give the ramp-in time in seconds, or 0");
+                            }
                             c.positive("period", *period, "give the period in seconds");
                             if ramp.is_nan() || *ramp < 0.0 {
                                 c.fail(
@@ -453,6 +623,75 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                             );
                         }
                     });
+                }
+            })
+        });
+    }
+
+    // Moving blocks must not start inside each other: the contact springs act on penetrations
+    // of the order of allowed_penetration, and two blocks sharing their interiors move as one.
+    for i in 0..s.blocks.len() {
+        for j in 0..i {
+            let (bi, bj) = (&s.blocks[i], &s.blocks[j]);
+            if bi.kind == BlockKind::Fixed || bj.kind == BlockKind::Fixed {
+                continue;
+            }
+            let (Some(pi), Some(pj)) = (&polys[i], &polys[j]) else {
+                continue;
+            };
+            let ((li, hi), (lj, hj)) = (pi.world_aabb(), pj.world_aabb());
+            if (0..3).any(|k| li[k] >= hj[k] || lj[k] >= hi[k]) {
+                continue; // apart or touching: the bounding boxes already tell
+            }
+            let depth = crate::geometry::overlap_depth(pi, pj);
+            let size = pi.radius.min(pj.radius);
+            if depth > MAX_START_OVERLAP * size {
+                c.key("block", |c| {
+                    c.at(Seg::Index(i), |c| {
+                        c.fail(
+                            "shape",
+                            shape_summary(&bi.shape),
+                            &format!(
+                                "the interior of block '{}' overlaps that of block '{}' (block[{j}]) by {depth:.3e} m: \
+                                 moving blocks that start inside each other feel no contact and move as one",
+                                bi.name, bj.name
+                            ),
+                            "move the blocks apart (touching faces are fine)",
+                        )
+                    })
+                });
+            }
+        }
+    }
+
+    let mut gauge_names = std::collections::HashSet::new();
+    for (i, g) in s.gauges.iter().enumerate() {
+        c.key("gauge", |c| {
+            c.at(Seg::Index(i), |c| {
+                c.label("name", &g.name, "gauge");
+                if !gauge_names.insert(g.name.as_str()) {
+                    c.fail(
+                        "name",
+                        &g.name,
+                        "is used by an earlier gauge (gauges.csv columns and summary.json key gauges by name)",
+                        "give every gauge a unique name",
+                    );
+                }
+            })
+        });
+    }
+    let mut probe_names = std::collections::HashSet::new();
+    for (i, p) in s.probes.iter().enumerate() {
+        c.key("probe", |c| {
+            c.at(Seg::Index(i), |c| {
+                c.label("name", &p.name, "probe");
+                if !probe_names.insert(p.name.as_str()) {
+                    c.fail(
+                        "name",
+                        &p.name,
+                        "is used by an earlier probe (probes.csv columns are named by probe)",
+                        "give every probe a unique name",
+                    );
                 }
             })
         });

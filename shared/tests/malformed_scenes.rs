@@ -1,0 +1,676 @@
+//! Malformed scenes, one table row each: the scene (the default scene with one change) must be
+//! refused with an error that names the field, on the line where the field is written.
+//!
+//! The solver parameter tables (`[fluid.<name>]`, `[solid.<name>]`) and the size limits are
+//! checked by the coupler (it knows the solver registries and the machine): see
+//! `coupler/tests/cli.rs`.
+
+use shared::scene::{DEFAULT_SCENE, Scene, SceneError};
+
+/// The default scene with `from` replaced by `to` (once; `from` must be there).
+fn edit(from: &str, to: &str) -> String {
+    assert!(
+        DEFAULT_SCENE.contains(from),
+        "the default scene has no {from:?}"
+    );
+    DEFAULT_SCENE.replacen(from, to, 1)
+}
+
+/// The default scene with `extra` appended.
+fn plus(extra: &str) -> String {
+    format!("{DEFAULT_SCENE}\n{extra}\n")
+}
+
+const WEDGE_PROFILE: &str = "profile = [[-0.179479, 0.783154], [0.320521, 0.55], [0.320521, 0.783154]], extent = [0.25, 0.55] }";
+const KINEMATIC: &str = "[[block]]\nname = \"paddle\"\nkind = \"kinematic\"\nshape = { type = \"box\", min = [4.0, 0.3, 0.6], max = [4.2, 0.5, 0.8] }";
+
+struct Case {
+    what: &'static str,
+    text: String,
+    /// The field the error must name (its dotted path).
+    field: &'static str,
+    /// Text of the line the field sits on; the error must give that line.
+    line_has: &'static str,
+}
+
+fn case(what: &'static str, text: String, field: &'static str, line_has: &'static str) -> Case {
+    Case {
+        what,
+        text,
+        field,
+        line_has,
+    }
+}
+
+fn cases() -> Vec<Case> {
+    let kin = |motion: &str| plus(&format!("{KINEMATIC}\n{motion}"));
+    let extra_block = |name: &str, kind: &str, shape: &str| {
+        plus(&format!(
+            "[[block]]\nname = \"{name}\"\nkind = \"{kind}\"\nshape = {shape}"
+        ))
+    };
+    vec![
+        case(
+            "empty name",
+            edit("name = \"sliding_wedge\"", "name = \"\""),
+            "name",
+            "name = \"\"",
+        ),
+        case(
+            "name climbs out of runs/",
+            edit("name = \"sliding_wedge\"", "name = \"../../evil\""),
+            "name",
+            "evil",
+        ),
+        case(
+            "name with a slash",
+            edit("name = \"sliding_wedge\"", "name = \"a/b\""),
+            "name",
+            "a/b",
+        ),
+        case(
+            "gravity NaN",
+            edit("[time]", "gravity = [0.0, 0.0, nan]\n[time]"),
+            "gravity",
+            "gravity",
+        ),
+        case(
+            "gravity absurd",
+            edit("[time]", "gravity = [0.0, 0.0, -1e5]\n[time]"),
+            "gravity",
+            "gravity",
+        ),
+        case(
+            "end zero",
+            edit("end = 2.5", "end = 0.0"),
+            "time.end",
+            "end = 0.0",
+        ),
+        case(
+            "end infinite",
+            edit("end = 2.5", "end = inf"),
+            "time.end",
+            "end = inf",
+        ),
+        case(
+            "dt_max negative",
+            edit("dt_max = 1e-3", "dt_max = -1e-3"),
+            "time.dt_max",
+            "dt_max",
+        ),
+        case(
+            "dt_min above dt_max",
+            edit("dt_max = 1e-3", "dt_max = 1e-3\ndt_min = 1.0"),
+            "time.dt_min",
+            "dt_min",
+        ),
+        case(
+            "domain.min with 4 numbers",
+            edit(
+                "min = [-0.6, -0.05, -0.05]",
+                "min = [-0.6, -0.05, -0.05, 7.0]",
+            ),
+            "domain.min",
+            "7.0",
+        ),
+        case(
+            "domain.max below min",
+            edit("max = [5.05, 0.85, 1.6]", "max = [5.05, -0.85, 1.6]"),
+            "domain.max",
+            "-0.85",
+        ),
+        case(
+            "domain.max absurd",
+            edit("max = [5.05, 0.85, 1.6]", "max = [5.05, 0.85, 1e300]"),
+            "domain.max",
+            "1e300",
+        ),
+        case(
+            "output.interval zero",
+            edit("interval = 0.05", "interval = 0.0"),
+            "output.interval",
+            "interval",
+        ),
+        case(
+            "output.interval far below dt",
+            edit("interval = 0.05", "interval = 1e-9"),
+            "output.interval",
+            "interval",
+        ),
+        case(
+            "water density negative",
+            edit("density = 1000.0", "density = -1000.0"),
+            "fluid.density",
+            "-1000.0",
+        ),
+        case(
+            "dx zero",
+            edit("\ndx = 0.04", "\ndx = 0.0"),
+            "fluid.dx",
+            "dx = 0.0",
+        ),
+        case(
+            "dx NaN",
+            edit("\ndx = 0.04", "\ndx = nan"),
+            "fluid.dx",
+            "dx = nan",
+        ),
+        case(
+            "dx coarser than the domain",
+            edit("\ndx = 0.04", "\ndx = 10.0"),
+            "fluid.dx",
+            "dx = 10.0",
+        ),
+        case(
+            "viscosity negative",
+            edit("\ndx = 0.04", "\ndx = 0.04\nkinematic_viscosity = -1e-6"),
+            "fluid.kinematic_viscosity",
+            "kinematic_viscosity",
+        ),
+        case(
+            "density ratio bound below 1",
+            edit("\ndx = 0.04", "\ndx = 0.04\ndensity_ratio_bound = 0.9"),
+            "fluid.density_ratio_bound",
+            "density_ratio_bound = 0.9",
+        ),
+        case(
+            "stray fluid value",
+            edit("\ndx = 0.04", "\ndx = 0.04\ndxx = 0.1"),
+            "fluid.dxx",
+            "dxx",
+        ),
+        case(
+            "water outside the domain",
+            edit("max = [5.0, 0.8, 0.48]", "max = [9.0, 0.8, 0.48]"),
+            "fluid.water[0].shape",
+            "9.0",
+        ),
+        case(
+            "water box empty",
+            edit("max = [5.0, 0.8, 0.48]", "max = [5.0, 0.8, 0.0]"),
+            "fluid.water[0].shape",
+            "0.8, 0.0]",
+        ),
+        case(
+            "stray solid value",
+            edit(
+                "solver = \"explicit\"",
+                "solver = \"explicit\"\nsafety_factor = 0.5",
+            ),
+            "solid.safety_factor",
+            "safety_factor",
+        ),
+        case(
+            "friction angle 95°",
+            edit("friction_angle = 5.0", "friction_angle = 95.0"),
+            "solid.contact.friction_angle",
+            "95.0",
+        ),
+        case(
+            "shear ratio negative",
+            edit(
+                "friction_angle = 5.0",
+                "friction_angle = 5.0\nshear_ratio = -0.4",
+            ),
+            "solid.contact.shear_ratio",
+            "shear_ratio",
+        ),
+        case(
+            "cohesion NaN",
+            edit(
+                "friction_angle = 5.0",
+                "friction_angle = 5.0\ncohesion = nan",
+            ),
+            "solid.contact.cohesion",
+            "cohesion",
+        ),
+        case(
+            "allowed penetration zero",
+            edit(
+                "friction_angle = 5.0",
+                "friction_angle = 5.0\nallowed_penetration = 0.0",
+            ),
+            "solid.contact.allowed_penetration",
+            "allowed_penetration",
+        ),
+        case(
+            "damping ratio 2",
+            edit(
+                "friction_angle = 5.0",
+                "friction_angle = 5.0\ndamping_ratio = 2.0",
+            ),
+            "solid.contact.damping_ratio",
+            "damping_ratio",
+        ),
+        case(
+            "normal stiffness zero",
+            edit(
+                "friction_angle = 5.0",
+                "friction_angle = 5.0\nnormal_stiffness = 0.0",
+            ),
+            "solid.contact.normal_stiffness",
+            "normal_stiffness",
+        ),
+        case(
+            "penalty stiffness negative",
+            edit(
+                "scheme = \"parallel\"",
+                "scheme = \"parallel\"\npenalty_stiffness = -1.0",
+            ),
+            "coupling.penalty_stiffness",
+            "penalty_stiffness",
+        ),
+        case(
+            "penalty damping NaN",
+            edit(
+                "scheme = \"parallel\"",
+                "scheme = \"parallel\"\npenalty_damping = nan",
+            ),
+            "coupling.penalty_damping",
+            "penalty_damping",
+        ),
+        case(
+            "margin zero",
+            edit(
+                "scheme = \"parallel\"",
+                "scheme = \"parallel\"\nmargin = 0.0",
+            ),
+            "coupling.margin",
+            "margin",
+        ),
+        case(
+            "duplicate block name",
+            edit("name = \"far_wall\"", "name = \"floor\""),
+            "block[1].name",
+            "name = \"floor\"",
+        ),
+        case(
+            "block name with a comma",
+            edit("name = \"floor\"", "name = \"floor,1\""),
+            "block[0].name",
+            "floor,1",
+        ),
+        case(
+            "block name with a newline",
+            edit("name = \"floor\"", "name = \"floor\\nx\""),
+            "block[0].name",
+            "floor\\nx",
+        ),
+        case(
+            "block name with a quote",
+            edit("name = \"floor\"", "name = 'fl\"oor'"),
+            "block[0].name",
+            "fl\"oor",
+        ),
+        case(
+            "free block density zero",
+            edit("density = 2500.0", "density = 0.0"),
+            "block[5].density",
+            "density = 0.0",
+        ),
+        case(
+            "free block velocity infinite",
+            edit(
+                "density = 2500.0",
+                "density = 2500.0\nvelocity = [inf, 0.0, 0.0]",
+            ),
+            "block[5].velocity",
+            "velocity",
+        ),
+        case(
+            "free block spin NaN",
+            edit(
+                "density = 2500.0",
+                "density = 2500.0\nangular_velocity = [0.0, nan, 0.0]",
+            ),
+            "block[5].angular_velocity",
+            "angular_velocity",
+        ),
+        case(
+            "motion on a free block",
+            edit(
+                "density = 2500.0",
+                "density = 2500.0\nmotion = { type = \"linear\", velocity = [1.0, 0.0, 0.0] }",
+            ),
+            "block[5].motion",
+            "motion",
+        ),
+        case(
+            "kinematic block without motion",
+            plus(KINEMATIC),
+            "block[6].motion",
+            "[[block]]",
+        ),
+        case(
+            "kinematic velocity NaN",
+            kin("motion = { type = \"linear\", velocity = [nan, 0.0, 0.0] }"),
+            "block[6].motion.velocity",
+            "nan",
+        ),
+        case(
+            "kinematic velocity infinite",
+            kin("motion = { type = \"linear\", velocity = [0.0, inf, 0.0] }"),
+            "block[6].motion.velocity",
+            "inf",
+        ),
+        case(
+            "kinematic velocity absurd",
+            kin("motion = { type = \"linear\", velocity = [0.0, 0.0, 1e9] }"),
+            "block[6].motion.velocity",
+            "1e9",
+        ),
+        case(
+            "sine period zero",
+            kin("motion = { type = \"sine\", amplitude = [0.1, 0.0, 0.0], period = 0.0 }"),
+            "block[6].motion.period",
+            "period",
+        ),
+        case(
+            "sine amplitude infinite",
+            kin("motion = { type = \"sine\", amplitude = [inf, 0.0, 0.0], period = 1.0 }"),
+            "block[6].motion.amplitude",
+            "amplitude",
+        ),
+        case(
+            "sine phase NaN",
+            kin(
+                "motion = { type = \"sine\", amplitude = [0.1, 0.0, 0.0], period = 1.0, phase = nan }",
+            ),
+            "block[6].motion.phase",
+            "phase",
+        ),
+        case(
+            "sine ramp negative",
+            kin(
+                "motion = { type = \"sine\", amplitude = [0.1, 0.0, 0.0], period = 1.0, ramp = -1.0 }",
+            ),
+            "block[6].motion.ramp",
+            "ramp",
+        ),
+        case(
+            "block friction angle negative",
+            edit(
+                "density = 2500.0",
+                "density = 2500.0\nfriction_angle = -5.0",
+            ),
+            "block[5].friction_angle",
+            "-5.0",
+        ),
+        case(
+            "block cohesion negative",
+            edit("density = 2500.0", "density = 2500.0\ncohesion = -1.0"),
+            "block[5].cohesion",
+            "cohesion",
+        ),
+        case(
+            "elastic fixed block",
+            edit(
+                "kind = \"fixed\"",
+                "kind = \"fixed\"\nelastic = { young_modulus = 1e10 }",
+            ),
+            "block[0].elastic",
+            "elastic",
+        ),
+        case(
+            "Poisson ratio 0.5",
+            edit(
+                "density = 2500.0",
+                "density = 2500.0\nelastic = { young_modulus = 1e10, poisson_ratio = 0.5 }",
+            ),
+            "block[5].elastic.poisson_ratio",
+            "poisson_ratio",
+        ),
+        case(
+            "Young's modulus zero",
+            edit(
+                "density = 2500.0",
+                "density = 2500.0\nelastic = { young_modulus = 0.0 }",
+            ),
+            "block[5].elastic.young_modulus",
+            "young_modulus",
+        ),
+        case(
+            "self-intersecting prism profile",
+            extra_block(
+                "bow",
+                "fixed",
+                "{ type = \"prism\", axis = \"y\", profile = [[2.0, 1.0], [3.0, 1.5], [3.0, 1.0], [2.0, 1.5]], extent = [0.0, 0.5] }",
+            ),
+            "block[6].shape",
+            "[2.0, 1.5]",
+        ),
+        case(
+            "flat tetrahedron",
+            extra_block(
+                "flat",
+                "fixed",
+                "{ type = \"convex\", vertices = [[2.0, 0.1, 1.0], [3.0, 0.1, 1.0], [2.0, 0.6, 1.0], [2.3, 0.3, 1.0000000000001]] }",
+            ),
+            "block[6].shape",
+            "1.0000000000001",
+        ),
+        case(
+            "vertices at 1e200",
+            extra_block(
+                "far",
+                "fixed",
+                "{ type = \"convex\", vertices = [[0.0, 0.0, 0.0], [1e200, 0.0, 0.0], [0.0, 1e200, 0.0], [0.0, 0.0, 1e200]] }",
+            ),
+            "block[6].shape",
+            "1e200",
+        ),
+        case(
+            "a 1 nm free block",
+            extra_block(
+                "grain",
+                "free",
+                "{ type = \"box\", min = [2.0, 0.4, 1.0], max = [2.000000001, 0.400000001, 1.000000001] }",
+            ),
+            "block[6].shape",
+            "2.000000001",
+        ),
+        case(
+            "two free blocks in one place",
+            extra_block(
+                "twin",
+                "free",
+                &format!("{{ type = \"prism\", axis = \"y\", {WEDGE_PROFILE}"),
+            ),
+            "block[6].shape",
+            "0.320521",
+        ),
+        case(
+            "non-convex convex block",
+            extra_block(
+                "dent",
+                "fixed",
+                "{ type = \"convex\", vertices = [[2,0,0],[3,0,0],[2,1,0],[2,0,1],[2.1,0.1,0.1]] }",
+            ),
+            "block[6].shape",
+            "2.1,0.1,0.1",
+        ),
+        case(
+            "convex vertex with 4 numbers",
+            extra_block(
+                "v4",
+                "fixed",
+                "{ type = \"convex\", vertices = [[2,0,0],[3,0,0,9],[2,1,0],[2,0,1]] }",
+            ),
+            "block[6].shape",
+            "[3,0,0,9]",
+        ),
+        case(
+            "profile point with 3 numbers",
+            extra_block(
+                "p3",
+                "fixed",
+                "{ type = \"prism\", axis = \"y\", profile = [[2.0, 1.0, 5.0], [3.0, 1.0], [3.0, 1.5]], extent = [0.0, 0.5] }",
+            ),
+            "block[6].shape",
+            "[2.0, 1.0, 5.0]",
+        ),
+        case(
+            "box min with 4 numbers",
+            edit("min = [5.0, -0.2, -0.2]", "min = [5.0, -0.2, -0.2, 1.0]"),
+            "block[1].shape",
+            "-0.2, -0.2, 1.0]",
+        ),
+        case(
+            "free block outside the domain",
+            edit("extent = [0.25, 0.55]", "extent = [0.25, 1.55]"),
+            "block[5].shape",
+            "1.55",
+        ),
+        case(
+            "gauge outside the domain",
+            edit("\nx = 1.5\n", "\nx = 15.0\n"),
+            "gauge[0].x",
+            "x = 15.0",
+        ),
+        case(
+            "duplicate gauge name",
+            edit("name = \"G2\"", "name = \"G1\""),
+            "gauge[1].name",
+            "name = \"G1\"",
+        ),
+        case(
+            "gauge name with a comma",
+            edit("name = \"G3\"", "name = \"G,3\""),
+            "gauge[2].name",
+            "G,3",
+        ),
+        case(
+            "gauge name padded",
+            edit("name = \"G4\"", "name = \" G4\""),
+            "gauge[3].name",
+            "\" G4\"",
+        ),
+        case(
+            "probe outside the domain",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, -5.0]",
+            ),
+            "probe[0].position",
+            "-5.0",
+        ),
+        case(
+            "duplicate probe name",
+            plus("[[probe]]\nname = \"far_wall_bottom\"\nposition = [4.0, 0.4, 0.05]"),
+            "probe[1].name",
+            "name = \"far_wall_bottom\"",
+        ),
+        case(
+            "probe name with a quote",
+            edit("name = \"far_wall_bottom\"", "name = 'far\"bottom'"),
+            "probe[0].name",
+            "far\"bottom",
+        ),
+        case(
+            "probe position with 2 numbers",
+            edit("position = [4.95, 0.4, 0.05]", "position = [4.95, 0.4]"),
+            "probe[0].position",
+            "[4.95, 0.4]",
+        ),
+        case(
+            "dx not a number",
+            edit("\ndx = 0.04", "\ndx = \"fine\""),
+            "fluid.dx",
+            "\"fine\"",
+        ),
+        case(
+            "unknown wall treatment",
+            edit("\ndx = 0.04", "\ndx = 0.04\nwalls = \"sponge\""),
+            "fluid.walls",
+            "sponge",
+        ),
+        case(
+            "misspelt time field",
+            edit("end = 2.5", "end = 2.5\nendd = 3.0"),
+            "endd",
+            "endd",
+        ),
+        case(
+            "unknown coupling scheme",
+            edit("scheme = \"parallel\"", "scheme = \"sideways\""),
+            "scheme",
+            "sideways",
+        ),
+        case(
+            "unknown block kind",
+            edit("kind = \"free\"", "kind = \"loose\""),
+            "kind",
+            "loose",
+        ),
+    ]
+}
+
+#[test]
+fn every_malformed_scene_is_refused_naming_its_field_and_line() {
+    let cases = cases();
+    assert!(cases.len() >= 40, "{} cases", cases.len());
+    let mut failures = Vec::new();
+    for c in &cases {
+        let lines: Vec<usize> = c
+            .text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| l.contains(c.line_has))
+            .map(|(i, _)| i + 1)
+            .collect();
+        assert!(
+            !lines.is_empty(),
+            "{}: no line holds {:?}",
+            c.what,
+            c.line_has
+        );
+        let line = *lines.last().unwrap();
+        match Scene::parse(&c.text, "case.toml") {
+            Ok(_) => failures.push(format!("{}: accepted", c.what)),
+            Err(SceneError::Invalid { errors, .. }) => {
+                let named = errors.iter().find(|e| e.path == c.field);
+                match named {
+                    None => failures.push(format!(
+                        "{}: no error names {}: {errors:?}",
+                        c.what, c.field
+                    )),
+                    Some(e) if e.line != Some(line) || e.fix.is_empty() => failures.push(format!(
+                        "{}: {} on line {:?}, expected line {line} (fix {:?})",
+                        c.what, c.field, e.line, e.fix
+                    )),
+                    Some(_) => {}
+                }
+            }
+            Err(e @ SceneError::Syntax { .. }) => {
+                let msg = e.to_string();
+                if !(msg.contains(c.field) && msg.contains(&format!("line {line}"))) {
+                    failures.push(format!(
+                        "{}: syntax error names neither {} nor line {line}: {msg}",
+                        c.what, c.field
+                    ));
+                }
+            }
+            Err(e) => failures.push(format!("{}: {e}", c.what)),
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n")
+    );
+}
+
+/// The limits leave every scene of the repository alone.
+#[test]
+fn repository_scenes_stay_valid() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    for dir in [root.clone(), root.join("validation")] {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            if e.path().extension().is_some_and(|x| x == "toml") {
+                Scene::load(&e.path()).unwrap_or_else(|err| panic!("{err}"));
+            }
+        }
+    }
+}
