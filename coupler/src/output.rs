@@ -220,6 +220,9 @@ fn gauge_summaries(path: &Path) -> BTreeMap<String, GaugeSummary> {
         return out;
     };
     for (col, name) in header.iter().enumerate().skip(1) {
+        if name.ends_with("_spray") {
+            continue;
+        }
         let series: Vec<(f64, f64)> = rows
             .iter()
             .filter_map(|r| Some((r.first()?.parse().ok()?, r.get(col)?.parse().ok()?)))

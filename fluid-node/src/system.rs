@@ -200,9 +200,15 @@ impl FluidSystem {
             }
         };
 
+        let beds: Vec<Real> = scene
+            .gauges
+            .iter()
+            .map(|g| scene.bed_elevation(g.x, g.y))
+            .collect();
         let recorder = Recorder::new(
             ctx.run_dir,
             &scene.gauges,
+            &beds,
             &scene.probes,
             scene.output.interval,
         )?;
@@ -316,6 +322,7 @@ impl FluidSystem {
             grid: &self.grid,
             kernel,
             mass: self.mass,
+            rest_density: self.rest_density,
             dx: self.dx,
         };
         self.recorder.sample(self.time, &view)?;
