@@ -165,7 +165,8 @@ pub fn mean_draft(
     for r in 0..gauges.rows.len() {
         let t = gauges.num(r, 0);
         if t >= t0 && t <= t1 {
-            for c in 1..gauges.header.len() {
+            // The surface columns, not the `<name>_spray` ones (highest droplet).
+            for c in (1..gauges.header.len()).filter(|&c| !gauges.header[c].ends_with("_spray")) {
                 let v = gauges.num(r, c);
                 if v.is_finite() {
                     surface.0 += v;

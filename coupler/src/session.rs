@@ -142,6 +142,12 @@ pub struct RunStats {
     pub fluid_cpu_seconds: f64,
     pub solid_cpu_seconds: f64,
     pub coupler_cpu_seconds: f64,
+    /// Peak resident memory of each process [bytes]: the nodes' `VmHWM` read from /proc just
+    /// before they are told to stop (None if a node was already gone), the coupler's own from
+    /// getrusage at the end.
+    pub fluid_peak_rss_bytes: Option<u64>,
+    pub solid_peak_rss_bytes: Option<u64>,
+    pub coupler_peak_rss_bytes: u64,
     /// Median and 99th percentile of the wall time of one step, command to last status [µs].
     pub step_wall_median_us: f64,
     pub step_wall_p99_us: f64,
@@ -280,6 +286,7 @@ impl Session {
         };
         stats.wall_seconds = started.elapsed().as_secs_f64();
         stats.coupler_cpu_seconds = shared::runtime::process_cpu_seconds();
+        stats.coupler_peak_rss_bytes = shared::runtime::process_peak_rss_bytes();
         // Every process of the run is gone now (the session dropped its children): remove
         // whatever iceoryx2 left in /dev/shm and /tmp/iceoryx2, e.g. after a SIGKILL.
         transport::remove_run_files(&id);
@@ -640,6 +647,14 @@ impl Session {
     /// Ends the run: asks the nodes to stop (they flush their files), then makes sure every
     /// process is gone. Returns the run's outcome.
     fn stop(&mut self, outcome: Result<(), RunError>) -> Result<(), RunError> {
+        // The nodes' peak memory, while they are still alive to be asked.
+        for p in &self.peers {
+            let rss = shared::runtime::peak_rss_bytes_of(p.pid);
+            match p.role {
+                Role::Fluid => self.stats.fluid_peak_rss_bytes = rss,
+                Role::Solid => self.stats.solid_peak_rss_bytes = rss,
+            }
+        }
         let cmd = Command {
             kind: CommandKind::Stop as u32,
             output_frame: -1,

@@ -1,5 +1,42 @@
 //! Wave gauges (free-surface elevation at (x, y)) and pressure probes, written as CSV time series
-//! (`gauges.csv`, `probes.csv`: `time,<names...>`) in the run directory.
+//! (`gauges.csv`: `time,<names...>,<name>_spray...`; `probes.csv`: `time,<names...>`) in the run
+//! directory.
+//!
+//! # What a gauge reads
+//!
+//! The free surface is where the kernel-interpolated fluid fraction
+//!
+//! φ(z) = Σ_j (m_j/ρ0) W(|(x, y, z) − x_j|)
+//!
+//! (the SPH interpolation of paper Eq. 11 applied to unity, i.e. the interpolated mass density
+//! over ρ0) drops to one half, on the vertical line through the gauge: the definition of the
+//! mass-threshold free-surface gauges of DualSPHysics (Crespo et al. 2015, "DualSPHysics:
+//! open-source parallel CFD solver based on SPH", Comput. Phys. Commun. 187:204–216; its
+//! `MeasureTool` and `GaugeSwl` put the surface where the kernel-interpolated mass falls below
+//! half the reference, see docs/VALIDATION.md "Wave gauges"). The reference volume m/ρ0 is
+//! used rather than m/ρ_j because with summation density (Müller et al. 2003, Eq. 3) a lone
+//! droplet has ρ_j = m W(0) and would read φ = 1 at its centre.
+//!
+//! The line is sampled from the bed upwards every dx/4 (linear interpolation between samples):
+//!
+//! 1. The *water column* is the lowest stretch with φ ≥ ½ φ0 (φ0 = φ of a full particle
+//!    lattice) that either starts within one kernel support plus dx of the bed or is at least one
+//!    kernel support plus dx thick (water over a submerged moving block). Spray, droplets and a
+//!    one-particle sheet crossing the line make thinner stretches (about 2 dx), so above a dry
+//!    bed they do not count, and above the water they are never reached: the scan stops at the
+//!    column's top.
+//! 2. The surface is where φ falls below half the column's own largest φ, φ_max (= φ0 in open
+//!    water), so a gauge in a narrow slab or near a wall, where the fluid-only sum is lower
+//!    because there is no fluid on one side, still reads the surface and not below it.
+//!
+//! The *bed* is the top of the highest fixed block on the vertical line, or the domain floor
+//! ([`shared::scene::Scene::bed_elevation`]). A **dry gauge** (no water column under it: no
+//! fluid there, or less than about one particle spacing of it) **reads the bed elevation**; no
+//! NaN is ever written. A gauge whose reading equals its bed elevation is dry.
+//!
+//! `<name>_spray` is the former reading, kept as the height of the highest water: half a
+//! spacing above the highest particle within one spacing of the line, spray and droplets
+//! included (the bed elevation when there is none).
 //!
 //! Samples are taken after a step but no more often than `output.interval/50` of simulated time,
 //! and the files are flushed every few rows, at every frame and in `finish()`, so a run that is
@@ -50,6 +87,8 @@ impl Series {
 /// Gauges and probes of a scene and their CSV files.
 pub struct Recorder {
     gauges: Vec<GaugeSpec>,
+    /// Bed elevation under each gauge: what a dry gauge reads.
+    beds: Vec<Real>,
     probes: Vec<ProbeSpec>,
     gauge_file: Option<Series>,
     probe_file: Option<Series>,
@@ -59,10 +98,12 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    /// Opens the files (only those the scene has instruments for).
+    /// Opens the files (only those the scene has instruments for). `beds[i]` is the bed
+    /// elevation under gauge i ([`shared::scene::Scene::bed_elevation`]).
     pub fn new(
         run_dir: &Path,
         gauges: &[GaugeSpec],
+        beds: &[Real],
         probes: &[ProbeSpec],
         output_interval: Real,
     ) -> std::io::Result<Self> {
@@ -71,7 +112,10 @@ impl Recorder {
         } else {
             Some(Series::create(
                 &run_dir.join("gauges.csv"),
-                gauges.iter().map(|g| g.name.clone()),
+                gauges
+                    .iter()
+                    .map(|g| g.name.clone())
+                    .chain(gauges.iter().map(|g| format!("{}_spray", g.name))),
             )?)
         };
         let probe_file = if probes.is_empty() {
@@ -84,6 +128,7 @@ impl Recorder {
         };
         Ok(Self {
             gauges: gauges.to_vec(),
+            beds: beds.to_vec(),
             probes: probes.to_vec(),
             gauge_file,
             probe_file,
@@ -108,8 +153,14 @@ impl Recorder {
         self.last = time;
         if let Some(s) = &mut self.gauge_file {
             s.row.clear();
+            let reference = view.lattice_fraction();
+            let cols = self.gauges.iter().zip(&self.beds);
+            s.row.extend(
+                cols.clone()
+                    .map(|(g, &bed)| view.surface_elevation(g.x, g.y, bed, reference)),
+            );
             s.row
-                .extend(self.gauges.iter().map(|g| view.surface_elevation(g.x, g.y)));
+                .extend(cols.map(|(g, &bed)| view.spray_elevation(g.x, g.y, bed)));
             s.write(time)?;
         }
         if let Some(s) = &mut self.probe_file {
@@ -145,13 +196,130 @@ pub struct FluidView<'a, K: Kernel> {
     pub grid: &'a CellGrid,
     pub kernel: &'a K,
     pub mass: Real,
+    /// Rest density ρ0: m/ρ0 is the reference volume of the fluid fraction.
+    pub rest_density: Real,
     pub dx: Real,
 }
 
 impl<K: Kernel> FluidView<'_, K> {
-    /// Free-surface elevation z at (x, y): half a spacing above the highest particle within one
-    /// spacing of the vertical line; NaN where the bed is dry.
-    pub fn surface_elevation(&self, x: Real, y: Real) -> Real {
+    /// φ0: the fluid fraction Σ (m/ρ0) W at a node of a full cubic lattice of spacing dx (the
+    /// fill lattice), the reference the half threshold is taken of (≈ 1; 1.0098 for the poly6
+    /// kernel with h = 2 dx).
+    pub fn lattice_fraction(&self) -> Real {
+        let s = self.kernel.support();
+        let n = (s / self.dx).ceil() as i32;
+        let mut sum = 0.0;
+        for i in -n..=n {
+            for j in -n..=n {
+                for k in -n..=n {
+                    let r = self.dx * ((i * i + j * j + k * k) as Real).sqrt();
+                    sum += self.kernel.value(r);
+                }
+            }
+        }
+        sum * self.mass / self.rest_density
+    }
+
+    /// Free-surface elevation at (x, y): the top of the water column over the bed where the
+    /// fluid fraction φ falls below half its interior value (module doc); `bed` when dry.
+    /// `reference` is [`Self::lattice_fraction`].
+    pub fn surface_elevation(&self, x: Real, y: Real, bed: Real, reference: Real) -> Real {
+        let support = self.kernel.support();
+        let s2 = support * support;
+        // The particles within one support of the line: (z, horizontal distance²), by z.
+        let mut column: Vec<(Real, Real)> = Vec::new();
+        let pos = &self.particles.position;
+        self.grid
+            .column_rows_top_down(&Vector::new(x, y, bed), |range| {
+                for p in &pos[range] {
+                    let d2 = (p.x - x).powi(2) + (p.y - y).powi(2);
+                    if d2 < s2 {
+                        column.push((p.z, d2));
+                    }
+                }
+                false
+            });
+        if column.is_empty() {
+            return bed;
+        }
+        column.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let volume = self.mass / self.rest_density;
+        let top = column[column.len() - 1].0 + support;
+        // φ at increasing z: a window [lo, hi) of the sorted column within one support in z.
+        let (mut lo, mut hi) = (0usize, 0usize);
+        let mut fraction = |z: Real| {
+            while lo < column.len() && column[lo].0 <= z - support {
+                lo += 1;
+            }
+            while hi < column.len() && column[hi].0 < z + support {
+                hi += 1;
+            }
+            column[lo..hi.max(lo)]
+                .iter()
+                .map(|&(zj, d2)| self.kernel.value((d2 + (z - zj).powi(2)).sqrt()))
+                .sum::<Real>()
+                * volume
+        };
+        let dz = 0.25 * self.dx;
+        let wet = 0.5 * reference;
+        let near_bed = bed + support + self.dx;
+        let thick = support + self.dx;
+        // Scan up from the bed for the water column: `samples` holds the current stretch with
+        // φ ≥ ½ φ0 and, once it ends, the first sample above it.
+        let mut z = bed.min(column[0].0);
+        let mut start: Option<Real> = None;
+        let mut largest: Real = 0.0;
+        let mut samples: Vec<(Real, Real)> = Vec::new();
+        let found = loop {
+            if z > top + dz {
+                break false;
+            }
+            let f = fraction(z);
+            if f >= wet {
+                if start.is_none() {
+                    start = Some(z);
+                    largest = 0.0;
+                    samples.clear();
+                }
+                largest = largest.max(f);
+                samples.push((z, f));
+            } else if let Some(s) = start {
+                samples.push((z, f));
+                if s <= near_bed || z - s >= thick {
+                    break true;
+                }
+                // Spray, a droplet or a sheet: thin, off the bed.
+                start = None;
+            }
+            z += dz;
+        };
+        if !found {
+            return bed;
+        }
+        // The highest crossing of ½ φ_max: above the stretch when φ_max < φ0 (a slab, a wall),
+        // inside it when the water is compressed (φ_max > φ0).
+        let half = 0.5 * largest;
+        while let Some(&(zl, fl)) = samples.last() {
+            if fl < half || zl > top + dz {
+                break;
+            }
+            samples.push((zl + dz, fraction(zl + dz)));
+        }
+        match samples
+            .windows(2)
+            .rposition(|w| w[0].1 >= half && w[1].1 < half)
+        {
+            Some(i) => {
+                let ((z0, f0), (z1, f1)) = (samples[i], samples[i + 1]);
+                z0 + (f0 - half) / (f0 - f1) * (z1 - z0)
+            }
+            None => samples.last().map_or(bed, |s| s.0),
+        }
+    }
+
+    /// The highest water at (x, y), spray included: half a spacing above the highest particle
+    /// within one spacing of the vertical line; `bed` where there is none.
+    pub fn spray_elevation(&self, x: Real, y: Real, bed: Real) -> Real {
         let mut top = Real::NEG_INFINITY;
         let probe = Vector::new(x, y, 0.0);
         let r2 = self.dx * self.dx;
@@ -168,7 +336,7 @@ impl<K: Kernel> FluidView<'_, K> {
         if top.is_finite() {
             top + 0.5 * self.dx
         } else {
-            Real::NAN
+            bed
         }
     }
 
@@ -190,5 +358,147 @@ impl<K: Kernel> FluidView<'_, K> {
             }
         });
         if den > 0.0 { num / den } else { Real::NAN }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernels::{Poly6, WendlandC2};
+
+    const DX: Real = 0.05;
+    const RHO: Real = 1000.0;
+
+    /// Lattice particles (cell centres) filling [lo, hi].
+    fn block(lo: [Real; 3], hi: [Real; 3]) -> Vec<Vector> {
+        let n = |k: usize| ((hi[k] - lo[k]) / DX).round() as usize;
+        let mut out = Vec::new();
+        for i in 0..n(0) {
+            for j in 0..n(1) {
+                for k in 0..n(2) {
+                    out.push(Vector::new(
+                        lo[0] + (i as Real + 0.5) * DX,
+                        lo[1] + (j as Real + 0.5) * DX,
+                        lo[2] + (k as Real + 0.5) * DX,
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    /// (surface, spray) at (x, y) over a bed at z = 0 for the particles `pts`.
+    fn read<K: Kernel>(kernel: &K, pts: &[Vector], x: Real, y: Real) -> (Real, Real) {
+        let mut grid = CellGrid::new(
+            Vector::new(-0.2, -0.2, -0.2),
+            Vector::new(1.2, 1.2, 2.0),
+            kernel.support(),
+        )
+        .unwrap();
+        let order = grid.sort(pts).to_vec();
+        let sorted: Vec<Vector> = order.iter().map(|&i| pts[i as usize]).collect();
+        let n = sorted.len();
+        let particles = Particles::new(sorted, vec![RHO; n]);
+        let view = FluidView {
+            particles: &particles,
+            grid: &grid,
+            kernel,
+            mass: RHO * DX.powi(3),
+            rest_density: RHO,
+            dx: DX,
+        };
+        let reference = view.lattice_fraction();
+        (
+            view.surface_elevation(x, y, 0.0, reference),
+            view.spray_elevation(x, y, 0.0),
+        )
+    }
+
+    /// Still water 0.5 m deep over [0, 1]² (20 × 20 × 10 particles).
+    fn pool() -> Vec<Vector> {
+        block([0.0, 0.0, 0.0], [1.0, 1.0, 0.5])
+    }
+
+    fn each_kernel(check: impl Fn(&str, &dyn Fn(&[Vector], Real, Real) -> (Real, Real))) {
+        // The kernels the solvers interpolate with: Müller's poly6 (h = 2 dx), WCSPH's Wendland
+        // C2 (h = 1.3 dx).
+        let poly6 = Poly6::new(2.0 * DX);
+        let wendland = WendlandC2::new(1.3 * DX);
+        check("poly6", &|p, x, y| read(&poly6, p, x, y));
+        check("wendland", &|p, x, y| read(&wendland, p, x, y));
+    }
+
+    #[test]
+    fn still_water_reads_its_surface() {
+        each_kernel(|name, read| {
+            for (x, y) in [(0.5, 0.5), (0.52, 0.47), (0.1, 0.9)] {
+                let (eta, spray) = read(&pool(), x, y);
+                assert!((eta - 0.5).abs() < 0.2 * DX, "{name} at ({x}, {y}): {eta}");
+                assert!((spray - 0.5).abs() < 1e-12, "{name}: spray {spray}");
+            }
+        });
+    }
+
+    #[test]
+    fn a_spray_droplet_above_the_water_does_not_move_the_reading() {
+        each_kernel(|name, read| {
+            let (still, _) = read(&pool(), 0.5, 0.5);
+            let mut pts = pool();
+            // The reported case: one droplet ~0.75 m above the line.
+            pts.push(Vector::new(0.5, 0.5, 1.25));
+            let (eta, spray) = read(&pts, 0.5, 0.5);
+            assert!((eta - still).abs() < 1e-9, "{name}: {eta} vs {still}");
+            assert!(
+                (spray - 1.275).abs() < 1e-9,
+                "{name}: the spray column shows it"
+            );
+        });
+    }
+
+    #[test]
+    fn a_thin_sheet_crossing_above_the_water_does_not_move_the_reading() {
+        each_kernel(|name, read| {
+            let (still, _) = read(&pool(), 0.5, 0.5);
+            // A horizontal sheet one particle thick 3 dx above the surface, over the gauge.
+            let mut pts = pool();
+            pts.extend(block([0.2, 0.2, 0.65], [0.8, 0.8, 0.65 + DX]));
+            let (eta, _) = read(&pts, 0.5, 0.5);
+            assert!((eta - still).abs() < DX, "{name}: {eta} vs {still}");
+        });
+    }
+
+    #[test]
+    fn a_dry_gauge_reads_the_bed() {
+        each_kernel(|name, read| {
+            // No water within reach of the line.
+            let pts = block([0.0, 0.0, 0.0], [0.3, 1.0, 0.5]);
+            assert_eq!(read(&pts, 0.8, 0.5), (0.0, 0.0), "{name}");
+            // Only a sheet of spray passing over the dry bed.
+            let sheet = block([0.5, 0.2, 0.3], [1.0, 0.8, 0.3 + DX]);
+            let (eta, spray) = read(&sheet, 0.8, 0.5);
+            assert_eq!(eta, 0.0, "{name}: the sheet is not a water column");
+            assert!((spray - 0.35).abs() < 1e-9, "{name}: {spray}");
+        });
+    }
+
+    #[test]
+    fn a_narrow_slab_reads_its_surface() {
+        // Quasi-2D tanks are 4 particles wide: the fluid-only sum is lower across the whole
+        // slab, and the surface is where φ falls to half of the slab's own interior value.
+        each_kernel(|name, read| {
+            let pts = block([0.0, 0.4, 0.0], [1.0, 0.6, 0.5]);
+            let (eta, _) = read(&pts, 0.5, 0.5);
+            assert!((eta - 0.5).abs() < 0.2 * DX, "{name}: {eta}");
+        });
+    }
+
+    #[test]
+    fn a_column_over_a_submerged_body_counts_when_thick() {
+        // Water 6 dx deep starting 0.2 m above the bed (over a block the gauge does not know).
+        each_kernel(|name, read| {
+            let pts = block([0.0, 0.0, 0.2], [1.0, 1.0, 0.5]);
+            let (eta, _) = read(&pts, 0.5, 0.5);
+            assert!((eta - 0.5).abs() < 0.2 * DX, "{name}: {eta}");
+        });
     }
 }

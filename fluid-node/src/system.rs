@@ -200,9 +200,15 @@ impl FluidSystem {
             }
         };
 
+        let beds: Vec<Real> = scene
+            .gauges
+            .iter()
+            .map(|g| scene.bed_elevation(g.x, g.y))
+            .collect();
         let recorder = Recorder::new(
             ctx.run_dir,
             &scene.gauges,
+            &beds,
             &scene.probes,
             scene.output.interval,
         )?;
@@ -229,11 +235,25 @@ impl FluidSystem {
         };
         sys.check_domain()?;
         sys.prepare();
+        sys.write_counts()?;
         Ok(sys)
     }
 
     pub fn len(&self) -> usize {
         self.particles.len()
+    }
+
+    /// Writes `fluid.json` in the run directory: the particle counts the coupler puts in
+    /// `summary.json` (they are fixed for the run: particles carry fixed masses).
+    fn write_counts(&self) -> std::io::Result<()> {
+        let (fixed, moving) = self.boundary.counts();
+        let text = format!(
+            "{{\n  \"solver\": \"{}\",\n  \"particles\": {},\n  \"boundary_particles_fixed\": {fixed},\n  \"boundary_particles_moving\": {moving},\n  \"dx\": {}\n}}\n",
+            self.solver,
+            self.particles.len(),
+            self.dx
+        );
+        std::fs::write(self.run_dir.join("fluid.json"), text)
     }
 
     pub fn is_empty(&self) -> bool {
@@ -316,6 +336,7 @@ impl FluidSystem {
             grid: &self.grid,
             kernel,
             mass: self.mass,
+            rest_density: self.rest_density,
             dx: self.dx,
         };
         self.recorder.sample(self.time, &view)?;

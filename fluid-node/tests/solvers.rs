@@ -234,7 +234,19 @@ fn frames_gauges_and_probes_are_written() {
         );
     }
     let gauges = std::fs::read_to_string(dir.path().join("gauges.csv")).unwrap();
-    assert_eq!(gauges.lines().next().unwrap(), "time,centre");
+    // The surface column, then the highest water (spray included) at the same gauge.
+    assert_eq!(gauges.lines().next().unwrap(), "time,centre,centre_spray");
+    let last: Vec<f64> = gauges
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!(
+        (last[1] - 0.1).abs() < 0.025 && last[2] >= last[1] - 0.025,
+        "still water 0.1 m deep at dx = 0.025: {last:?}"
+    );
     // At most one row per step and per output.interval/50 (here 0.001 s) of simulated time.
     let times: Vec<f64> = gauges
         .lines()

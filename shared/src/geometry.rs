@@ -396,6 +396,30 @@ pub fn overlap_depth(a: &Polyhedron, b: &Polyhedron) -> Real {
         .fold(Real::INFINITY, Real::min)
 }
 
+impl Polyhedron {
+    /// Top of the block (scene pose) on the vertical line through (x, y): the highest z with
+    /// (x, y, z) inside, or None when the line misses the block. A convex block is the
+    /// intersection of its face half-spaces n·p ≤ offset, so on the line the faces with n_z > 0
+    /// bound z from above, those with n_z < 0 from below, and a vertical face either contains
+    /// the whole line or none of it.
+    pub fn top_at(&self, x: Real, y: Real) -> Option<Real> {
+        const EPS: Real = 1e-12;
+        let (lx, ly) = (x - self.centroid.x, y - self.centroid.y);
+        let (mut lo, mut hi) = (Real::NEG_INFINITY, Real::INFINITY);
+        for f in &self.faces {
+            let rest = f.offset - f.normal.x * lx - f.normal.y * ly;
+            if f.normal.z > EPS {
+                hi = hi.min(rest / f.normal.z);
+            } else if f.normal.z < -EPS {
+                lo = lo.max(rest / f.normal.z);
+            } else if rest < -1e-9 {
+                return None;
+            }
+        }
+        (hi.is_finite() && hi >= lo).then_some(hi + self.centroid.z)
+    }
+}
+
 fn aabb(points: &[Point]) -> (Point, Point) {
     let mut lo = Point::from([Real::INFINITY; 3]);
     let mut hi = Point::from([Real::NEG_INFINITY; 3]);
@@ -432,6 +456,23 @@ mod tests {
                 .iter()
                 .all(|f| f.vertices.len() == 4 && f.offset > 0.0)
         );
+    }
+
+    #[test]
+    fn top_at_follows_a_slope_and_misses_outside() {
+        // A ramp rising from z = 0 at x = 0 to z = 1 at x = 2 over a 1 m thick base.
+        let ramp = Polyhedron::from_shape(&ShapeSpec::Prism {
+            axis: Axis::Y,
+            profile: vec![[0.0, -1.0], [2.0, -1.0], [2.0, 1.0], [0.0, 0.0]],
+            extent: [0.0, 1.0],
+        })
+        .unwrap();
+        for x in [0.1, 0.5, 1.0, 1.9] {
+            let top = ramp.top_at(x, 0.5).unwrap();
+            assert!((top - 0.5 * x).abs() < 1e-9, "top at x = {x}: {top}");
+        }
+        assert!(ramp.top_at(2.5, 0.5).is_none());
+        assert!(ramp.top_at(1.0, 1.5).is_none());
     }
 
     #[test]

@@ -52,7 +52,13 @@ fn mean_draft(dir: &Path, height: f64, t0: f64, t1: f64) -> f64 {
     let surface: Vec<f64> = g
         .iter()
         .filter(|r| r[0] >= t0 && r[0] <= t1)
-        .flat_map(|r| r[1..gh.len()].to_vec())
+        .flat_map(|r| {
+            // The surface columns, not the `<name>_spray` ones (highest droplet).
+            (1..gh.len())
+                .filter(|&c| !gh[c].ends_with("_spray"))
+                .map(|c| r[c])
+                .collect::<Vec<_>>()
+        })
         .collect();
     let (bh, b, _) = csv(&dir.join("blocks.csv"));
     let z = col(&bh, "z");

@@ -118,11 +118,44 @@ fn sliding_wedge_makes_a_wave_that_travels_away() {
         .expect("max_runup in summary.json");
     assert!(runup > 0.01 && runup < 0.3, "run-up {runup} m");
 
+    // summary.json: every gauge starts wet at the still-water level (0.48 m, within dx), with a
+    // crest above it and a trough below it; the counts and memory are there.
+    let s = summary(&wet);
+    for g in ["G1", "G2", "G3"] {
+        let gs = &s["gauges"][g];
+        let level = gs["still_water_level"].as_f64().expect("wet at t = 0");
+        assert!(
+            (level - 0.48).abs() < 0.08,
+            "{g}: still-water level {level}: {gs}"
+        );
+        assert_eq!(gs["wet_from"].as_f64(), Some(0.0), "{g}: {gs}");
+        let crest = gs["crest"]["amount"].as_f64().unwrap();
+        let trough = gs["trough"]["amount"].as_f64().unwrap();
+        assert!(crest > 0.015 && (0.0..0.48).contains(&trough), "{g}: {gs}");
+        assert!(gs["bed"].as_f64().unwrap() < level, "{g}: {gs}");
+        assert!(
+            gs["spray_max"].as_f64().unwrap() >= level - 0.08,
+            "{g}: {gs}"
+        );
+    }
+    let particles = s["fluid"]["particles"].as_u64().unwrap();
+    assert!(
+        s["fluid"]["boundary_particles_fixed"].as_u64().unwrap() > 0
+            && s["fluid"]["boundary_particles_moving"].as_u64().unwrap() > 0,
+        "boundary particles: {}",
+        s["fluid"]
+    );
+    for p in ["fluid", "solid", "coupler"] {
+        let mib = s["memory"][format!("{p}_peak_rss_mib")].as_f64().unwrap();
+        assert!(mib > 1.0 && mib < 4096.0, "{p}: {mib} MiB");
+    }
+
     // Total fluid mass is conserved exactly: particles carry fixed masses and none is lost.
     let frames = summary(&wet)["stats"]["frames"].as_u64().unwrap() as u32;
     let first = particle_count(&wet.join("particles_00000.vtp"));
     let last = particle_count(&wet.join(format!("particles_{:05}.vtp", frames - 1)));
     assert_eq!(first, last, "particles in the first and last frame");
+    assert_eq!(first as u64, particles, "summary.json's particle count");
     assert!(first > 1000);
 
     std::fs::remove_dir_all(&wet).unwrap();

@@ -86,6 +86,8 @@ pub fn validate_solver(
                 error: format!("{:.1} % of ρ0 g H", 100.0 * s.max_error),
                 tolerance: format!("{:.0} %", 100.0 * HYDROSTATIC_TOLERANCE),
                 pass: s.max_error <= HYDROSTATIC_TOLERANCE,
+                known_limitation: known_limitation(solver, walls, Check::StillPressure)
+                    .map(Into::into),
             });
             let surf = (s.surface - s.depth) / dx;
             rows.push(Row {
@@ -100,6 +102,8 @@ pub fn validate_solver(
                 error: format!("{surf:+.2} dx"),
                 tolerance: "±1 dx".into(),
                 pass: surf.abs() <= 1.0,
+                known_limitation: known_limitation(solver, walls, Check::StillSurface)
+                    .map(Into::into),
             });
         }
         Err(e) => rows.push(failed_row("still water", &label, &e)),
@@ -152,6 +156,7 @@ pub fn validate_solver(
                     100.0 * FRONT_MEAN_BAND.1
                 ),
                 pass: mean >= FRONT_MEAN_BAND.0 && mean <= FRONT_MEAN_BAND.1,
+                known_limitation: known_limitation(solver, walls, Check::FrontMean).map(Into::into),
             });
             let (t_last, z_last) = *martin_moyce(n2).last().expect("points");
             rows.push(Row {
@@ -166,6 +171,8 @@ pub fn validate_solver(
                 error: format!("{:+.1} %", 100.0 * worst),
                 tolerance: format!("±{:.0} %", 100.0 * FRONT_MAX_DEVIATION),
                 pass: worst.abs() <= FRONT_MAX_DEVIATION,
+                known_limitation: known_limitation(solver, walls, Check::FrontWorst)
+                    .map(Into::into),
             });
         }
         if let Ok(three) = <[DamBreak; 3]>::try_from(runs) {
@@ -179,6 +186,8 @@ pub fn validate_solver(
                 error: format!("order {order:.2}"),
                 tolerance: "order > 0".into(),
                 pass: e2 < e1,
+                known_limitation: known_limitation(solver, walls, Check::SelfConvergence)
+                    .map(Into::into),
             });
         }
     }
@@ -195,7 +204,66 @@ fn failed_row(case: &str, solver: &str, e: &SolverError) -> Row {
         error: "-".into(),
         tolerance: "-".into(),
         pass: false,
+        known_limitation: None,
     }
 }
 
 pub use shared::report::markdown;
+
+/// What a row of [`validate_solver`] checks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Check {
+    StillPressure,
+    StillSurface,
+    FrontMean,
+    FrontWorst,
+    SelfConvergence,
+}
+
+/// The rows that fail by design of the method as published (docs/VALIDATION.md, "What the table
+/// says"), with the reason the table prints: `fluid-validate` exits 0 when exactly these fail.
+pub fn known_limitation(solver: &str, walls: Option<Walls>, check: Check) -> Option<&'static str> {
+    let penalty = walls == Some(Walls::Penalty);
+    match check {
+        // Eq. 14's symmetric pressure force approximates ½∇p·(…) with summation density at the
+        // surface: about twice hydrostatic at depth, with either wall treatment.
+        Check::StillPressure if solver == "muller" => {
+            Some("Eq. 14 gives about 2× hydrostatic pressure")
+        }
+        // Eq. 22 penalty walls push the water about a spacing off every wall: the column
+        // stands lower, and the front's error does not shrink with dx.
+        Check::StillSurface if penalty => Some("Eq. 22 walls hold the water off the walls"),
+        Check::SelfConvergence if penalty => Some("Eq. 22 walls do not converge with dx"),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_the_documented_failures_are_known_limitations() {
+        use Check::*;
+        let all = [
+            StillPressure,
+            StillSurface,
+            FrontMean,
+            FrontWorst,
+            SelfConvergence,
+        ];
+        for c in all {
+            assert_eq!(known_limitation("wcsph", None, c), None, "{c:?}");
+        }
+        let muller: Vec<Check> = all
+            .into_iter()
+            .filter(|&c| known_limitation("muller", None, c).is_some())
+            .collect();
+        assert_eq!(muller, [StillPressure]);
+        let penalty: Vec<Check> = all
+            .into_iter()
+            .filter(|&c| known_limitation("muller", Some(Walls::Penalty), c).is_some())
+            .collect();
+        assert_eq!(penalty, [StillPressure, StillSurface, SelfConvergence]);
+    }
+}

@@ -256,3 +256,37 @@ pub fn process_cpu_seconds() -> f64 {
     let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
     secs(usage.ru_utime) + secs(usage.ru_stime)
 }
+
+/// Peak resident memory (high-water mark) of this process so far [bytes]: getrusage's
+/// `ru_maxrss`, which Linux reports in KiB.
+pub fn process_peak_rss_bytes() -> u64 {
+    // SAFETY: getrusage writes into the zeroed struct we pass and nothing else.
+    let usage = unsafe {
+        let mut u: libc::rusage = std::mem::zeroed();
+        libc::getrusage(libc::RUSAGE_SELF, &mut u);
+        u
+    };
+    usage.ru_maxrss.max(0) as u64 * 1024
+}
+
+/// Peak resident memory of another live process [bytes]: `VmHWM` of `/proc/<pid>/status`
+/// (Linux); None when the process is gone or the field cannot be read.
+pub fn peak_rss_bytes_of(pid: u32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+#[cfg(test)]
+mod memory_tests {
+    use super::*;
+
+    #[test]
+    fn peak_rss_of_this_process_both_ways() {
+        let own = process_peak_rss_bytes();
+        let proc_ = peak_rss_bytes_of(std::process::id()).expect("VmHWM of this process");
+        assert!(own > 1 << 20 && proc_ > 1 << 20, "{own} {proc_}");
+        assert!(peak_rss_bytes_of(u32::MAX).is_none());
+    }
+}

@@ -24,7 +24,7 @@ mod fluid;
 mod serve;
 mod solid;
 
-pub use control::process_cpu_seconds;
+pub use control::{peak_rss_bytes_of, process_cpu_seconds, process_peak_rss_bytes};
 
 use crate::protocol::Role;
 use crate::solver::{FluidSolver, SetupContext, SolidSolver, SolverError};

@@ -122,6 +122,18 @@ impl Scene {
     }
 
     /// True when some block moves (kinematic or free), i.e. a solid node must run.
+    /// The bed under a wave gauge at (x, y): the highest top of a fixed block on the vertical
+    /// line through it, or the domain floor where no fixed block is under it. Moving blocks are
+    /// not bed (they move over it). A dry gauge reads this elevation.
+    pub fn bed_elevation(&self, x: f64, y: f64) -> f64 {
+        self.blocks
+            .iter()
+            .filter(|b| b.kind == BlockKind::Fixed)
+            .filter_map(|b| crate::geometry::Polyhedron::from_shape(&b.shape).ok())
+            .filter_map(|p| p.top_at(x, y))
+            .fold(self.domain.min[2], f64::max)
+    }
+
     pub fn has_moving_blocks(&self) -> bool {
         self.blocks.iter().any(|b| b.kind != BlockKind::Fixed)
     }
@@ -150,6 +162,31 @@ mod tests {
         let s = Scene::default_scene();
         assert!(s.has_fluid());
         assert!(s.has_moving_blocks());
+    }
+
+    #[test]
+    fn gauge_names_must_not_collide_with_spray_columns() {
+        let text = format!("{DEFAULT_SCENE}\n[[gauge]]\nname = \"G1_spray\"\nx = 1.0\ny = 0.4\n");
+        let msg = Scene::parse(&text, "t.toml").unwrap_err().to_string();
+        assert!(
+            msg.contains("G1_spray") && msg.contains("collides"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn the_bed_under_the_default_scene_gauges_is_the_tank_floor() {
+        let s = Scene::default_scene();
+        for g in &s.gauges {
+            let bed = s.bed_elevation(g.x, g.y);
+            assert!(
+                bed >= s.domain.min[2] && bed < 0.48,
+                "{}: bed {bed}",
+                g.name
+            );
+        }
+        // Outside every block: the domain floor.
+        assert_eq!(s.bed_elevation(-1e3, -1e3), s.domain.min[2]);
     }
 
     #[test]

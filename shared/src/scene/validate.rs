@@ -699,6 +699,23 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
 
     let inside_xy =
         |x: f64, y: f64| x >= d.min[0] && x <= d.max[0] && y >= d.min[1] && y <= d.max[1];
+    // gauges.csv has a column per gauge and one named `<name>_spray` per gauge: names must not
+    // collide, and `time` is the first column.
+    let mut columns = std::collections::HashSet::from(["time".to_string()]);
+    for (i, g) in s.gauges.iter().enumerate() {
+        if !columns.insert(g.name.clone()) || !columns.insert(format!("{}_spray", g.name)) {
+            c.key("gauge", |c| {
+                c.at(Seg::Index(i), |c| {
+                    c.fail(
+                        "name",
+                        &g.name,
+                        "collides with another gauges.csv column (time, an earlier gauge or its <name>_spray column)",
+                        "give every gauge a unique name that is not another gauge's name + \"_spray\"",
+                    )
+                })
+            });
+        }
+    }
     for (i, g) in s.gauges.iter().enumerate() {
         if !inside_xy(g.x, g.y) {
             c.key("gauge", |c| {
