@@ -11,14 +11,20 @@
 //!   full lattice ([`lattice_density`]), so water at rest is at rest in the discrete sense.
 //! - Kernel: Wendland C2 (Wendland 1995), h = 1.3·dx by default (support 2.6·dx).
 //! - Factor α_i = ρ_i / (|Σ_j m_j ∇W_ij|² + Σ_j |m_j ∇W_ij|²) (2015 Eq. 9, 2017 Eq. 18) with the
-//!   boundary neighbours in the first sum. Here the pressure variable is k_i = κ_i/ρ_i = p_i/ρ_i²
-//!   and the boundary force mirrors the fluid particle (p_b = p_i, ρ_b = ρ_i: Akinci et al. 2012),
-//!   so the exact Jacobi diagonal is β_i = α_i/ρ_i = 1/(G_i·G̃_i + Σ_f |m ∇W_ij|²) with
-//!   G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib) and G̃_i = m(Σ_f ∇W_ij + 2 Σ_b ∇W_ib).
+//!   boundary neighbours in the first sum. Here the pressure variable is k_i = κ_i/ρ_i = p_i/ρ_i²,
+//!   so the Jacobi diagonal is β_i = α_i/ρ_i = 1/(|G_i|² + Σ_f |m ∇W_ij|²) with
+//!   G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib).
 //! - Non-pressure forces: gravity, paper Eq. 22 (`particles.penalty / m`), and XSPH viscosity
 //!   (Monaghan 1989; Schechter & Bridson 2012), v_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij.
-//! - Pressure acceleration (2017 Eqs. 12 and 20): a_i = −Σ_f m (k_i + k_j) ∇W_ij − Σ_b 2 m k_i
-//!   ∇W_ib, one-sided at the walls; a moving block takes the reverse pair by pair ([`Dfsph::react`]).
+//! - Pressure acceleration (2017 Eqs. 12 and 20): a_i = −Σ_f m (k_i + k_j) ∇W_ij
+//!   − Σ_b m (k_i + p_b/ρ0²) ∇W_ib. At the walls the implicit part is one-sided, the fluid
+//!   particle's own k_i (as the 2017 paper's boundary term and SPlisHSPlasH), and the wall's own
+//!   pressure p_b is Adami's extrapolation from the last step's fluid pressures with its
+//!   hydrostatic term ([`crate::boundary::Boundary::update`]), held during the solves. Mirroring
+//!   k_i alone (Akinci et al. 2012) would give a block the pressure of the water ~1 dx below its
+//!   bottom: a floating block at dx = 0.02 m rode 2 cm (20 % of its draft) too high. A moving
+//!   block takes the reverse pair by pair ([`Dfsph::react`]).
+
 //! - Only compression is corrected: negative density errors (free surface) and negative
 //!   divergence are clamped to zero (2017 §4.2 / Algorithm 3 line 8, Algorithm 2 line 6).
 //! - Warm start: each solve starts from half the stiffness of the last step where the particle is
@@ -167,9 +173,8 @@ pub struct Dfsph {
     penalty_stiffness: Real,
     /// β_i = α_i/ρ_i (the Jacobi diagonal's inverse for k_i).
     beta: Vec<Real>,
-    /// G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib) and G̃_i = m(Σ_f ∇W_ij + 2 Σ_b ∇W_ib).
+    /// G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib).
     grad: Vec<Vector>,
-    grad_m: Vec<Vector>,
     /// m Σ_b v_b·∇W_ib: the boundary's (constant) part of Dρ_i/Dt.
     wall_flux: Vec<Real>,
     /// ρ*_i − ρ0 or Dρ_i/Dt, clamped at zero.
@@ -206,7 +211,6 @@ impl Dfsph {
         let n = sys.len();
         self.beta.resize(n, 0.0);
         self.grad.resize(n, Vector::zeros());
-        self.grad_m.resize(n, Vector::zeros());
         self.wall_flux.resize(n, 0.0);
         self.error.resize(n, 0.0);
         self.predicted.resize(n, 0.0);
@@ -223,14 +227,12 @@ impl Dfsph {
             .par_iter_mut()
             .zip(self.beta.par_iter_mut())
             .zip(self.grad.par_iter_mut())
-            .zip(self.grad_m.par_iter_mut())
             .zip(self.wall_flux.par_iter_mut())
             .enumerate()
-            .for_each(|(i, ((((rho, beta), grad), grad_m), flux))| {
+            .for_each(|(i, (((rho, beta), grad), flux))| {
                 let xi = pos[i];
                 let mut sum_w = w0;
-                let mut gf = Vector::zeros();
-                let mut gb = Vector::zeros();
+                let mut gs = Vector::zeros();
                 let mut sq = 0.0;
                 let mut fl = 0.0;
                 for &j in lists.of(i) {
@@ -240,7 +242,7 @@ impl Dfsph {
                         let r = r2.sqrt();
                         sum_w += kernel.value(r);
                         let g = rij * kernel.gradient_factor(r);
-                        gf += g;
+                        gs += g;
                         sq += g.norm_squared();
                     }
                 }
@@ -251,15 +253,14 @@ impl Dfsph {
                         let r = r2.sqrt();
                         sum_w += kernel.value(r);
                         let g = rib * kernel.gradient_factor(r);
-                        gb += g;
+                        gs += g;
                         fl += b.velocity().dot(&g);
                     }
                 });
                 *rho = m * sum_w;
-                *grad = (gf + gb) * m;
-                *grad_m = (gf + gb * 2.0) * m;
+                *grad = gs * m;
                 // 2015 Eq. 9 / 2017 Eq. 18 with this scheme's variable k = κ/ρ (module doc).
-                let denom = grad.dot(grad_m) + m * m * sq;
+                let denom = grad.norm_squared() + m * m * sq;
                 *beta = if denom > 1e-9 * (m * m * sq).max(Real::MIN_POSITIVE) {
                     1.0 / denom
                 } else {
@@ -269,8 +270,9 @@ impl Dfsph {
             });
     }
 
-    /// v_i −= dt (dk_i G̃_i + m Σ_f dk_j ∇W_ij): the pressure velocity change of stiffness
-    /// increments `dk` (2017 Algorithm 2 line 10 / Algorithm 3 line 13; the boundary part is in G̃).
+    /// v_i −= dt (dk_i G_i + m Σ_f dk_j ∇W_ij): the pressure velocity change of stiffness
+    /// increments `dk` (2017 Algorithm 2 line 10 / Algorithm 3 line 13; the one-sided boundary
+    /// part is in G_i).
     fn apply(&self, sys: &mut FluidSystem, dk: &[Real], dt: Real) {
         let m = sys.mass;
         let kernel = &self.kernel;
@@ -278,10 +280,10 @@ impl Dfsph {
         let lists = &sys.fluid_lists;
         let p = &mut sys.particles;
         let pos = &p.position;
-        let grad_m = &self.grad_m;
+        let grad = &self.grad;
         p.velocity.par_iter_mut().enumerate().for_each(|(i, v)| {
             let xi = pos[i];
-            let mut acc = grad_m[i] * dk[i];
+            let mut acc = grad[i] * dk[i];
             let mut sum = Vector::zeros();
             for &j in lists.of(i) {
                 let j = j as usize;
@@ -395,12 +397,13 @@ impl Dfsph {
     }
 
     /// 2017 Algorithm 1 lines 4–7: v* = v + dt (g + F_Eq22/m) and XSPH viscosity
-    /// v*_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij over the fluid neighbours.
+    /// v*_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij over the fluid neighbours; with them the walls' own
+    /// (explicit) pressure, −dt Σ_b m (p_b/ρ_b²) ∇W_ib (module doc).
     fn non_pressure(&mut self, sys: &mut FluidSystem, dt: Real) {
         let (m, g, eps) = (sys.mass, sys.gravity, self.constants.viscosity);
         let kernel = &self.kernel;
         let s2 = kernel.support().powi(2);
-        let lists = &sys.fluid_lists;
+        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
         let p = &mut sys.particles;
         self.v_old.copy_from_slice(&p.velocity);
         let (pos, rho, pen, v_old) = (&p.position, &p.density, &p.penalty, &self.v_old);
@@ -420,9 +423,19 @@ impl Dfsph {
                         }
                     }
                 }
+                let mut wall = Vector::zeros();
+                boundary.for_each_neighbor(i, |b| {
+                    let rib = xi - b.position();
+                    let r2 = rib.norm_squared();
+                    if r2 < s2 {
+                        let rb = b.density();
+                        wall -= rib
+                            * (m * b.pressure() / (rb * rb) * kernel.gradient_factor(r2.sqrt()));
+                    }
+                });
                 // The non-pressure acceleration: what the step's force limit looks at.
                 *a = g + pen[i] / m;
-                *v = vi + *a * dt + xsph * eps;
+                *v = vi + (*a + wall) * dt + xsph * eps;
             });
     }
 }
@@ -476,7 +489,6 @@ impl Scheme for Dfsph {
             penalty_stiffness: 0.0,
             beta: Vec::new(),
             grad: Vec::new(),
-            grad_m: Vec::new(),
             wall_flux: Vec::new(),
             error: Vec::new(),
             predicted: Vec::new(),
@@ -498,7 +510,7 @@ impl Scheme for Dfsph {
             .zip(p.density0.par_iter_mut().zip(p.density_rate.par_iter_mut()))
             .for_each(|((pr, r), (kd, kv))| {
                 *pr = (*r - rho0) * c2;
-                *kd = *pr / (rho0 * rho0) / WARM_START;
+                *kd = *pr / (rho0 * rho0);
                 *kv = 0.0;
                 *r = rho0;
             });
@@ -508,8 +520,12 @@ impl Scheme for Dfsph {
 
     fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport {
         let c = self.constants;
-        // Line 11 (rotated to the start): ρ_i and α_i at the current positions.
+        // Line 11 (rotated to the start): ρ_i and α_i at the current positions; the walls'
+        // pressure extrapolated from the last step's (Adami 2012, Eq. 27 at rest).
         self.densities_and_factors(sys);
+        let rho0 = self.rest_density;
+        sys.boundary
+            .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
         // Line 12: the divergence-free solve on the current velocities.
         let kv = std::mem::take(&mut sys.particles.density_rate);
         let (div_it, div_err, kv) = self.solve(sys, dt, false, kv);
@@ -570,13 +586,17 @@ impl Scheme for Dfsph {
     }
 
     fn react(&self, sys: &mut FluidSystem) {
-        // The reverse of the one-sided pressure force the fluid took from each moving boundary
-        // particle in the last step, m·(−2 m k_i ∇W_ib) with k_i = k_ρ + k_v (module doc).
+        // The reverse of the pressure force the fluid takes from each moving boundary particle,
+        // m·(−m (k_i + p_b/ρ_b²) ∇W_ib) with k_i = k_ρ + k_v of the last step and p_b
+        // extrapolated at the new pose (module doc).
+        let rho0 = self.rest_density;
+        sys.boundary
+            .update_moving(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
         sys.boundary
-            .react(&p.position, kernel.support(), |i, _pw, _rw, r, len| {
-                let k = p.density0[i] + p.density_rate[i];
-                r * (-2.0 * m * m * k * kernel.gradient_factor(len))
+            .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
+                let k = p.density0[i] + p.density_rate[i] + pw / (rw * rw);
+                r * (-m * m * k * kernel.gradient_factor(len))
             });
     }
 
