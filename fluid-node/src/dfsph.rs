@@ -5,18 +5,18 @@
 //! divergence-free (2017 Algorithm 2), so the step is bounded by the flow speed (CFL on the
 //! particle diameter), not by a numerical speed of sound.
 //!
-//! - Density: summed, ρ_i = Σ_j m_j W_ij over fluid and boundary particles (2017 Eq. 2); the
+//! - Density: summed, ρ_i = Σ_j m_j W_ij over fluid and boundary particles; the
 //!   boundary particles (Adami-style, filled one support deep on the water's own lattice) carry
 //!   the fluid's particle mass m = ρ0·dx³, as in [`crate::muller`]. Rest density is the sum on a
 //!   full lattice ([`lattice_density`]), so water at rest is at rest in the discrete sense.
 //! - Kernel: Wendland C2 (Wendland 1995), h = 1.3·dx by default (support 2.6·dx).
-//! - Factor α_i = ρ_i / (|Σ_j m_j ∇W_ij|² + Σ_j |m_j ∇W_ij|²) (2015 Eq. 9, 2017 Eq. 18) with the
+//! - Factor α_i = ρ_i / (|Σ_j m_j ∇W_ij|² + Σ_j |m_j ∇W_ij|²) (the DFSPH factor) with the
 //!   boundary neighbours in the first sum. Here the pressure variable is k_i = κ_i/ρ_i = p_i/ρ_i²,
 //!   so the Jacobi diagonal is β_i = α_i/ρ_i = 1/(|G_i|² + Σ_f |m ∇W_ij|²) with
 //!   G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib).
 //! - Non-pressure forces: gravity, paper Eq. 22 (`particles.penalty / m`), and XSPH viscosity
 //!   (Monaghan 1989; Schechter & Bridson 2012), v_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij.
-//! - Pressure acceleration (2017 Eqs. 12 and 20): a_i = −Σ_f m (k_i + k_j) ∇W_ij
+//! - Pressure acceleration (the κ/ρ form of both solvers): a_i = −Σ_f m (k_i + k_j) ∇W_ij
 //!   − Σ_b m (k_i + p_b/ρ0²) ∇W_ib. At the walls the implicit part is one-sided, the fluid
 //!   particle's own k_i (as the 2017 paper's boundary term and SPlisHSPlasH), and the wall's own
 //!   pressure p_b is Adami's extrapolation from the last step's fluid pressures with its
@@ -24,19 +24,34 @@
 //!   k_i alone (Akinci et al. 2012) would give a block the pressure of the water ~1 dx below its
 //!   bottom: a floating block at dx = 0.02 m rode 2 cm (20 % of its draft) too high. A moving
 //!   block takes the reverse pair by pair ([`Dfsph::react`]).
-
 //! - Only compression is corrected: negative density errors (free surface) and negative
-//!   divergence are clamped to zero (2017 §4.2 / Algorithm 3 line 8, Algorithm 2 line 6).
+//!   divergence are clamped to zero (2017 Algorithm 3 and Algorithm 2, the source terms).
 //! - Warm start: each solve starts from half the stiffness of the last step where the particle is
-//!   compressed (2017 §4.4; as SPlisHSPlasH).
-//! - Step: dt = cfl·dx/v_max (2017 §4.5, cfl 0.4 on the particle diameter), bounded by the
-//!   non-pressure force limit cfl·sqrt(dx/|a|) and the explicit limit of the Eq. 22 spring.
+//!   compressed (the papers' warm start; the ½ and the test on compression as SPlisHSPlasH).
+//! - Stopping: mean compression below `density_tolerance` (0.05 %, at least two iterations) and
+//!   mean (Dρ/Dt)·dt/ρ0 below `divergence_tolerance` (0.1 %, at least one), SPlisHSPlasH's
+//!   defaults; at most `max_iterations` (100) each, else the step carries a warning with the
+//!   error reached. A mean compression above 10 % is named in that warning as an unstable step;
+//!   the densities reported are the predicted ρ*, so the system's `density_ratio_bound` check
+//!   (1.3·ρ0 by default) stops the run with `dfsph: density ratio limit exceeded` as soon as one
+//!   particle passes it.
+//! - Step: dt = cfl·dx/v_max (the papers' CFL condition, cfl 0.4 on the particle diameter),
+//!   bounded by the non-pressure force limit cfl·sqrt(dx/|a|) and the explicit limit
+//!   sqrt(m/K_S) of the Eq. 22 spring. No sound speed: K_S is set from 2·sqrt(2 g H), a fifth
+//!   of WCSPH's c0, so that limit stays above the CFL step.
 //!
-//! The loop of 2017 Algorithm 1 is run rotated by its last two lines: a step here is
-//! "neighbours, ρ and α (line 11), divergence solve (line 12), non-pressure forces (line 4),
-//! predicted velocities (line 7), density solve (line 8), positions (line 9)", so that the state
-//! the system checks, re-sorts and samples after a step is the paper's state after line 9; the
-//! densities reported are the constant-density solver's prediction ρ* at the new positions.
+//! The loop of 2017 Algorithm 1 is run rotated by its last two steps: a step here is
+//! "neighbours, ρ and α; divergence solve; non-pressure forces; predicted velocities; density
+//! solve; positions", so that the state the system checks, re-sorts and samples after a step is
+//! the paper's state after its position update. The densities reported are the constant-density
+//! solver's prediction ρ* at the new positions; the pressures, p = (k_ρ + k_v)·ρ², what the
+//! two solves applied in the step.
+//!
+//! Known limit: DFSPH's water answers a block's motion within the step (no compressibility to
+//! delay it), so a light block coupled explicitly (loads one step old) meets the added-mass
+//! limit of partitioned coupling sooner than with WCSPH: the floating block (ρ_b/ρ_w = 0.5)
+//! heaves with ~0.2 m/s velocity noise under `scheme = "parallel"`, and under `"serial"` the
+//! coupler's added-mass detector stops it (docs/VALIDATION.md).
 //!
 //! State across steps: the per-particle warm-start stiffnesses must follow the system's sort, so
 //! they live in two [`crate::particles::Particles`] arrays this scheme does not otherwise use:
@@ -56,7 +71,7 @@ use shared::solver::{SolverError, StepReport};
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct DfsphParams {
-    /// Courant number on the particle diameter dx: dt = cfl·dx/v_max; default 0.4 (2017 §4.5).
+    /// Courant number on the particle diameter dx: dt = cfl·dx/v_max; default 0.4 (Bender & Koschier).
     pub cfl: Option<f64>,
     /// Constant-density solve: stop when the mean compression is below this [%]; default 0.05.
     pub density_tolerance: Option<f64>,
@@ -131,7 +146,7 @@ impl SolverParams for DfsphParams {
     }
 }
 
-/// Fraction of the last step's stiffness a solve starts from (2017 §4.4; SPlisHSPlasH's 0.5).
+/// Fraction of the last step's stiffness a solve starts from (the papers' warm start; SPlisHSPlasH's 0.5).
 pub const WARM_START: Real = 0.5;
 /// Mean compression after the density solve beyond which the step is reported as absurd.
 pub const ABSURD_DENSITY_ERROR: Real = 0.10;
@@ -205,7 +220,7 @@ pub fn lattice_density<K: Kernel>(kernel: &K, dx: Real, mass: Real) -> Real {
 }
 
 impl Dfsph {
-    /// 2017 Algorithm 1 line 11 (lines 2–3 at the start): ρ_i, the factor β_i = α_i/ρ_i, and the
+    /// 2017 Algorithm 1, "compute densities and factors" (also its initialisation): ρ_i, the factor β_i = α_i/ρ_i, and the
     /// boundary's part of Dρ/Dt, at the current positions.
     fn densities_and_factors(&mut self, sys: &mut FluidSystem) {
         let n = sys.len();
@@ -259,7 +274,7 @@ impl Dfsph {
                 });
                 *rho = m * sum_w;
                 *grad = gs * m;
-                // 2015 Eq. 9 / 2017 Eq. 18 with this scheme's variable k = κ/ρ (module doc).
+                // The DFSPH factor α_i, divided by ρ_i for this scheme's variable k = κ/ρ (module doc).
                 let denom = grad.norm_squared() + m * m * sq;
                 *beta = if denom > 1e-9 * (m * m * sq).max(Real::MIN_POSITIVE) {
                     1.0 / denom
@@ -271,7 +286,7 @@ impl Dfsph {
     }
 
     /// v_i −= dt (dk_i G_i + m Σ_f dk_j ∇W_ij): the pressure velocity change of stiffness
-    /// increments `dk` (2017 Algorithm 2 line 10 / Algorithm 3 line 13; the one-sided boundary
+    /// increments `dk` (the velocity updates of 2017 Algorithms 2 and 3; the one-sided boundary
     /// part is in G_i).
     fn apply(&self, sys: &mut FluidSystem, dk: &[Real], dt: Real) {
         let m = sys.mass;
@@ -298,11 +313,11 @@ impl Dfsph {
         });
     }
 
-    /// Dρ_i/Dt = Σ_f m (v_i − v_j)·∇W_ij + Σ_b m (v_i − v_b)·∇W_ib (2015 Eq. 4, 2017 Eq. 9) at
+    /// Dρ_i/Dt = Σ_f m (v_i − v_j)·∇W_ij + Σ_b m (v_i − v_b)·∇W_ib (the SPH continuity equation) at
     /// the current velocities. `density`: the constant-density error max(ρ*_i − ρ0, 0) with
-    /// ρ*_i = ρ_i + dt·Dρ_i/Dt (2017 Eq. 7; only compression, Algorithm 3 line 8) into `error`,
+    /// ρ*_i = ρ_i + dt·Dρ_i/Dt (Algorithm 3's predicted density; only compression) into `error`,
     /// ρ*_i into `predicted`, and the mean error over ρ0 returned; otherwise the divergence
-    /// error max(Dρ_i/Dt, 0) (Algorithm 2 line 6) and its mean times dt/ρ0.
+    /// error max(Dρ_i/Dt, 0) (Algorithm 2's source term) and its mean times dt/ρ0.
     fn predict(&mut self, sys: &FluidSystem, dt: Real, density: bool) -> Real {
         let (m, rho0) = (sys.mass, self.rest_density);
         let kernel = &self.kernel;
@@ -359,7 +374,7 @@ impl Dfsph {
         } else {
             (c.divergence_tolerance, 1, 1.0 / dt)
         };
-        // Warm start (2017 §4.4): a fraction of the last step's stiffness where compressed.
+        // Warm start (both papers): a fraction of the last step's stiffness where compressed.
         self.predict(sys, dt, density);
         let mut dk = std::mem::take(&mut self.dk);
         dk.par_iter_mut()
@@ -379,8 +394,8 @@ impl Dfsph {
         let mut err = self.predict(sys, dt, density);
         let mut it = 0;
         while (it < min_iterations || err > tolerance) && it < c.max_iterations {
-            // κ_i = (ρ*_i − ρ0)·α_i/dt² (Algorithm 3 line 9) or (Dρ_i/Dt)·α_i/dt (Algorithm 2
-            // line 7), here divided by ρ_i: k_i = error_i·β_i·scale.
+            // κ_i = (ρ*_i − ρ0)·α_i/dt² (Algorithm 3) or (Dρ_i/Dt)·α_i/dt (Algorithm 2), here
+            // divided by ρ_i: k_i = error_i·β_i·scale.
             dk.par_iter_mut()
                 .zip(k.par_iter_mut())
                 .zip(self.error.par_iter().zip(self.beta.par_iter()))
@@ -396,7 +411,7 @@ impl Dfsph {
         (it, err, k)
     }
 
-    /// 2017 Algorithm 1 lines 4–7: v* = v + dt (g + F_Eq22/m) and XSPH viscosity
+    /// 2017 Algorithm 1, "non-pressure forces" and "predict velocities": v* = v + dt (g + F_Eq22/m) and XSPH viscosity
     /// v*_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij over the fluid neighbours; with them the walls' own
     /// (explicit) pressure, −dt Σ_b m (p_b/ρ_b²) ∇W_ib (module doc).
     fn non_pressure(&mut self, sys: &mut FluidSystem, dt: Real) {
@@ -520,23 +535,23 @@ impl Scheme for Dfsph {
 
     fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport {
         let c = self.constants;
-        // Line 11 (rotated to the start): ρ_i and α_i at the current positions; the walls'
+        // Algorithm 1's "update ρ and α" (rotated to the start): ρ_i and α_i at the current positions; the walls'
         // pressure extrapolated from the last step's (Adami 2012, Eq. 27 at rest).
         self.densities_and_factors(sys);
         let rho0 = self.rest_density;
         sys.boundary
             .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
-        // Line 12: the divergence-free solve on the current velocities.
+        // Algorithm 1's divergence solve (Algorithm 2), rotated to the start on the current velocities.
         let kv = std::mem::take(&mut sys.particles.density_rate);
         let (div_it, div_err, kv) = self.solve(sys, dt, false, kv);
         sys.particles.density_rate = kv;
-        // Lines 4–7: non-pressure forces and predicted velocities.
+        // Non-pressure forces and predicted velocities.
         self.non_pressure(sys, dt);
-        // Line 8: the constant-density solve on v*.
+        // The constant-density solve (Algorithm 3) on v*.
         let kd = std::mem::take(&mut sys.particles.density0);
         let (it, err, kd) = self.solve(sys, dt, true, kd);
         sys.particles.density0 = kd;
-        // Line 9: positions. The pressure the step applied, p = (k_ρ + k_v)ρ², for output and
+        // Positions. The pressure the step applied, p = (k_ρ + k_v)ρ², for output and
         // probes; the density the constant-density solve predicts at the new positions.
         let p = &mut sys.particles;
         p.position
