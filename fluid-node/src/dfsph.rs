@@ -150,7 +150,8 @@ impl SolverParams for DfsphParams {
     }
 }
 
-/// Fraction of the last step's stiffness a solve starts from (the papers' warm start; SPlisHSPlasH's 0.5).
+/// Fraction of the last step's stiffness a solve starts from (the papers' warm start;
+/// SPlisHSPlasH's 0.5).
 pub const WARM_START: Real = 0.5;
 /// Mean compression after the density solve beyond which the step is reported as absurd.
 pub const ABSURD_DENSITY_ERROR: Real = 0.10;
@@ -224,8 +225,8 @@ pub fn lattice_density<K: Kernel>(kernel: &K, dx: Real, mass: Real) -> Real {
 }
 
 impl Dfsph {
-    /// 2017 Algorithm 1, "compute densities and factors" (also its initialisation): ρ_i, the factor β_i = α_i/ρ_i, and the
-    /// boundary's part of Dρ/Dt, at the current positions.
+    /// 2017 Algorithm 1, "compute densities and factors" (also its initialisation): ρ_i, the
+    /// factor β_i = α_i/ρ_i, and the boundary's part of Dρ/Dt, at the current positions.
     fn densities_and_factors(&mut self, sys: &mut FluidSystem) {
         let n = sys.len();
         self.beta.resize(n, 0.0);
