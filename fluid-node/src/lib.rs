@@ -17,6 +17,7 @@
 
 pub mod bodies;
 pub mod boundary;
+pub mod dfsph;
 pub mod dt;
 pub mod fill;
 pub mod gauges;
@@ -42,7 +43,11 @@ use sph::{Sph, SphSolver};
 /// Every fluid solver, by name: add a scheme here with one `entry` line.
 pub static REGISTRY: Registry<dyn SphSolver> = Registry {
     role: "fluid",
-    entries: &[entry::<wcsph::Wcsph>(), entry::<muller::Muller>()],
+    entries: &[
+        entry::<wcsph::Wcsph>(),
+        entry::<muller::Muller>(),
+        entry::<dfsph::Dfsph>(),
+    ],
 };
 
 /// The registry entry of scheme `S`: built as [`Sph<S>`], its parameters in `[fluid.<S::NAME>]`.

@@ -98,12 +98,12 @@ fn unknown_solver_and_wall_treatment_are_named() {
     // An unknown solver is refused with the names there are.
     let dir = TempRunDir::new("t").unwrap();
     let e = REGISTRY
-        .build("dfsph", &ctx_for(&good, &dir))
+        .build("isph", &ctx_for(&good, &dir))
         .err()
         .unwrap()
         .to_string();
     assert!(
-        e.contains("dfsph") && e.contains("muller") && e.contains("wcsph"),
+        e.contains("isph") && e.contains("muller") && e.contains("wcsph") && e.contains("dfsph"),
         "{e}"
     );
 }
@@ -139,9 +139,9 @@ fn solver_tables_are_checked_by_the_registry() {
     assert!(e.contains("fluid.muller") && e.contains("stifness"), "{e}");
     let e = checked("[fluid.muller]\nsupport_ratio = 0.0\n");
     assert!(e.contains("fluid.muller.support_ratio"), "{e}");
-    let e = checked("[fluid.dfsph]\ncfl = 0.4\n");
+    let e = checked("[fluid.isph]\ncfl = 0.4\n");
     assert!(
-        e.contains("fluid.dfsph") && e.contains("[fluid.wcsph]"),
+        e.contains("fluid.isph") && e.contains("[fluid.wcsph]"),
         "{e}"
     );
     let e = checked("").is_empty();

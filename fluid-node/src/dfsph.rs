@@ -1,0 +1,645 @@
+//! Divergence-free SPH (Bender & Koschier 2015, "Divergence-free smoothed particle
+//! hydrodynamics", SCA; Bender & Koschier 2017, "Divergence-free SPH for incompressible and
+//! viscous fluids", IEEE TVCG 23(3)): two implicit pressure solves per step, one holding the
+//! density at rest (constant-density solver, 2017 Algorithm 3) and one making the velocity field
+//! divergence-free (2017 Algorithm 2), so the step is bounded by the flow speed (CFL on the
+//! particle diameter), not by a numerical speed of sound.
+//!
+//! - Density: summed, ρ_i = Σ_j m_j W_ij over fluid and boundary particles; the
+//!   boundary particles (Adami-style, filled one support deep on the water's own lattice) carry
+//!   the fluid's particle mass m = ρ0·dx³, as in [`crate::muller`]. Rest density is the sum on a
+//!   full lattice ([`lattice_density`]), so water at rest is at rest in the discrete sense.
+//! - Kernel: Wendland C2 (Wendland 1995), h = 1.3·dx by default (support 2.6·dx).
+//! - Factor α_i = ρ_i / (|Σ_j m_j ∇W_ij|² + Σ_j |m_j ∇W_ij|²) (the DFSPH factor) with the
+//!   boundary neighbours in the first sum. Here the pressure variable is k_i = κ_i/ρ_i = p_i/ρ_i²,
+//!   so the Jacobi diagonal is β_i = α_i/ρ_i = 1/(|G_i|² + Σ_f |m ∇W_ij|²) with
+//!   G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib).
+//! - Non-pressure forces: gravity, paper Eq. 22 (`particles.penalty / m`), and XSPH viscosity
+//!   (Monaghan 1989; Schechter & Bridson 2012), v_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij.
+//! - Pressure acceleration (the κ/ρ form of both solvers): a_i = −Σ_f m (k_i + k_j) ∇W_ij
+//!   − Σ_b m (k_i + p_b/ρ0²) ∇W_ib. At the walls the implicit part is one-sided, the fluid
+//!   particle's own k_i (as the 2017 paper's boundary term and SPlisHSPlasH), and the wall's own
+//!   pressure p_b is Adami's extrapolation from the last step's fluid pressures with its
+//!   hydrostatic term ([`crate::boundary::Boundary::update`]), held during the solves. Mirroring
+//!   k_i alone (Akinci et al. 2012) would give a block the pressure of the water ~1 dx below its
+//!   bottom: a floating block at dx = 0.02 m rode 2 cm (20 % of its draft) too high. A moving
+//!   block takes the reverse pair by pair ([`Dfsph::react`]).
+//! - Only compression is corrected: negative density errors (free surface) and negative
+//!   divergence are clamped to zero (2017 Algorithm 3 and Algorithm 2, the source terms).
+//! - Warm start: each solve starts from half the stiffness of the last step where the particle is
+//!   compressed (the papers' warm start; the ½ and the test on compression as SPlisHSPlasH).
+//! - Stopping: mean compression below `density_tolerance` (0.05 %, at least two iterations) and
+//!   mean (Dρ/Dt)·dt/ρ0 below `divergence_tolerance` (0.1 %, at least one), SPlisHSPlasH's
+//!   defaults; at most `max_iterations` (100) each, else the step carries a warning with the
+//!   error reached. A mean compression above 10 % is named in that warning as an unstable step;
+//!   the densities reported are the predicted ρ*, so the system's `density_ratio_bound` check
+//!   (1.3·ρ0 by default) stops the run with `dfsph: density ratio limit exceeded` as soon as one
+//!   particle passes it.
+//! - Step: dt = cfl·dx/v_max (the papers' CFL condition, cfl 0.4 on the particle diameter),
+//!   bounded by the non-pressure force limit cfl·sqrt(dx/|a|) and the explicit limit
+//!   sqrt(m/K_S) of the Eq. 22 spring. No sound speed: K_S is set from 2·sqrt(2 g H), a fifth
+//!   of WCSPH's c0, so that limit stays above the CFL step.
+//!
+//! The loop of 2017 Algorithm 1 is run rotated by its last two steps: a step here is
+//! "neighbours, ρ and α; divergence solve; non-pressure forces; predicted velocities; density
+//! solve; positions", so that the state the system checks, re-sorts and samples after a step is
+//! the paper's state after its position update. The densities reported are the constant-density
+//! solver's prediction ρ* at the new positions; the pressures, p = (k_ρ + k_v)·ρ², what the
+//! two solves applied in the step.
+//!
+//! Known limit: the pressure of one step is noisy. The solves stop on a density criterion, and
+//! many pressure fields meet 0.05 % mean compression: on still water (H = 0.1 m, dx = H/8) the
+//! probes read 229 ± 90, 485 ± 184 and 746 ± 212 Pa step to step at 0.25, 0.5, 0.75 H (their
+//! time means are hydrostatic within 2 % of ρ0 g H). A block's load inherits it: the floating
+//! block held at its draft takes 14.8 ± 10.9 N for a weight of 13.7 N, step-to-step change
+//! 5.7 N (WCSPH: 13.3 ± 3.7 N, 0.13 N). Coupled, that light block (ρ_b/ρ_w = 0.5) heaves with
+//! up to 0.18 m/s of velocity noise (WCSPH 0.03 m/s), and under `scheme = "serial"` the
+//! coupler's added-mass detector stops the run. `viscosity = 0.1` (XSPH) calms it to 0.02 m/s
+//! but moves the still-water probe means to 6.7 % (docs/VALIDATION.md).
+//!
+//! State across steps: the per-particle warm-start stiffnesses must follow the system's sort, so
+//! they live in two [`crate::particles::Particles`] arrays this scheme does not otherwise use:
+//! `density0` holds k of the density solve and `density_rate` k of the divergence solve.
+
+use crate::kernel::Kernel;
+use crate::kernels::WendlandC2;
+use crate::scheme::{Layout, Scheme};
+use crate::system::{FluidSystem, Initial};
+use rayon::prelude::*;
+use serde::Deserialize;
+use shared::math::{Real, Vector};
+use shared::registry::{ParamCheck, SolverParams};
+use shared::solver::{SolverError, StepReport};
+
+/// `[fluid.dfsph]`: parameters of the divergence-free solver. Unset values take the defaults.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DfsphParams {
+    /// Courant number on the particle diameter dx: dt = cfl·dx/v_max; default 0.4 (Bender & Koschier).
+    pub cfl: Option<f64>,
+    /// Constant-density solve: stop when the mean compression is below this [%]; default 0.05.
+    pub density_tolerance: Option<f64>,
+    /// Divergence solve: stop when the mean of (Dρ/Dt)·dt/ρ0 is below this [% per step];
+    /// default 0.1.
+    pub divergence_tolerance: Option<f64>,
+    /// Iteration cap of each solve; default 100.
+    pub max_iterations: Option<i64>,
+    /// XSPH viscosity coefficient ε (0 disables, ≤ 1); default 0.01.
+    pub viscosity: Option<f64>,
+    /// Smoothing length h over dx (Wendland C2 support 2h); default 1.3.
+    pub smoothing_ratio: Option<f64>,
+}
+
+impl SolverParams for DfsphParams {
+    fn check(&self, c: &mut ParamCheck) {
+        if let Some(v) = self.cfl
+            && !(v.is_finite() && v > 0.0 && v <= 1.0)
+        {
+            c.fail(
+                "cfl",
+                v,
+                "must be a finite number in (0, 1] (a particle may not cross more than its diameter per step)",
+                "e.g. cfl = 0.4",
+            );
+        }
+        for (field, value, example) in [
+            ("density_tolerance", self.density_tolerance, "0.05"),
+            ("divergence_tolerance", self.divergence_tolerance, "0.1"),
+        ] {
+            if let Some(v) = value
+                && !(v.is_finite() && v > 0.0 && v <= 10.0)
+            {
+                c.fail(
+                    field,
+                    v,
+                    "must be a percentage in (0, 10]",
+                    &format!("e.g. {field} = {example} (per cent)"),
+                );
+            }
+        }
+        if let Some(n) = self.max_iterations
+            && !(1..=10_000).contains(&n)
+        {
+            c.fail(
+                "max_iterations",
+                n,
+                "must be an integer in [1, 10000]",
+                "e.g. max_iterations = 100",
+            );
+        }
+        if let Some(v) = self.viscosity
+            && !(v.is_finite() && (0.0..=1.0).contains(&v))
+        {
+            c.fail(
+                "viscosity",
+                v,
+                "must be an XSPH coefficient in [0, 1]",
+                "e.g. viscosity = 0.01; 0 disables it",
+            );
+        }
+        if let Some(r) = self.smoothing_ratio
+            && !(r.is_finite() && (0.5..=4.0).contains(&r))
+        {
+            c.fail(
+                "smoothing_ratio",
+                r,
+                "must be a finite number in [0.5, 4] (the support 2h must reach the nearest neighbours)",
+                "e.g. smoothing_ratio = 1.3",
+            );
+        }
+    }
+}
+
+/// Fraction of the last step's stiffness a solve starts from (the papers' warm start;
+/// SPlisHSPlasH's 0.5).
+pub const WARM_START: Real = 0.5;
+/// Mean compression after the density solve beyond which the step is reported as absurd.
+pub const ABSURD_DENSITY_ERROR: Real = 0.10;
+
+/// The scheme's constants, resolved from `[fluid.dfsph]` and the scene.
+#[derive(Debug, Clone, Copy)]
+pub struct DfsphConstants {
+    pub cfl: Real,
+    /// Mean density error tolerance η, as a fraction (0.0005 = 0.05 %).
+    pub density_tolerance: Real,
+    /// Mean divergence error tolerance η^V per step, as a fraction.
+    pub divergence_tolerance: Real,
+    pub max_iterations: usize,
+    /// XSPH ε.
+    pub viscosity: Real,
+    pub h: Real,
+}
+
+/// Iterations and final errors of the last step's two solves.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SolveStats {
+    pub density_iterations: usize,
+    /// Mean compression after the density solve (fraction of ρ0).
+    pub density_error: Real,
+    pub divergence_iterations: usize,
+    /// Mean (Dρ/Dt)·dt/ρ0 after the divergence solve.
+    pub divergence_error: Real,
+}
+
+pub struct Dfsph {
+    kernel: WendlandC2,
+    pub constants: DfsphConstants,
+    /// ρ0: the summed density of the filled lattice.
+    pub rest_density: Real,
+    /// Speed that set the Eq. 22 stiffness (Layout); also encodes the initial pressure.
+    penalty_speed: Real,
+    dx: Real,
+    mass: Real,
+    penalty_stiffness: Real,
+    /// β_i = α_i/ρ_i (the Jacobi diagonal's inverse for k_i).
+    beta: Vec<Real>,
+    /// G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib).
+    grad: Vec<Vector>,
+    /// m Σ_b v_b·∇W_ib: the boundary's (constant) part of Dρ_i/Dt.
+    wall_flux: Vec<Real>,
+    /// ρ*_i − ρ0 or Dρ_i/Dt, clamped at zero.
+    error: Vec<Real>,
+    /// ρ*_i of the last density prediction.
+    predicted: Vec<Real>,
+    /// Stiffness increment of the current iteration.
+    dk: Vec<Real>,
+    /// Velocities before the non-pressure forces (XSPH reads the old neighbours).
+    v_old: Vec<Vector>,
+    pub stats: SolveStats,
+}
+
+/// The Wendland sum Σ m W at a particle inside a full cubic lattice of spacing dx: ρ0 of the
+/// summed density (cf. [`crate::muller::lattice_density`]).
+pub fn lattice_density<K: Kernel>(kernel: &K, dx: Real, mass: Real) -> Real {
+    let n = (kernel.support() / dx).ceil() as i64;
+    let mut sum = 0.0;
+    for i in -n..=n {
+        for j in -n..=n {
+            for k in -n..=n {
+                let r = Vector::new(i as Real, j as Real, k as Real) * dx;
+                sum += mass * kernel.value(r.norm());
+            }
+        }
+    }
+    sum
+}
+
+impl Dfsph {
+    /// 2017 Algorithm 1, "compute densities and factors" (also its initialisation): ρ_i, the
+    /// factor β_i = α_i/ρ_i, and the boundary's part of Dρ/Dt, at the current positions.
+    fn densities_and_factors(&mut self, sys: &mut FluidSystem) {
+        let n = sys.len();
+        self.beta.resize(n, 0.0);
+        self.grad.resize(n, Vector::zeros());
+        self.wall_flux.resize(n, 0.0);
+        self.error.resize(n, 0.0);
+        self.predicted.resize(n, 0.0);
+        self.dk.resize(n, 0.0);
+        self.v_old.resize(n, Vector::zeros());
+        let m = sys.mass;
+        let kernel = &self.kernel;
+        let s2 = kernel.support().powi(2);
+        let w0 = kernel.value(0.0);
+        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
+        let p = &mut sys.particles;
+        let pos = &p.position;
+        p.density
+            .par_iter_mut()
+            .zip(self.beta.par_iter_mut())
+            .zip(self.grad.par_iter_mut())
+            .zip(self.wall_flux.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (((rho, beta), grad), flux))| {
+                let xi = pos[i];
+                let mut sum_w = w0;
+                let mut gs = Vector::zeros();
+                let mut sq = 0.0;
+                let mut fl = 0.0;
+                for &j in lists.of(i) {
+                    let rij = xi - pos[j as usize];
+                    let r2 = rij.norm_squared();
+                    if r2 < s2 {
+                        let r = r2.sqrt();
+                        sum_w += kernel.value(r);
+                        let g = rij * kernel.gradient_factor(r);
+                        gs += g;
+                        sq += g.norm_squared();
+                    }
+                }
+                boundary.for_each_neighbor(i, |b| {
+                    let rib = xi - b.position();
+                    let r2 = rib.norm_squared();
+                    if r2 < s2 {
+                        let r = r2.sqrt();
+                        sum_w += kernel.value(r);
+                        let g = rib * kernel.gradient_factor(r);
+                        gs += g;
+                        fl += b.velocity().dot(&g);
+                    }
+                });
+                *rho = m * sum_w;
+                *grad = gs * m;
+                // The DFSPH factor α_i, divided by ρ_i for this scheme's variable k = κ/ρ (module doc).
+                let denom = grad.norm_squared() + m * m * sq;
+                *beta = if denom > 1e-9 * (m * m * sq).max(Real::MIN_POSITIVE) {
+                    1.0 / denom
+                } else {
+                    0.0
+                };
+                *flux = m * fl;
+            });
+    }
+
+    /// v_i −= dt (dk_i G_i + m Σ_f dk_j ∇W_ij): the pressure velocity change of stiffness
+    /// increments `dk` (the velocity updates of 2017 Algorithms 2 and 3; the one-sided boundary
+    /// part is in G_i).
+    fn apply(&self, sys: &mut FluidSystem, dk: &[Real], dt: Real) {
+        let m = sys.mass;
+        let kernel = &self.kernel;
+        let s2 = kernel.support().powi(2);
+        let lists = &sys.fluid_lists;
+        let p = &mut sys.particles;
+        let pos = &p.position;
+        let grad = &self.grad;
+        p.velocity.par_iter_mut().enumerate().for_each(|(i, v)| {
+            let xi = pos[i];
+            let mut acc = grad[i] * dk[i];
+            let mut sum = Vector::zeros();
+            for &j in lists.of(i) {
+                let j = j as usize;
+                let rij = xi - pos[j];
+                let r2 = rij.norm_squared();
+                if r2 < s2 {
+                    sum += rij * (dk[j] * kernel.gradient_factor(r2.sqrt()));
+                }
+            }
+            acc += sum * m;
+            *v -= acc * dt;
+        });
+    }
+
+    /// Dρ_i/Dt = Σ_f m (v_i − v_j)·∇W_ij + Σ_b m (v_i − v_b)·∇W_ib (the SPH continuity equation) at
+    /// the current velocities. `density`: the constant-density error max(ρ*_i − ρ0, 0) with
+    /// ρ*_i = ρ_i + dt·Dρ_i/Dt (Algorithm 3's predicted density; only compression) into `error`,
+    /// ρ*_i into `predicted`, and the mean error over ρ0 returned; otherwise the divergence
+    /// error max(Dρ_i/Dt, 0) (Algorithm 2's source term) and its mean times dt/ρ0.
+    fn predict(&mut self, sys: &FluidSystem, dt: Real, density: bool) -> Real {
+        let (m, rho0) = (sys.mass, self.rest_density);
+        let kernel = &self.kernel;
+        let s2 = kernel.support().powi(2);
+        let lists = &sys.fluid_lists;
+        let p = &sys.particles;
+        let (pos, vel, rho) = (&p.position, &p.velocity, &p.density);
+        let (grad, flux) = (&self.grad, &self.wall_flux);
+        let sum: Real = self
+            .error
+            .par_iter_mut()
+            .zip(self.predicted.par_iter_mut())
+            .enumerate()
+            .map(|(i, (e, pred))| {
+                let xi = pos[i];
+                let mut d = 0.0;
+                for &j in lists.of(i) {
+                    let j = j as usize;
+                    let rij = xi - pos[j];
+                    let r2 = rij.norm_squared();
+                    if r2 < s2 {
+                        d += vel[j].dot(&rij) * kernel.gradient_factor(r2.sqrt());
+                    }
+                }
+                let div = vel[i].dot(&grad[i]) - m * d - flux[i];
+                if density {
+                    *pred = rho[i] + dt * div;
+                    *e = (*pred - rho0).max(0.0);
+                } else {
+                    *e = div.max(0.0);
+                }
+                *e
+            })
+            .sum();
+        let mean = sum / p.len().max(1) as Real / rho0;
+        if density { mean } else { mean * dt }
+    }
+
+    /// One implicit solve, 2017 Algorithm 2 (divergence, `density` false) or Algorithm 3
+    /// (constant density): warm start, then Jacobi iterations on the stiffness until the mean
+    /// error is below the tolerance (at least 1 resp. 2 iterations) or the cap. The accumulated
+    /// stiffness is left in `k` (per particle, the warm start read from it). Returns
+    /// (iterations, final mean error).
+    fn solve(
+        &mut self,
+        sys: &mut FluidSystem,
+        dt: Real,
+        density: bool,
+        mut k: Vec<Real>,
+    ) -> (usize, Real, Vec<Real>) {
+        let c = self.constants;
+        let (tolerance, min_iterations, scale) = if density {
+            (c.density_tolerance, 2, 1.0 / (dt * dt))
+        } else {
+            (c.divergence_tolerance, 1, 1.0 / dt)
+        };
+        // Warm start (both papers): a fraction of the last step's stiffness where compressed.
+        self.predict(sys, dt, density);
+        let mut dk = std::mem::take(&mut self.dk);
+        dk.par_iter_mut()
+            .zip(k.par_iter_mut())
+            .zip(self.error.par_iter())
+            .for_each(|((d, k), &e)| {
+                *k = if e > 0.0 {
+                    WARM_START * k.max(0.0)
+                } else {
+                    0.0
+                };
+                *d = *k;
+            });
+        if dk.par_iter().any(|&d| d != 0.0) {
+            self.apply(sys, &dk, dt);
+        }
+        let mut err = self.predict(sys, dt, density);
+        let mut it = 0;
+        while (it < min_iterations || err > tolerance) && it < c.max_iterations {
+            // κ_i = (ρ*_i − ρ0)·α_i/dt² (Algorithm 3) or (Dρ_i/Dt)·α_i/dt (Algorithm 2), here
+            // divided by ρ_i: k_i = error_i·β_i·scale.
+            dk.par_iter_mut()
+                .zip(k.par_iter_mut())
+                .zip(self.error.par_iter().zip(self.beta.par_iter()))
+                .for_each(|((d, k), (&e, &b))| {
+                    *d = e * b * scale;
+                    *k += *d;
+                });
+            self.apply(sys, &dk, dt);
+            err = self.predict(sys, dt, density);
+            it += 1;
+        }
+        self.dk = dk;
+        (it, err, k)
+    }
+
+    /// 2017 Algorithm 1, "non-pressure forces" and "predict velocities": v* = v + dt (g + F_Eq22/m) and XSPH viscosity
+    /// v*_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij over the fluid neighbours; with them the walls' own
+    /// (explicit) pressure, −dt Σ_b m (p_b/ρ_b²) ∇W_ib (module doc).
+    fn non_pressure(&mut self, sys: &mut FluidSystem, dt: Real) {
+        let (m, g, eps) = (sys.mass, sys.gravity, self.constants.viscosity);
+        let kernel = &self.kernel;
+        let s2 = kernel.support().powi(2);
+        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
+        let p = &mut sys.particles;
+        self.v_old.copy_from_slice(&p.velocity);
+        let (pos, rho, pen, v_old) = (&p.position, &p.density, &p.penalty, &self.v_old);
+        p.velocity
+            .par_iter_mut()
+            .zip(p.acceleration.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (v, a))| {
+                let (xi, vi) = (pos[i], v_old[i]);
+                let mut xsph = Vector::zeros();
+                if eps > 0.0 {
+                    for &j in lists.of(i) {
+                        let j = j as usize;
+                        let r2 = (xi - pos[j]).norm_squared();
+                        if r2 < s2 {
+                            xsph += (v_old[j] - vi) * (m / rho[j] * kernel.value(r2.sqrt()));
+                        }
+                    }
+                }
+                let mut wall = Vector::zeros();
+                boundary.for_each_neighbor(i, |b| {
+                    let rib = xi - b.position();
+                    let r2 = rib.norm_squared();
+                    if r2 < s2 {
+                        let rb = b.density();
+                        wall -= rib
+                            * (m * b.pressure() / (rb * rb) * kernel.gradient_factor(r2.sqrt()));
+                    }
+                });
+                // The non-pressure acceleration: what the step's force limit looks at.
+                *a = g + pen[i] / m;
+                *v = vi + (*a + wall) * dt + xsph * eps;
+            });
+    }
+}
+
+impl Scheme for Dfsph {
+    const NAME: &'static str = "dfsph";
+    const DESCRIPTION: &'static str = "divergence-free SPH (Bender & Koschier 2015/2017): summed density, implicit constant-density and divergence-free solves, CFL step on the flow speed";
+    type Params = DfsphParams;
+    type Kernel = WendlandC2;
+
+    fn new(spec: DfsphParams, init: &Initial) -> Result<(Self, Layout), SolverError> {
+        let dx = init.fluid.dx;
+        let rho0 = init.fluid.density;
+        let h = spec.smoothing_ratio.unwrap_or(1.3) * dx;
+        let kernel = WendlandC2::new(h);
+        let mass = rho0 * dx.powi(3);
+        let rest_density = lattice_density(&kernel, dx, mass);
+        let constants = DfsphConstants {
+            cfl: spec.cfl.unwrap_or(0.4),
+            density_tolerance: 0.01 * spec.density_tolerance.unwrap_or(0.05),
+            divergence_tolerance: 0.01 * spec.divergence_tolerance.unwrap_or(0.1),
+            max_iterations: spec.max_iterations.unwrap_or(100).max(1) as usize,
+            viscosity: spec.viscosity.unwrap_or(0.01),
+            h,
+        };
+        // No sound speed limits the step; it only sets the default Eq. 22 spring, the backstop
+        // behind the boundary particles. A fifth of WCSPH's (2·sqrt(2 g H), twice the largest
+        // free-fall speed) keeps the spring's own limit sqrt(m/K_S) = √2·dx/c above the CFL step.
+        let penalty_speed = 0.2 * init.default_sound_speed();
+        // Initial hydrostatic pressure, carried to `start` through the density (as Müller does):
+        // ρ = ρ0 + ρ_w g d/c².
+        let g = init.gravity.norm();
+        let density = init
+            .fill
+            .depth
+            .iter()
+            .map(|d| rest_density + rho0 * g * d / (penalty_speed * penalty_speed))
+            .collect();
+        let layout = Layout {
+            density,
+            support: kernel.support(),
+            sound_speed: penalty_speed,
+        };
+        let scheme = Self {
+            kernel,
+            constants,
+            rest_density,
+            penalty_speed,
+            dx,
+            mass,
+            penalty_stiffness: 0.0,
+            beta: Vec::new(),
+            grad: Vec::new(),
+            wall_flux: Vec::new(),
+            error: Vec::new(),
+            predicted: Vec::new(),
+            dk: Vec::new(),
+            v_old: Vec::new(),
+            stats: SolveStats::default(),
+        };
+        Ok((scheme, layout))
+    }
+
+    fn start(&mut self, sys: &mut FluidSystem) {
+        // The particles were sorted: decode the hydrostatic pressure from their own densities,
+        // and warm-start the first density solve from it (k = p/ρ0²).
+        let (rho0, c2) = (self.rest_density, self.penalty_speed * self.penalty_speed);
+        let p = &mut sys.particles;
+        p.pressure
+            .par_iter_mut()
+            .zip(p.density.par_iter_mut())
+            .zip(p.density0.par_iter_mut().zip(p.density_rate.par_iter_mut()))
+            .for_each(|((pr, r), (kd, kv))| {
+                *pr = (*r - rho0) * c2;
+                *kd = *pr / (rho0 * rho0);
+                *kv = 0.0;
+                *r = rho0;
+            });
+        self.penalty_stiffness = sys.penalty.stiffness;
+        self.mass = sys.mass;
+    }
+
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport {
+        let c = self.constants;
+        // Algorithm 1's "update ρ and α" (rotated to the start): ρ_i and α_i at the current positions; the walls'
+        // pressure extrapolated from the last step's (Adami 2012, Eq. 27 at rest).
+        self.densities_and_factors(sys);
+        let rho0 = self.rest_density;
+        sys.boundary
+            .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
+        // Algorithm 1's divergence solve (Algorithm 2), rotated to the start on the current velocities.
+        let kv = std::mem::take(&mut sys.particles.density_rate);
+        let (div_it, div_err, kv) = self.solve(sys, dt, false, kv);
+        sys.particles.density_rate = kv;
+        // Non-pressure forces and predicted velocities.
+        self.non_pressure(sys, dt);
+        // The constant-density solve (Algorithm 3) on v*.
+        let kd = std::mem::take(&mut sys.particles.density0);
+        let (it, err, kd) = self.solve(sys, dt, true, kd);
+        sys.particles.density0 = kd;
+        // Positions. The pressure the step applied, p = (k_ρ + k_v)ρ², for output and
+        // probes; the density the constant-density solve predicts at the new positions.
+        let p = &mut sys.particles;
+        p.position
+            .par_iter_mut()
+            .zip(p.velocity.par_iter())
+            .for_each(|(x, v)| *x += v * dt);
+        p.pressure
+            .par_iter_mut()
+            .zip(p.density.par_iter_mut())
+            .zip(p.density0.par_iter().zip(p.density_rate.par_iter()))
+            .zip(self.predicted.par_iter())
+            .for_each(|(((pr, r), (kd, kv)), pred)| {
+                *pr = (kd + kv) * *r * *r;
+                *r = *pred;
+            });
+        self.stats = SolveStats {
+            density_iterations: it,
+            density_error: err,
+            divergence_iterations: div_it,
+            divergence_error: div_err,
+        };
+        let mut warnings = Vec::new();
+        if err > c.density_tolerance {
+            warnings.push(format!(
+                "dfsph: density solve did not converge: mean error {:.3} % after {it} iterations (tolerance {:.3} %)",
+                100.0 * err,
+                100.0 * c.density_tolerance
+            ));
+        }
+        if err > ABSURD_DENSITY_ERROR {
+            warnings.push(format!(
+                "dfsph: mean compression {:.1} % exceeds {:.0} %: the step is unstable; lower [fluid.dfsph] cfl or [time] dt_max",
+                100.0 * err,
+                100.0 * ABSURD_DENSITY_ERROR
+            ));
+        }
+        if div_err > c.divergence_tolerance {
+            warnings.push(format!(
+                "dfsph: divergence solve did not converge: mean error {:.3} % after {div_it} iterations (tolerance {:.3} %)",
+                100.0 * div_err,
+                100.0 * c.divergence_tolerance
+            ));
+        }
+        StepReport {
+            warning: (!warnings.is_empty()).then(|| warnings.join("; ")),
+        }
+    }
+
+    fn react(&self, sys: &mut FluidSystem) {
+        // The reverse of the pressure force the fluid takes from each moving boundary particle,
+        // m·(−m (k_i + p_b/ρ_b²) ∇W_ib) with k_i = k_ρ + k_v of the last step and p_b
+        // extrapolated at the new pose (module doc).
+        let rho0 = self.rest_density;
+        sys.boundary
+            .update_moving(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
+        let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
+        sys.boundary
+            .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
+                let k = p.density0[i] + p.density_rate[i] + pw / (rw * rw);
+                r * (-m * m * k * kernel.gradient_factor(len))
+            });
+    }
+
+    fn kernel(&self) -> &WendlandC2 {
+        &self.kernel
+    }
+
+    fn density_check(&self) -> (bool, Real) {
+        (false, self.rest_density)
+    }
+
+    fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real {
+        let c = &self.constants;
+        let mut dt: Real = 1.0;
+        if v_max > 0.0 {
+            dt = dt.min(c.cfl * self.dx / v_max);
+        }
+        if a_max > 0.0 {
+            dt = dt.min(c.cfl * (self.dx / a_max).sqrt());
+        }
+        if self.penalty_stiffness > 0.0 {
+            dt = dt.min((self.mass / self.penalty_stiffness).sqrt());
+        }
+        dt
+    }
+}

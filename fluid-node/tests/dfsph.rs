@@ -1,0 +1,224 @@
+//! Divergence-free SPH (fluid-node/src/dfsph.rs) at coarse resolutions: hydrostatics, the
+//! Martin & Moyce fronts with self-convergence, the steps it saves over WCSPH, its parameter
+//! checks and its convergence warning.
+
+use fluid_node::REGISTRY;
+use fluid_node::dfsph::Dfsph;
+use fluid_node::sph::Sph;
+use fluid_node::validation::*;
+use shared::scene::{Scene, Scheme};
+use shared::solver::{SetupContext, Solver};
+
+#[test]
+fn dfsph_still_water_is_hydrostatic() {
+    let (depth, dx) = (0.1, 0.1 / 8.0);
+    let s = still_water("dfsph", depth, dx, 0.3, None).unwrap();
+    eprintln!(
+        "dfsph still water: error {:.4}, surface {:.4}, {} steps, probes {:?}",
+        s.max_error, s.surface, s.steps, s.probes
+    );
+    assert!(
+        s.max_error <= HYDROSTATIC_TOLERANCE,
+        "pressure error {:.3} of ρgH: {:?}",
+        s.max_error,
+        s.probes
+    );
+    assert!(
+        (s.surface - depth).abs() <= dx,
+        "surface {} for depth {depth}",
+        s.surface
+    );
+}
+
+fn check_front(r: &DamBreak) {
+    let mean = r.mean_deviation();
+    assert!(
+        mean >= FRONT_MEAN_BAND.0 && mean <= FRONT_MEAN_BAND.1,
+        "mean front deviation {mean:+.3}: {:?}",
+        r.deviations()
+    );
+    let worst = r.deviations().iter().fold(0.0f64, |m, d| m.max(d.abs()));
+    assert!(
+        worst <= FRONT_MAX_DEVIATION,
+        "worst front deviation {worst:.3}"
+    );
+}
+
+#[test]
+fn dfsph_dam_break_fronts_and_self_convergence() {
+    let runs: Vec<DamBreak> = [4, 8, 16]
+        .iter()
+        .map(|&n| dam_break("dfsph", 2, n, None).unwrap())
+        .collect();
+    for r in &runs {
+        eprintln!(
+            "dfsph dam break a/dx = {}: {} steps, mean deviation {:+.3}",
+            r.per_a,
+            r.steps,
+            r.mean_deviation()
+        );
+    }
+    check_front(&runs[2]);
+    let three: [DamBreak; 3] = runs.try_into().unwrap();
+    let (e1, e2, order) = self_convergence(&three);
+    assert!(
+        e2 < e1,
+        "no self-convergence: |ΔZ| {e1:.3} then {e2:.3} (order {order:.2})"
+    );
+    check_front(&dam_break("dfsph", 1, 8, None).unwrap());
+}
+
+fn ctx_for<'a>(scene: &'a Scene, dir: &'a TempRunDir) -> SetupContext<'a> {
+    SetupContext {
+        scene,
+        run_dir: dir.path(),
+        scheme: Scheme::Parallel,
+        peer_present: false,
+    }
+}
+
+/// The point of DFSPH: its step follows the flow speed, not a numerical speed of sound. The same
+/// dam break (a/dx = 8) with the scene's dt_max raised out of the way, so each solver takes its
+/// own proposal: step COUNTS (deterministic), not wall time.
+#[test]
+fn dfsph_takes_at_least_five_times_fewer_steps_than_wcsph() {
+    let (a, per_a) = (0.1, 8);
+    let steps = |solver: &str| {
+        let mut scene = dam_break_scene(solver, 2, a, per_a, None);
+        scene.time.dt_max = 0.05;
+        let dir = TempRunDir::new("ratio").unwrap();
+        let mut s = build(solver, &scene, dir.path()).unwrap();
+        let scale = 2f64.sqrt() * (9.81 / a).sqrt();
+        let mut curve = Vec::new();
+        let steps = run(s.as_mut(), &scene, scene.time.end, |s, t| {
+            let front = s
+                .system()
+                .particles
+                .position
+                .iter()
+                .map(|p| p.x)
+                .fold(f64::NEG_INFINITY, f64::max)
+                + 0.5 * a / per_a as f64;
+            curve.push((t * scale, front / a));
+        })
+        .unwrap();
+        DamBreak {
+            n2: 2,
+            per_a,
+            curve,
+            particles: s.system().len(),
+            steps,
+            seconds: 0.0,
+        }
+    };
+    let (d, w) = (steps("dfsph"), steps("wcsph"));
+    eprintln!(
+        "dam break a/dx = {per_a}, dt_max out of the way: dfsph {} steps (front {:+.3}), wcsph {} steps (front {:+.3}), ratio {:.1}",
+        d.steps,
+        d.mean_deviation(),
+        w.steps,
+        w.mean_deviation(),
+        w.steps as f64 / d.steps as f64
+    );
+    assert!(
+        5 * d.steps <= w.steps,
+        "dfsph took {} steps, wcsph {}: fewer than 5× fewer",
+        d.steps,
+        w.steps
+    );
+    // At its own step, the front is still Martin & Moyce's.
+    check_front(&d);
+}
+
+/// The iteration counts of the two solves, from the scheme itself, on still water: the warm start
+/// keeps the constant-density solve short, and every step converges below the cap.
+#[test]
+fn dfsph_solves_converge_on_still_water() {
+    let scene = still_water_scene("dfsph", 0.1, 0.0125, 0.1, None);
+    let dir = TempRunDir::new("iters").unwrap();
+    let mut s = Sph::<Dfsph>::new(&ctx_for(&scene, &dir)).unwrap();
+    let (mut worst, mut total, mut total_div) = (0, 0, 0);
+    let mut steps = 0;
+    while s.sys.time < 0.1 {
+        let dt = s.dt_proposal().min(scene.time.dt_max);
+        let r = s.advance(dt).unwrap();
+        assert!(r.warning.is_none(), "{:?}", r.warning);
+        let st = s.scheme.stats;
+        assert!(st.density_error <= 0.0005, "{st:?}");
+        worst = worst.max(st.density_iterations);
+        total += st.density_iterations;
+        total_div += st.divergence_iterations;
+        steps += 1;
+    }
+    eprintln!(
+        "still water: {steps} steps, density iterations mean {:.1} (worst {worst}), divergence iterations mean {:.1}",
+        total as f64 / steps as f64,
+        total_div as f64 / steps as f64
+    );
+    assert!(worst < 100, "a density solve hit the cap");
+}
+
+/// A cap too low for the tolerance: the step returns, and says so with the error reached.
+#[test]
+fn dfsph_warns_when_the_density_solve_does_not_converge() {
+    let mut scene = dam_break_scene("dfsph", 2, 0.1, 8, None);
+    scene.fluid.as_mut().unwrap().solvers.insert(
+        "dfsph".into(),
+        toml::Value::Table(
+            toml::from_str("max_iterations = 1\ndensity_tolerance = 0.0001").unwrap(),
+        ),
+    );
+    let dir = TempRunDir::new("warn").unwrap();
+    let mut s = REGISTRY.build("dfsph", &ctx_for(&scene, &dir)).unwrap();
+    let mut warning = None;
+    for _ in 0..100 {
+        let dt = s.dt_proposal().min(scene.time.dt_max);
+        if let Some(w) = s.advance(dt).unwrap().warning {
+            warning = Some(w);
+            break;
+        }
+    }
+    let w = warning.expect("a capped solve must warn");
+    assert!(
+        w.starts_with("dfsph: density solve did not converge: mean error ")
+            && w.contains("% after 1 iterations (tolerance 0.000 %)"),
+        "{w}"
+    );
+}
+
+/// `[fluid.dfsph]` values are checked by field, with a fix.
+#[test]
+fn dfsph_parameters_are_checked() {
+    let good = still_water_scene("dfsph", 0.1, 0.025, 0.1, None);
+    let text = toml::to_string(&good).unwrap();
+    let checked = |extra: &str| {
+        let t = format!("{text}\n[fluid.dfsph]\n{extra}\n");
+        Scene::parse_checked(&t, "t", &[&fluid_node::check_scene])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    };
+    assert_eq!(
+        checked(
+            "cfl = 0.4\ndensity_tolerance = 0.05\ndivergence_tolerance = 0.1\nmax_iterations = 100\nviscosity = 0.01"
+        ),
+        ""
+    );
+    for (bad, field) in [
+        ("cfl = nan", "cfl"),
+        ("cfl = 2.0", "cfl"),
+        ("density_tolerance = -0.05", "density_tolerance"),
+        ("divergence_tolerance = 50.0", "divergence_tolerance"),
+        ("max_iterations = 0", "max_iterations"),
+        ("viscosity = -1.0", "viscosity"),
+        ("smoothing_ratio = 0.1", "smoothing_ratio"),
+    ] {
+        let e = checked(bad);
+        assert!(
+            e.contains(&format!("fluid.dfsph.{field}")) && e.contains("fix"),
+            "{bad}: {e}"
+        );
+    }
+    let e = checked("tolerance = 0.1");
+    assert!(e.contains("fluid.dfsph") && e.contains("tolerance"), "{e}");
+}
