@@ -5,7 +5,9 @@
 //! interface once over the [`system::FluidSystem`] every scheme shares. The schemes:
 //!
 //! - [`muller`]: the paper's scheme (Müller et al. 2003; paper Eqs. 11–21), `--solver muller`;
-//! - [`wcsph`]: weakly compressible SPH in the DualSPHysics standard, `--solver wcsph`.
+//! - [`wcsph`]: weakly compressible SPH in the DualSPHysics standard, `--solver wcsph`;
+//! - [`dfsph`]: divergence-free SPH (Bender & Koschier 2015, 2017), `--solver dfsph`, which
+//!   steps on the flow speed instead of a numerical speed of sound.
 //!
 //! They are listed once, in [`REGISTRY`], which the node binary, `fluid-validate`,
 //! `fluid-bench` and the coupler's sweeps read. The shared parts: [`kernel`]/[`kernels`]

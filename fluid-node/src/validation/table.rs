@@ -186,8 +186,14 @@ pub fn validate_solver(
                 error: format!("order {order:.2}"),
                 tolerance: "order > 0".into(),
                 pass: e2 < e1,
-                known_limitation: known_limitation(solver, walls, Check::SelfConvergence)
-                    .map(Into::into),
+                known_limitation: known_limitation(
+                    solver,
+                    walls,
+                    Check::SelfConvergence {
+                        finest: plan.dam_per_a[2],
+                    },
+                )
+                .map(Into::into),
             });
         }
     }
@@ -217,7 +223,10 @@ pub enum Check {
     StillSurface,
     FrontMean,
     FrontWorst,
-    SelfConvergence,
+    /// Over three resolutions, the finest `finest` particles across the column.
+    SelfConvergence {
+        finest: usize,
+    },
 }
 
 /// The rows that fail by design of the method as published (docs/VALIDATION.md, "What the table
@@ -233,7 +242,12 @@ pub fn known_limitation(solver: &str, walls: Option<Walls>, check: Check) -> Opt
         // Eq. 22 penalty walls push the water about a spacing off every wall: the column
         // stands lower, and the front's error does not shrink with dx.
         Check::StillSurface if penalty => Some("Eq. 22 walls hold the water off the walls"),
-        Check::SelfConvergence if penalty => Some("Eq. 22 walls do not converge with dx"),
+        // The front's difference between resolutions grows again past a/dx = 16 (measured:
+        // 0.053 → 0.094 over a/dx = 6, 12, 24, but 0.298 → 0.053 over 4, 8, 16): a limitation
+        // of the finer plan only.
+        Check::SelfConvergence { finest } if penalty && finest > 16 => {
+            Some("Eq. 22 walls do not converge with dx")
+        }
         _ => None,
     }
 }
@@ -250,7 +264,7 @@ mod tests {
             StillSurface,
             FrontMean,
             FrontWorst,
-            SelfConvergence,
+            SelfConvergence { finest: 24 },
         ];
         for c in all {
             assert_eq!(known_limitation("wcsph", None, c), None, "{c:?}");
@@ -264,6 +278,15 @@ mod tests {
             .into_iter()
             .filter(|&c| known_limitation("muller", Some(Walls::Penalty), c).is_some())
             .collect();
-        assert_eq!(penalty, [StillPressure, StillSurface, SelfConvergence]);
+        assert_eq!(
+            penalty,
+            [StillPressure, StillSurface, SelfConvergence { finest: 24 }]
+        );
+        // The coarse plan (a/dx up to 16) still converges with penalty walls.
+        let coarse = SelfConvergence { finest: 16 };
+        assert_eq!(
+            known_limitation("muller", Some(Walls::Penalty), coarse),
+            None
+        );
     }
 }
