@@ -679,4 +679,55 @@ mod tests {
         assert!(read_vtp(&p).unwrap_err().to_string().contains("truncated"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
+
+    /// Size and write time of a 25 000-particle frame both ways (docs/PERFORMANCE.md):
+    /// `cargo test --release -p shared vtk::tests::measure -- --ignored --nocapture`.
+    /// The values have full 17-digit mantissas, as particles have once they move.
+    #[test]
+    #[ignore]
+    fn measure_frame_size_and_write_time() {
+        let dir = scratch("measure");
+        let n = 25_000;
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let pos: Vec<[f64; 3]> = (0..n)
+            .map(|_| [next() * 4.0, next(), next() * 0.6])
+            .collect();
+        let vel: Vec<[f64; 3]> = (0..n)
+            .map(|_| [next() - 0.5, next() - 0.5, next() - 0.5])
+            .collect();
+        let rho: Vec<f64> = (0..n).map(|_| 1000.0 + next() * 20.0).collect();
+        let p: Vec<f64> = (0..n).map(|_| next() * 6000.0).collect();
+        println!("| format | bytes | bytes/particle | write [ms], best of 5 | read back [ms] |");
+        for format in [VtkFormat::Binary, VtkFormat::Ascii] {
+            let path = dir.join(format!("{format:?}.vtp"));
+            let mut best = f64::INFINITY;
+            for _ in 0..5 {
+                let t = std::time::Instant::now();
+                write_particles(
+                    &path,
+                    &pos,
+                    &[("density", &rho), ("pressure", &p)],
+                    &[("velocity", &vel)],
+                    format,
+                )
+                .unwrap();
+                best = best.min(t.elapsed().as_secs_f64() * 1e3);
+            }
+            let t = std::time::Instant::now();
+            read_vtp(&path).unwrap();
+            let read = t.elapsed().as_secs_f64() * 1e3;
+            let bytes = std::fs::metadata(&path).unwrap().len();
+            println!(
+                "| {format:?} | {bytes} | {:.1} | {best:.1} | {read:.1} |",
+                bytes as f64 / n as f64
+            );
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
