@@ -100,6 +100,7 @@ impl RunDir {
             &self.path.join("blocks_00000.vtp"),
             &refs,
             &[("block", &ids)],
+            scene.output.vtk_format,
         )
     }
 

@@ -15,38 +15,32 @@ pub struct PolyData {
     pub kind: Vec<f64>,
 }
 
-/// Reads the ASCII PolyData that `shared::vtk` writes.
+/// Reads a PolyData frame that `shared::vtk` writes, binary or ASCII.
 pub fn read_vtp(path: &Path) -> Result<PolyData, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let array = |section: &str, name: &str| -> Option<Vec<f64>> {
-        let sec = text.find(&format!("<{section}>"))?;
-        let rest = &text[sec..];
-        let start = rest.find(&format!("Name=\"{name}\""))?;
-        let body = &rest[start..];
-        let open = body.find('>')? + 1;
-        let close = body.find("</DataArray>")?;
-        Some(
-            body[open..close]
-                .split_whitespace()
-                .filter_map(|v| v.parse().ok())
-                .collect(),
-        )
-    };
-    let coords =
-        array("Points", "Points").ok_or_else(|| format!("{}: no points", path.display()))?;
+    let file =
+        shared::vtk::read_vtp(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let array = |section: &str, name: &str| file.array(section, name).map(|a| &a.values);
+    let coords = array("Points", "Points")
+        .ok_or_else(|| format!("{}: no points", path.display()))?
+        .to_f64();
     let points = coords.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let mut polys = Vec::new();
     if let (Some(conn), Some(offsets)) = (array("Polys", "connectivity"), array("Polys", "offsets"))
     {
+        let (conn, offsets) = (conn.to_f64(), offsets.to_f64());
         let mut start = 0usize;
         for &end in &offsets {
             let end = end as usize;
-            polys.push(conn[start..end].iter().map(|&i| i as usize).collect());
+            let face = conn
+                .get(start..end)
+                .ok_or_else(|| format!("{}: polygon offsets out of range", path.display()))?;
+            polys.push(face.iter().map(|&i| i as usize).collect());
             start = end;
         }
     }
-    let kind = array("CellData", "kind").unwrap_or_default();
+    let kind = array("CellData", "kind")
+        .map(|k| k.to_f64())
+        .unwrap_or_default();
     Ok(PolyData {
         points,
         polys,
@@ -246,6 +240,7 @@ fn which(program: &str) -> Option<PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use shared::scene::VtkFormat;
 
     #[test]
     fn reads_back_what_vtk_writes() {
@@ -253,13 +248,17 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let verts = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
         let faces = vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]];
-        shared::vtk::write_polyhedra(&dir.join("b.vtp"), &[(&verts, &faces)], &[]).unwrap();
+        for format in [VtkFormat::Ascii, VtkFormat::Binary] {
+            shared::vtk::write_polyhedra(&dir.join("b.vtp"), &[(&verts, &faces)], &[], format)
+                .unwrap();
+            let b = read_vtp(&dir.join("b.vtp")).unwrap();
+            assert_eq!(b.points.len(), 4);
+            assert_eq!(
+                b.polys,
+                vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]]
+            );
+        }
         let b = read_vtp(&dir.join("b.vtp")).unwrap();
-        assert_eq!(b.points.len(), 4);
-        assert_eq!(
-            b.polys,
-            vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]]
-        );
         let scene = Scene::default_scene();
         let pov = scene_file(&scene, None, Some(&b), 0.5);
         assert_eq!(pov.matches("triangle").count(), 4);

@@ -149,8 +149,13 @@ mod tests {
         let top = wave.iter().map(|p| p[2]).fold(0.0, f64::max);
         // Spray: one drop touching the slope far above the tongue, with no water around it.
         wave.push([1.5 - 0.9 / tan + 0.6 * dx, 0.4, 0.9]);
-        shared::vtk::write_particles(&dir.join("p0.vtp"), &still, &[], &[]).unwrap();
-        shared::vtk::write_particles(&dir.join("p1.vtp"), &wave, &[], &[]).unwrap();
+        // One frame in each encoding: the run-up reads both.
+        let (bin, ascii) = (
+            shared::scene::VtkFormat::Binary,
+            shared::scene::VtkFormat::Ascii,
+        );
+        shared::vtk::write_particles(&dir.join("p0.vtp"), &still, &[], &[], bin).unwrap();
+        shared::vtk::write_particles(&dir.join("p1.vtp"), &wave, &[], &[], ascii).unwrap();
         shared::vtk::write_pvd(
             &dir.join("particles.pvd"),
             &[(0.0, "p0.vtp".into()), (0.5, "p1.vtp".into())],

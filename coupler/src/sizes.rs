@@ -16,6 +16,9 @@ pub const BASE_BYTES: f64 = 25e6;
 /// Bytes of one particle in one ASCII VTK frame (particles_NNNNN.vtp at dx = 0.02: 15.8 MB for
 /// 191 520 particles).
 pub const VTK_BYTES_PER_PARTICLE: f64 = 83.0;
+/// Bytes of one particle in one binary VTK frame, exactly: position, velocity (3 × 8), density,
+/// pressure (8 each), connectivity and offset (Int64, 8 each).
+pub const VTK_BINARY_BYTES_PER_PARTICLE: f64 = 80.0;
 /// Share of the available memory a run may plan to use (the machine is shared).
 const MEMORY_SHARE: f64 = 0.8;
 /// Layers of boundary particles: the walls are filled one kernel support deep, 2h = 2.6 dx
@@ -87,7 +90,11 @@ pub fn estimate(scene: &Scene) -> Option<Estimate> {
     let dt = (0.2 * 1.3 * dx / c0).min(scene.time.dt_max);
     let frames = scene.time.end / scene.output.interval;
     let disk = if scene.output.vtk {
-        frames * fluid_particles * VTK_BYTES_PER_PARTICLE
+        let per_particle = match scene.output.vtk_format {
+            shared::scene::VtkFormat::Binary => VTK_BINARY_BYTES_PER_PARTICLE,
+            shared::scene::VtkFormat::Ascii => VTK_BYTES_PER_PARTICLE,
+        };
+        frames * fluid_particles * per_particle
     } else {
         0.0
     };

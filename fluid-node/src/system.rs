@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
-use shared::scene::{BlockKind, FluidSpec, Scene, Walls};
+use shared::scene::{BlockKind, FluidSpec, Scene, VtkFormat, Walls};
 use shared::solver::{SetupContext, SolverError};
 use std::path::PathBuf;
 
@@ -88,6 +88,8 @@ pub struct FluidSystem {
     pub density_bound: Real,
     domain: (Vector, Vector),
     run_dir: PathBuf,
+    /// Encoding of the particle frames (`output.vtk_format`).
+    vtk_format: VtkFormat,
     pub time: Real,
     pub steps: u64,
     grid_valid: bool,
@@ -227,6 +229,7 @@ impl FluidSystem {
             density_bound: fluid.density_ratio_bound,
             domain: (lo, hi),
             run_dir: ctx.run_dir.to_path_buf(),
+            vtk_format: scene.output.vtk_format,
             time: 0.0,
             steps: 0,
             grid_valid: false,
@@ -436,6 +439,7 @@ impl FluidSystem {
             &pos,
             &[("density", &p.density), ("pressure", &p.pressure)],
             &[("velocity", &vel)],
+            self.vtk_format,
         )?;
         Ok(())
     }

@@ -226,7 +226,9 @@ fn frames_gauges_and_probes_are_written() {
     let mut s = REGISTRY.build("wcsph", &ctx_for(&scene, &dir)).unwrap();
     let steps = run(s.as_mut(), &scene, 0.05, |_, _| {}).unwrap();
     s.write_frame(3, 0.05).unwrap();
-    let vtp = std::fs::read_to_string(dir.path().join("particles_00003.vtp")).unwrap();
+    let vtp =
+        String::from_utf8_lossy(&std::fs::read(dir.path().join("particles_00003.vtp")).unwrap())
+            .into_owned();
     for name in ["density", "pressure", "velocity"] {
         assert!(
             vtp.contains(&format!("Name=\"{name}\"")),

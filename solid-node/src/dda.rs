@@ -18,6 +18,7 @@ pub struct DdaSolver {
     run_dir: PathBuf,
     csv: KinematicsCsv,
     vtk: bool,
+    vtk_format: shared::scene::VtkFormat,
 }
 
 impl DdaSolver {
@@ -42,6 +43,7 @@ impl DdaSolver {
             run_dir: ctx.run_dir.to_path_buf(),
             csv,
             vtk: ctx.scene.output.vtk,
+            vtk_format: ctx.scene.output.vtk_format,
         })
     }
 
@@ -135,7 +137,11 @@ impl Solver for DdaSolver {
         self.csv.sample(&self.world, true)?;
         self.csv.flush()?;
         if self.vtk {
-            output::write_blocks_vtp(&self.world, &output::frame_path(&self.run_dir, frame))?;
+            output::write_blocks_vtp(
+                &self.world,
+                &output::frame_path(&self.run_dir, frame),
+                self.vtk_format,
+            )?;
         }
         Ok(())
     }

@@ -115,8 +115,12 @@ pub fn frame_path(run_dir: &Path, frame: u32) -> PathBuf {
 /// as polygons, with per-block kind (0 fixed, 1 kinematic, 2 free), speed and contact-force
 /// magnitude as cell data; when the scene has a deformable block, also its volumetric strain
 /// εx + εy + εz, von Mises stress [Pa] and the six block-frame strains and stresses (0 for
-/// rigid blocks).
-pub fn write_blocks_vtp(world: &World, path: &Path) -> std::io::Result<()> {
+/// rigid blocks). `format` is the scene's `output.vtk_format`.
+pub fn write_blocks_vtp(
+    world: &World,
+    path: &Path,
+    format: shared::scene::VtkFormat,
+) -> std::io::Result<()> {
     let verts: Vec<Vec<[f64; 3]>> = world
         .blocks
         .iter()
@@ -191,5 +195,5 @@ pub fn write_blocks_vtp(world: &World, path: &Path) -> std::io::Result<()> {
             arrays.push((name, c));
         }
     }
-    shared::vtk::write_polyhedra(path, &blocks, &arrays)
+    shared::vtk::write_polyhedra(path, &blocks, &arrays, format)
 }

@@ -371,7 +371,9 @@ fn outputs_csv_and_vtp() {
     h.run_until(0.1, Some(1e-4), |_| {}).unwrap();
     h.solver.write_frame(3, h.time()).unwrap();
     h.solver.finish().unwrap();
-    let vtp = std::fs::read_to_string(h.run_dir().join("blocks_00003.vtp")).unwrap();
+    let vtp =
+        String::from_utf8_lossy(&std::fs::read(h.run_dir().join("blocks_00003.vtp")).unwrap())
+            .into_owned();
     assert!(
         vtp.contains("PolyData") && vtp.contains("NumberOfPolys=\"12\""),
         "{}",

@@ -23,7 +23,8 @@ fn csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
 
 /// Number of particles in a VTK frame.
 fn particle_count(path: &Path) -> usize {
-    let text = std::fs::read_to_string(path).unwrap();
+    // The XML header is text even when the frame's data is binary.
+    let text = String::from_utf8_lossy(&std::fs::read(path).unwrap()).into_owned();
     let n = text
         .split("NumberOfPoints=\"")
         .nth(1)

@@ -336,6 +336,21 @@ pub struct OutputSpec {
     /// Also write POV-Ray scene files per frame (the paper rendered with POV-Ray).
     #[serde(default)]
     pub povray: bool,
+    /// Encoding of the VTK frames: `"binary"` (default: raw little-endian bytes appended to the
+    /// XML, exact and fast to write) or `"ascii"` (human-readable numbers).
+    #[serde(default)]
+    pub vtk_format: VtkFormat,
+}
+
+/// `output.vtk_format`: how the .vtp frames store their numbers.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum VtkFormat {
+    /// `format="appended"` with `encoding="raw"`: the values' little-endian bytes after the XML.
+    #[default]
+    Binary,
+    /// `format="ascii"`: every value as shortest round-trip decimal text.
+    Ascii,
 }
 
 impl Default for OutputSpec {
@@ -344,6 +359,7 @@ impl Default for OutputSpec {
             interval: default_output_interval(),
             vtk: true,
             povray: false,
+            vtk_format: VtkFormat::Binary,
         }
     }
 }
