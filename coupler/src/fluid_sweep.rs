@@ -88,15 +88,7 @@ fn run(
     let dx = A / per_a as f64;
     let scale = (N2 as f64).sqrt() * (9.81 / A).sqrt();
     let end = validation::dam_break_end(N2, A) * 1.01;
-    let front = |s: &dyn SphSolver| {
-        s.system()
-            .particles
-            .position
-            .iter()
-            .map(|p| p.x)
-            .fold(f64::NEG_INFINITY, f64::max)
-            + 0.5 * dx
-    };
+    let front = |s: &dyn SphSolver| validation::front(s, dx);
     let mut curve = vec![(0.0, front(s.as_ref()) / A)];
     let mut loads: Vec<BlockLoad> = Vec::new();
     // As the coupler does with --dt-factor: the granted step (proposal within the scene's

@@ -91,15 +91,7 @@ fn dfsph_takes_at_least_five_times_fewer_steps_than_wcsph() {
         let scale = 2f64.sqrt() * (9.81 / a).sqrt();
         let mut curve = Vec::new();
         let steps = run(s.as_mut(), &scene, scene.time.end, |s, t| {
-            let front = s
-                .system()
-                .particles
-                .position
-                .iter()
-                .map(|p| p.x)
-                .fold(f64::NEG_INFINITY, f64::max)
-                + 0.5 * a / per_a as f64;
-            curve.push((t * scale, front / a));
+            curve.push((t * scale, front(s, a / per_a as f64) / a));
         })
         .unwrap();
         DamBreak {

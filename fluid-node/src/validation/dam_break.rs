@@ -116,6 +116,17 @@ impl DamBreak {
     }
 }
 
+/// The surge front [m]: the largest particle x plus half a spacing (the particle's own extent).
+pub fn front(s: &dyn SphSolver, dx: f64) -> f64 {
+    s.system()
+        .particles
+        .position
+        .iter()
+        .map(|p| p.x)
+        .fold(f64::NEG_INFINITY, f64::max)
+        + 0.5 * dx
+}
+
 /// Runs a dam break with a = 0.1 m and `per_a` particles across the column.
 pub fn dam_break(
     solver: &str,
@@ -133,15 +144,7 @@ pub fn dam_break(
     let mut curve = Vec::new();
     let start = std::time::Instant::now();
     let steps = run(s.as_mut(), &scene, dam_break_end(n2, a) * 1.01, |s, t| {
-        let front = s
-            .system()
-            .particles
-            .position
-            .iter()
-            .map(|p| p.x)
-            .fold(f64::NEG_INFINITY, f64::max)
-            + 0.5 * dx;
-        curve.push((t * scale, front / a));
+        curve.push((t * scale, front(s, dx) / a));
     })?;
     Ok(DamBreak {
         n2,
