@@ -31,10 +31,10 @@
 //! - Stopping: mean compression below `density_tolerance` (0.05 %, at least two iterations) and
 //!   mean (Dρ/Dt)·dt/ρ0 below `divergence_tolerance` (0.1 %, at least one), SPlisHSPlasH's
 //!   defaults; at most `max_iterations` (100) each, else the step carries a warning with the
-//!   error reached. A mean compression above 10 % is named in that warning as an unstable step;
-//!   the densities reported are the predicted ρ*, so the system's `density_ratio_bound` check
-//!   (1.3·ρ0 by default) stops the run with `dfsph: density ratio limit exceeded` as soon as one
-//!   particle passes it.
+//!   error reached. A mean compression above 10 % after the solve stops the run as unstable
+//!   (`dfsph: mean compression limit exceeded`); the densities reported are the predicted ρ*, so
+//!   the system's `density_ratio_bound` check (1.3·ρ0 by default) also stops it as soon as one
+//!   particle passes that bound.
 //! - Step: dt = cfl·dx/v_max (the papers' CFL condition, cfl 0.4 on the particle diameter),
 //!   bounded by the non-pressure force limit cfl·sqrt(dx/|a|) and the explicit limit
 //!   sqrt(m/K_S) of the Eq. 22 spring. No sound speed: K_S is set from 2·sqrt(2 g H), a fifth
@@ -538,7 +538,7 @@ impl Scheme for Dfsph {
         self.mass = sys.mass;
     }
 
-    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport {
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError> {
         let c = self.constants;
         // Algorithm 1's "update ρ and α" (rotated to the start): ρ_i and α_i at the current positions; the walls'
         // pressure extrapolated from the last step's (Adami 2012, Eq. 27 at rest).
@@ -587,11 +587,11 @@ impl Scheme for Dfsph {
             ));
         }
         if err > ABSURD_DENSITY_ERROR {
-            warnings.push(format!(
-                "dfsph: mean compression {:.1} % exceeds {:.0} %: the step is unstable; lower [fluid.dfsph] cfl or [time] dt_max",
+            return Err(SolverError::Unstable(format!(
+                "dfsph: mean compression limit exceeded: {:.1} % after {it} iterations (limit {:.0} %): the constant-density solve cannot hold this step; lower [fluid.dfsph] cfl or [time] dt_max",
                 100.0 * err,
                 100.0 * ABSURD_DENSITY_ERROR
-            ));
+            )));
         }
         if div_err > c.divergence_tolerance {
             warnings.push(format!(
@@ -600,9 +600,9 @@ impl Scheme for Dfsph {
                 100.0 * c.divergence_tolerance
             ));
         }
-        StepReport {
+        Ok(StepReport {
             warning: (!warnings.is_empty()).then(|| warnings.join("; ")),
-        }
+        })
     }
 
     fn react(&self, sys: &mut FluidSystem) {

@@ -272,7 +272,7 @@ impl Scheme for Muller {
         self.limits.penalty_stiffness = sys.penalty.stiffness;
     }
 
-    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport {
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError> {
         self.density_and_pressure(sys);
         self.accelerations(sys);
         // Eq. 21: symplectic Euler, velocity first, then position with the new velocity.
@@ -299,7 +299,7 @@ impl Scheme for Muller {
                 self.stiffness
             ));
         }
-        report
+        Ok(report)
     }
 
     fn react(&self, sys: &mut FluidSystem) {

@@ -39,8 +39,10 @@ pub trait Scheme: Sized + Send + 'static {
     fn start(&mut self, sys: &mut FluidSystem);
 
     /// Force evaluation(s) and integration over `dt`. The system has begun the step (grid and
-    /// Eq. 22 forces current); it checks, re-sorts and samples after.
-    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport;
+    /// Eq. 22 forces current); it checks, re-sorts and samples after. A scheme that finds its
+    /// own step unstable (an implicit solve far from converged) says so with
+    /// [`SolverError::Unstable`], naming the cause.
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError>;
 
     /// At a new pose of the moving blocks: their boundary pressures, then the water's force on
     /// them, pair by pair the reverse of this scheme's pressure force on the fluid

@@ -61,7 +61,7 @@ impl<S: Scheme> Solver for Sph<S> {
 
     fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
         self.sys.begin_step();
-        let report = self.scheme.step(&mut self.sys, dt);
+        let report = self.scheme.step(&mut self.sys, dt)?;
         let (v, a) = self.sys.extremes();
         let (low, reference) = self.scheme.density_check();
         self.sys

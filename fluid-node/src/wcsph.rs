@@ -359,7 +359,7 @@ impl Scheme for Wcsph {
         self.limits.mass = sys.mass;
     }
 
-    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> StepReport {
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError> {
         match self.constants.integrator {
             Integrator::Symplectic => self.symplectic(sys, dt),
             Integrator::Verlet => self.verlet(sys, dt),
@@ -370,7 +370,7 @@ impl Scheme for Wcsph {
             .par_iter_mut()
             .zip(p.density.par_iter())
             .for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
-        StepReport::default()
+        Ok(StepReport::default())
     }
 
     fn react(&self, sys: &mut FluidSystem) {
