@@ -20,6 +20,23 @@ fn check_accepts_the_default_scene() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("sliding_wedge"));
 }
 
+/// `coupler run scene --out dir/run`, which must be refused (exit 1) having written nothing;
+/// returns its error output.
+fn refused_run(scene: &std::path::Path, dir: &std::path::Path) -> String {
+    let out = dir.join("run");
+    let o = coupler()
+        .arg("run")
+        .arg(scene)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(!out.exists(), "{} was written", out.display());
+    err
+}
+
 /// Every scene in the repository passes `coupler check`, solver tables included.
 #[test]
 fn every_repository_scene_passes_check() {
@@ -57,23 +74,13 @@ fn bad_solver_parameter_is_named_before_any_node_starts() {
         .position(|l| l == "safety_factor = 0.0")
         .unwrap()
         + 1;
-    let out = dir.join("run");
-    let o = coupler()
-        .arg("run")
-        .arg(&scene)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let err = refused_run(&scene, &dir);
     assert!(
         err.contains(&format!("line {gamma}: fluid.wcsph.gamma"))
             && err.contains(&format!("line {safety}: solid.explicit.safety_factor"))
             && err.contains("fix:"),
         "{err}"
     );
-    assert!(!out.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -84,21 +91,11 @@ fn malformed_scene_names_field_line_and_fix_and_writes_nothing() {
     let text = shared::scene::DEFAULT_SCENE.replace("\ndx = 0.04\n", "\ndx = -0.04\n");
     std::fs::write(&scene, &text).unwrap();
     let line = text.lines().position(|l| l == "dx = -0.04").unwrap() + 1;
-    let out = dir.join("run");
-    let o = coupler()
-        .arg("run")
-        .arg(&scene)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let err = refused_run(&scene, &dir);
     assert!(
         err.contains("fluid.dx") && err.contains(&format!("line {line}")) && err.contains("fix:"),
         "{err}"
     );
-    assert!(!out.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
