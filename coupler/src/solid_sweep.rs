@@ -100,13 +100,7 @@ fn resting_scene(k: f64) -> shared::scene::Scene {
         "",
         &format!("normal_stiffness = {k}\nshear_ratio = 0.0"),
         &[
-            verification::block_toml(
-                "floor",
-                "fixed",
-                2500.0,
-                &verification::box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
-                "",
-            ),
+            verification::floor_toml(),
             verification::block_toml(
                 "block",
                 "free",

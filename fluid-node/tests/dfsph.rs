@@ -183,13 +183,7 @@ fn dfsph_warns_when_the_density_solve_does_not_converge() {
 fn dfsph_parameters_are_checked() {
     let good = still_water_scene("dfsph", 0.1, 0.025, 0.1, None);
     let text = toml::to_string(&good).unwrap();
-    let checked = |extra: &str| {
-        let t = format!("{text}\n[fluid.dfsph]\n{extra}\n");
-        Scene::parse_checked(&t, "t", &[&fluid_node::check_scene])
-            .err()
-            .map(|e| e.to_string())
-            .unwrap_or_default()
-    };
+    let checked = |extra: &str| scene_errors(&format!("{text}\n[fluid.dfsph]\n{extra}\n"));
     assert_eq!(
         checked(
             "cfl = 0.4\ndensity_tolerance = 0.05\ndivergence_tolerance = 0.1\nmax_iterations = 100\nviscosity = 0.01"

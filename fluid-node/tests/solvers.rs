@@ -114,13 +114,7 @@ fn unknown_solver_and_wall_treatment_are_named() {
 fn solver_tables_are_checked_by_the_registry() {
     let good = still_water_scene("wcsph", 0.1, 0.025, 0.1, None);
     let text = toml::to_string(&good).unwrap();
-    let checked = |extra: &str| {
-        let t = format!("{text}\n{extra}");
-        Scene::parse_checked(&t, "t", &[&fluid_node::check_scene])
-            .err()
-            .map(|e| e.to_string())
-            .unwrap_or_default()
-    };
+    let checked = |extra: &str| scene_errors(&format!("{text}\n{extra}"));
     assert_eq!(
         checked("[fluid.wcsph]\ngamma = 7.0\nintegrator = \"verlet\"\n"),
         ""

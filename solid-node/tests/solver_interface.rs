@@ -6,7 +6,7 @@ use shared::protocol::{BlockLoad, BlockState};
 use shared::scene::{MotionSpec, Scene, Scheme, ShapeSpec};
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError};
 use solid_node::explicit::ExplicitParams;
-use solid_node::verification::{EXPLICIT, Harness, block_toml, box_corners, scene};
+use solid_node::verification::{EXPLICIT, Harness, block_toml, box_corners, floor_toml, scene};
 
 fn space_scene(extra_blocks: &[String]) -> Scene {
     let mut blocks = vec![block_toml(
@@ -315,13 +315,7 @@ fn default_stiffness_and_dt_proposal() {
         "",
         "damping_ratio = 0.5",
         &[
-            block_toml(
-                "floor",
-                "fixed",
-                2500.0,
-                &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
-                "",
-            ),
+            floor_toml(),
             block_toml(
                 "rock",
                 "free",
@@ -357,13 +351,7 @@ fn default_stiffness_and_dt_proposal() {
 
 #[test]
 fn outputs_csv_and_vtp() {
-    let floor = block_toml(
-        "floor",
-        "fixed",
-        2500.0,
-        &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
-        "",
-    );
+    let floor = floor_toml();
     let mut s = space_scene(&[floor]);
     s.output.vtk = true;
     s.output.interval = 0.02;

@@ -60,6 +60,15 @@ pub fn build(name: &str, scene: &Scene, dir: &Path) -> Result<Box<dyn SphSolver>
     REGISTRY.build(name, &ctx)
 }
 
+/// What reading scene `text` reports with the fluid registry's checks of the solver tables
+/// (as `coupler check` does): the error message, or empty for a valid scene.
+pub fn scene_errors(text: &str) -> String {
+    Scene::parse_checked(text, "scene", &[&crate::check_scene])
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default()
+}
+
 /// One step of a solver alone, granted by the coupler's rule ([`shared::step::grant`]: its
 /// proposal bounded by the scene's dt limits, times `rule.dt_factor`, landing on `target`), the
 /// way the node runtime drives it (write_loads, advance). Returns the time reached and the

@@ -23,13 +23,7 @@ pub fn bounce(solver: &str, omega_dt: Real, phase: Real) -> Result<Real, SolverE
         "[solid.implicit]\ndisplacement_limit = 10.0",
         &format!("normal_stiffness = {k}\nshear_ratio = 0.0"),
         &[
-            block_toml(
-                "floor",
-                "fixed",
-                2500.0,
-                &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
-                "",
-            ),
+            floor_toml(),
             block_toml(
                 "cube",
                 "free",
@@ -140,13 +134,7 @@ pub fn resting_block(omega_dt: Real, duration: Real) -> Result<Real, SolverError
         "",
         &format!("normal_stiffness = {k}\nshear_ratio = 0.0"),
         &[
-            block_toml(
-                "floor",
-                "fixed",
-                2500.0,
-                &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
-                "",
-            ),
+            floor_toml(),
             block_toml(
                 "block",
                 "free",

@@ -15,7 +15,9 @@
 //!   unstable, naming the elastic mode, at 2.5.
 //! - rigid against stiff deformable on the sliding incline: the same distance.
 
-use super::{EXPLICIT, Harness, Incline, Row, Tolerance, block_toml, box_corners, scene};
+use super::{
+    EXPLICIT, Harness, Incline, Row, Tolerance, block_toml, box_corners, floor_toml, scene,
+};
 use crate::elastic::cube_frequencies;
 use shared::math::Real;
 use shared::solver::{Solver, SolverError};
@@ -49,13 +51,7 @@ pub fn resting_strain(solver: &str, duration: Real) -> Result<Strain, SolverErro
         "",
         "friction_angle = 0.0\ndamping_ratio = 0.2",
         &[
-            block_toml(
-                "floor",
-                "fixed",
-                2500.0,
-                &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
-                "",
-            ),
+            floor_toml(),
             block_toml(
                 "soft",
                 "free",

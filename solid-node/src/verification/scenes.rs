@@ -23,6 +23,18 @@ pub fn rotate_y(v: &[[Real; 3]], alpha: Real) -> Vec<[Real; 3]> {
         .collect()
 }
 
+/// The fixed 2 m × 2 m floor slab under the origin (top face at z = 0) that the contact cases
+/// rest their blocks on.
+pub fn floor_toml() -> String {
+    block_toml(
+        "floor",
+        "fixed",
+        2500.0,
+        &box_corners([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]),
+        "",
+    )
+}
+
 /// A `[[block]]` table of convex shape.
 pub fn block_toml(
     name: &str,
