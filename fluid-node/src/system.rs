@@ -268,7 +268,7 @@ impl FluidSystem {
         if !self.grid_valid {
             let order = self.grid.sort(&self.particles.position);
             self.particles.permute(order);
-            let (pos, radius) = (&self.particles.position, self.grid.cell_size());
+            let (pos, radius) = (&self.particles.position, self.grid.radius());
             self.fluid_lists.build(pos, pos, &self.grid, radius, true);
             self.boundary.list_fixed(pos, &self.grid, radius);
             self.grid_valid = true;
@@ -281,7 +281,7 @@ impl FluidSystem {
     pub fn prepare_bodies(&mut self) {
         self.prepare();
         if !self.bodies_valid {
-            let (pos, radius) = (&self.particles.position, self.grid.cell_size());
+            let (pos, radius) = (&self.particles.position, self.grid.radius());
             self.boundary.list_moving(pos, &self.grid, radius);
             self.bodies_valid = true;
         }
