@@ -35,6 +35,7 @@ pub mod system;
 pub mod validation;
 pub mod walls;
 pub mod wcsph;
+pub mod wcsph_pairs;
 
 use scheme::Scheme;
 use shared::registry::{Entry, Registry, check_params};

@@ -12,9 +12,10 @@ use crate::kernel::Kernel;
 use crate::kernels::WendlandC2;
 use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
+use crate::wcsph_pairs::{NearData, PairConstants, fluid_sums};
 use rayon::prelude::*;
 use serde::Deserialize;
-use shared::math::{Real, Vector};
+use shared::math::Real;
 use shared::registry::{ParamCheck, SolverParams};
 use shared::solver::{SolverError, StepReport};
 
@@ -122,16 +123,6 @@ pub struct Wcsph {
     inv_rho: Vec<Real>,
 }
 
-/// A neighbour's state as the pair loop reads it (one 64-byte line).
-#[derive(Debug, Clone, Copy, Default)]
-#[repr(C, align(64))]
-struct NearData {
-    position: Vector,
-    density: Real,
-    velocity: Vector,
-    p_over_rho2: Real,
-}
-
 impl Wcsph {
     /// The Tait density of a boundary particle's pressure: ρ0(1 + p/B)^(1/γ).
     fn density_of(&self, pw: Real) -> Real {
@@ -179,10 +170,15 @@ impl Wcsph {
         let kernel = &self.kernel;
         let (near, inv_rho) = (&self.near, &self.inv_rho);
         let s2 = kernel.support().powi(2);
-        let eta2 = 0.01 * prm.h * prm.h;
         let delta_coef = prm.delta * prm.h * prm.sound_speed;
-        let visc_coef = -2.0 * prm.alpha * prm.sound_speed * prm.h;
         let inv_c2 = 1.0 / (prm.sound_speed * prm.sound_speed);
+        let pc = PairConstants {
+            kernel: *kernel,
+            s2,
+            eta2: 0.01 * prm.h * prm.h,
+            visc: -2.0 * prm.alpha * prm.sound_speed * prm.h,
+            hydro: g * (rho0 * inv_c2),
+        };
         let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
         let p = &mut sys.particles;
         let pen = &p.penalty;
@@ -191,47 +187,13 @@ impl Wcsph {
             .zip(p.density_rate.par_iter_mut())
             .enumerate()
             .for_each(|(i, (a, d))| {
-                let NearData {
-                    position: xi,
-                    density: ri,
-                    velocity: vi,
-                    p_over_rho2: pi_term,
-                } = near[i];
-                // Σ_j of the pair terms without the common factor m (the same for every pair).
-                let mut ai = Vector::zeros();
-                let mut di = 0.0;
-                let mut diffusion = 0.0;
-                for &j in lists.of(i) {
-                    let j = j as usize;
-                    let nj = &near[j];
-                    let rij = xi - nj.position;
-                    let r2 = rij.norm_squared();
-                    if r2 >= s2 {
-                        continue;
-                    }
-                    let f = kernel.gradient_factor(r2.sqrt());
-                    let grad = rij * f;
-                    let vij = vi - nj.velocity;
-                    let rj = nj.density;
-                    let inv_r2 = 1.0 / (r2 + eta2);
-                    // Symmetric pressure gradient (Monaghan 1992), conserving momentum.
-                    let mut coef = pi_term + nj.p_over_rho2;
-                    // Artificial viscosity (Monaghan 1992), approaching pairs only:
-                    // Π = −α c0 μ / ρ̄, μ = h v·r / (r² + η²), ρ̄ = (ρi + ρj)/2. Branch-free
-                    // (min(v·r, 0)): the sign of v·r is a coin toss the predictor keeps missing.
-                    let vr = vij.dot(&rij).min(0.0);
-                    coef += visc_coef * vr * inv_r2 / (ri + rj);
-                    ai -= grad * coef;
-                    // Continuity equation.
-                    di += vij.dot(&grad);
-                    // δ-SPH diffusion (Molteni & Colagrossi 2009) minus the hydrostatic part
-                    // ρ0((1 + ρ0 g·r_ji/B)^(1/γ) − 1) (Fourtakas et al. 2019), linearised:
-                    // ρ0·(ρ0 g·r_ji/B)/γ = ρ0 g·r_ji/c0², exact to O((ρ0gΔz/B)²).
-                    if delta_coef > 0.0 {
-                        let hydro = rho0 * g.dot(&(-rij)) * inv_c2;
-                        diffusion += (rj - ri - hydro) * (-f * r2) * inv_r2 * inv_rho[j];
-                    }
-                }
+                let me = &near[i];
+                let (xi, vi, pi_term) = (me.position, me.velocity, me.p_over_rho2);
+                // Fluid neighbours (wcsph_pairs.rs): symmetric pressure gradient and artificial
+                // viscosity (Monaghan 1992), continuity, δ-SPH diffusion (Molteni & Colagrossi
+                // 2009) minus its hydrostatic part (Fourtakas et al. 2019), linearised:
+                // ρ0((1 + ρ0 g·r_ji/B)^(1/γ) − 1) ≈ ρ0 g·r_ji/c0², exact to O((ρ0gΔz/B)²).
+                let (mut ai, mut di, diffusion) = fluid_sums(me, lists.of(i), near, inv_rho, &pc);
                 ai *= m;
                 di = m * di + 2.0 * delta_coef * m * diffusion;
                 // Boundary particles, fixed and moving: the same pressure term (a moving block

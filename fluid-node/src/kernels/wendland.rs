@@ -24,6 +24,14 @@ impl WendlandC2 {
     pub fn smoothing_length(&self) -> Real {
         self.h
     }
+
+    /// [`Kernel::gradient_factor`] for r inside the support, without the test (callers mask
+    /// the pairs outside), so that a vectorised pair loop has no branch.
+    #[inline(always)]
+    pub fn gradient_factor_inside(&self, r: Real) -> Real {
+        let t = 1.0 - 0.5 * r * self.inv_h;
+        -5.0 * self.alpha * t * t * t * self.inv_h * self.inv_h
+    }
 }
 
 impl Kernel for WendlandC2 {
