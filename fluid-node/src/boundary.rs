@@ -65,6 +65,11 @@ impl Boundary {
         }
     }
 
+    /// Number of (fluid, boundary) pairs listed, fixed and moving parts together.
+    pub fn listed_pairs(&self) -> usize {
+        self.fixed_lists.pairs() + self.moving_lists.pairs()
+    }
+
     /// Number of fixed and of moving boundary particles.
     pub fn counts(&self) -> (usize, usize) {
         (

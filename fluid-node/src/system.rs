@@ -263,6 +263,12 @@ impl FluidSystem {
         self.particles.is_empty()
     }
 
+    /// Pairs in the neighbour lists: (fluid–fluid, fluid–boundary). Every pair a force pass
+    /// visits is one of them (benchmarks report them per particle).
+    pub fn listed_pairs(&self) -> (usize, usize) {
+        (self.fluid_lists.pairs(), self.boundary.listed_pairs())
+    }
+
     /// Sorts the particles by cell and lists their neighbours, if they moved since the last sort.
     pub fn prepare(&mut self) {
         if !self.grid_valid {

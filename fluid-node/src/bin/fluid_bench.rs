@@ -1,9 +1,13 @@
-//! `fluid-bench [--sizes 10000,100000,1000000] [--threads 1,2] [--solvers NAME,…]` (default: every
-//! solver of the registry):
+//! `fluid-bench [--sizes 10000,100000,1000000] [--threads 1,2] [--solvers NAME,…]
+//! [--param 'KEY = VALUE']…` (default: every solver of the registry; `--param` adds a line to
+//! each solver's own table, e.g. `--param 'integrator = "symplectic"'` for wcsph):
 //! particle-steps per second on a 3D dam break (a water column a × a × 2a at one end of a
 //! 4a × a tank) at about the given particle counts, with each thread count. The timed steps are
 //! the full coupling step as the node runtime drives it (`write_loads` + `advance`), after
-//! warm-up steps that let the reused buffers reach their size.
+//! warm-up steps that let the reused buffers reach their size. Also printed: the listed
+//! neighbour pairs per particle (fluid and boundary; each force pass visits every one) and the
+//! process's peak resident memory so far (VmHWM; run one size per process to read a size's own
+//! peak).
 
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, TempRunDir, build};
@@ -12,7 +16,7 @@ use shared::scene::Scene;
 use shared::step::StepRule;
 use std::time::Instant;
 
-fn scene(solver: &str, particles: usize) -> Scene {
+fn scene(solver: &str, particles: usize, params: &[String]) -> Scene {
     // N = 2·(a/dx)³ with a = 1 m.
     let dx = (2.0 / particles as f64).cbrt();
     let blk = |name: &str, min: [f64; 3], max: [f64; 3]| {
@@ -31,9 +35,19 @@ fn scene(solver: &str, particles: usize) -> Scene {
     .concat();
     let text = format!(
         "name = \"bench\"\n[time]\nend = 1.0\n[domain]\nmin = [0.0, 0.0, 0.0]\nmax = [4.0, 1.0, 3.0]\n\
-         [fluid]\nsolver = \"{solver}\"\ndx = {dx}\n[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 2.0] }}\n\n{walls}"
+         [fluid]\nsolver = \"{solver}\"\ndx = {dx}\n[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 2.0] }}\n\n{walls}\
+         [fluid.{solver}]\n{}\n",
+        params.join("\n")
     );
     Scene::parse(&text, "bench (generated)").expect("bench scene is valid")
+}
+
+/// VmHWM from /proc/self/status (Linux), in MB.
+fn peak_rss_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
 }
 
 fn list(args: &[String], flag: &str, default: &str) -> Vec<String> {
@@ -56,10 +70,16 @@ fn main() {
         .map(|s| s.parse().expect("--threads"))
         .collect();
     let solvers = list(&args, "--solvers", &fluid_node::REGISTRY.names().join(","));
+    // `--param 'integrator = "symplectic"'` (repeatable): a line of each solver's own table.
+    let params: Vec<String> = args
+        .windows(2)
+        .filter(|w| w[0] == "--param")
+        .map(|w| w[1].clone())
+        .collect();
     println!(
-        "| solver | particles | threads | steps timed | s/step | particle-steps/s | µs per particle-step |"
+        "| solver | particles | threads | steps timed | s/step | particle-steps/s | µs per particle-step | listed pairs per particle (fluid + boundary) | peak RSS so far [MB] |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for solver in &solvers {
         for &n in &sizes {
             for &t in &threads {
@@ -68,7 +88,7 @@ fn main() {
                     .build()
                     .expect("thread pool");
                 pool.install(|| {
-                    let sc = scene(solver, n);
+                    let sc = scene(solver, n, &params);
                     let dir = TempRunDir::new("bench").expect("temp dir");
                     let mut s: Box<dyn SphSolver> = build(solver, &sc, dir.path()).expect("solver");
                     let count = s.system().len();
@@ -92,11 +112,16 @@ fn main() {
                     }
                     let secs = start.elapsed().as_secs_f64();
                     let rate = (count * steps) as f64 / secs;
+                    let (fluid, boundary) = s.system().listed_pairs();
+                    let per = |p: usize| p as f64 / count as f64;
                     println!(
-                        "| {solver} | {count} | {t} | {steps} | {:.4} | {:.3e} | {:.2} |",
+                        "| {solver} | {count} | {t} | {steps} | {:.4} | {:.3e} | {:.2} | {:.1} + {:.1} | {} |",
                         secs / steps as f64,
                         rate,
-                        1e6 / rate
+                        1e6 / rate,
+                        per(fluid),
+                        per(boundary),
+                        peak_rss_mb().map_or("–".into(), |m| format!("{m:.0}"))
                     );
                 });
             }
