@@ -498,6 +498,8 @@ impl Scheme for Dfsph {
             density,
             support: kernel.support(),
             sound_speed: penalty_speed,
+            // particles move ~0.4 dx per step: the lists could not be kept.
+            skin_ratio: 0.0,
         };
         let scheme = Self {
             kernel,

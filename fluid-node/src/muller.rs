@@ -65,6 +65,9 @@ const COMPRESSION_WARNING: Real = 0.01;
 /// Steps between two repeated compression warnings.
 const WARNING_EVERY: u64 = 1000;
 
+/// Verlet skin of the Müller scheme's neighbour lists over the support (see [`crate::wcsph::WCSPH_SKIN`]).
+pub const MULLER_SKIN: Real = 0.1;
+
 pub struct Muller {
     poly6: Poly6,
     spiky: Spiky,
@@ -257,6 +260,8 @@ impl Scheme for Muller {
             density,
             support: h,
             sound_speed: sound,
+            // see MULLER_SKIN.
+            skin_ratio: MULLER_SKIN,
         };
         Ok((scheme, layout))
     }

@@ -21,6 +21,9 @@ pub struct CellGrid {
     /// The search radius the grid is made for (the cell size): a query finds every particle
     /// closer than it.
     radius: Real,
+    /// How far a particle may have moved since the sort (Verlet lists keep the sort for
+    /// several steps): users that test cells by their centre add it.
+    stale_reach: Real,
     dims: [usize; 3],
     /// `start[c]..start[c + 1]` are the (sorted) particles of cell c.
     start: Vec<u32>,
@@ -50,11 +53,22 @@ impl CellGrid {
             inv_cell: 1.0 / cell,
             cell,
             radius,
+            stale_reach: 0.0,
             dims,
             start: vec![0; cells as usize + 1],
             cell_of: Vec::new(),
             order: Vec::new(),
         })
+    }
+
+    /// Sets how far particles may have moved since the sort ([`Self::stale_reach`]).
+    pub fn set_stale_reach(&mut self, reach: Real) {
+        self.stale_reach = reach;
+    }
+
+    /// How far particles may have moved since the sort.
+    pub fn stale_reach(&self) -> Real {
+        self.stale_reach
     }
 
     /// The search radius the grid was made for.

@@ -182,7 +182,9 @@ impl Penalty {
                 };
             }
         }
-        let half_diag = 0.5 * 3f64.sqrt() * grid.cell_size();
+        // A cell is near when its centre is within the margin plus half its diagonal, plus how
+        // far its particles may have moved since they were sorted into it.
+        let half_diag = 0.5 * 3f64.sqrt() * grid.cell_size() + grid.stale_reach();
         let (ks, kd) = (self.stiffness, self.damping);
         self.fixed_cells.resize(self.obstacles.len(), None);
         for (o, fixed_cells) in self.obstacles.iter().zip(&mut self.fixed_cells) {

@@ -18,6 +18,11 @@ pub struct Layout {
     pub support: Real,
     /// Speed of sound [m/s]: sets the default Eq. 22 stiffness K_S = ½ρ0c²·dx.
     pub sound_speed: Real,
+    /// Verlet skin of the neighbour lists over the support (0: rebuilt every step). Worth it
+    /// for a scheme whose particles move a small part of the support per step (WCSPH, Müller:
+    /// the speed of sound bounds their step); a scheme stepping on the flow's CFL moves too far
+    /// per step to keep lists.
+    pub skin_ratio: Real,
 }
 
 /// One SPH method.

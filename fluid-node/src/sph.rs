@@ -33,6 +33,7 @@ impl<S: Scheme> Sph<S> {
             layout.density,
             layout.support,
             layout.sound_speed,
+            layout.skin_ratio,
         )?;
         scheme.start(&mut sys);
         let dt_next = scheme.dt_proposal(0.0, init.gravity.norm());

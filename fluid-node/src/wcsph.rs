@@ -95,6 +95,11 @@ pub enum Integrator {
 /// them (Monaghan 1989; DualSPHysics' default).
 pub const VERLET_EULER_EVERY: u64 = 40;
 
+/// Verlet skin of WCSPH's neighbour lists over the support: lists reach 1.1 supports and are
+/// kept until a particle has moved half the skin (about 0.13 h, several steps at the
+/// acoustic step). Measured on the 3D dam break: docs/PERFORMANCE.md.
+pub const WCSPH_SKIN: Real = 0.1;
+
 /// The scheme's constants, resolved from `[fluid.wcsph]` and the scene.
 #[derive(Debug, Clone, Copy)]
 pub struct WcsphConstants {
@@ -400,6 +405,8 @@ impl Scheme for Wcsph {
             density,
             support: kernel.support(),
             sound_speed: c0,
+            // see WCSPH_SKIN.
+            skin_ratio: WCSPH_SKIN,
         };
         let scheme = Self {
             kernel,
