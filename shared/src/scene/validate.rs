@@ -312,6 +312,20 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                 &format!("use interval >= {:.3e}", s.time.end / MAX_FRAMES),
             );
         }
+        if let Some(v) = s.output.checkpoint_interval {
+            c.positive(
+                "checkpoint_interval",
+                v,
+                "give the simulated seconds between checkpoints, e.g. checkpoint_interval = 1.0, or leave it out",
+            );
+        }
+        if let Some(v) = s.output.checkpoint_wall_minutes {
+            c.positive(
+                "checkpoint_wall_minutes",
+                v,
+                "give the wall-clock minutes between checkpoints, e.g. checkpoint_wall_minutes = 30, or leave it out",
+            );
+        }
     });
 
     if let Some(f) = &s.fluid {
