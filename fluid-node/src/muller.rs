@@ -65,6 +65,7 @@ const COMPRESSION_WARNING: Real = 0.01;
 /// Steps between two repeated compression warnings.
 const WARNING_EVERY: u64 = 1000;
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Muller {
     poly6: Poly6,
     spiky: Spiky,

@@ -69,6 +69,10 @@ impl Initial {
     }
 }
 
+// A child module: a checkpoint saves and restores the system's private state.
+#[path = "checkpoint.rs"]
+pub(crate) mod checkpoint;
+
 /// Per-step state shared by the solvers.
 pub struct FluidSystem {
     pub solver: &'static str,

@@ -72,7 +72,7 @@ impl SolverParams for WcsphParams {
 }
 
 /// Time integration scheme.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Integrator {
     /// Predictor at t + dt/2, corrector to t + dt: two force evaluations, second order.
@@ -87,7 +87,7 @@ pub enum Integrator {
 pub const VERLET_EULER_EVERY: u64 = 40;
 
 /// The scheme's constants, resolved from `[fluid.wcsph]` and the scene.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct WcsphConstants {
     pub sound_speed: Real,
     pub gamma: Real,
@@ -99,6 +99,7 @@ pub struct WcsphConstants {
     pub integrator: Integrator,
 }
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Wcsph {
     kernel: WendlandC2,
     pub constants: WcsphConstants,
