@@ -348,6 +348,10 @@ pub struct OutputSpec {
     /// default, 10 with `--retries`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub checkpoint_wall_minutes: Option<f64>,
+    /// Most frames the run may ask for (time.end / interval); 10 000 when unset. Each frame is a
+    /// step landed exactly and a VTK file per node: raise it only when you mean it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_frames: Option<f64>,
 }
 
 /// `output.vtk_format`: how the .vtp frames store their numbers.
@@ -370,6 +374,7 @@ impl Default for OutputSpec {
             vtk_format: VtkFormat::Binary,
             checkpoint_interval: None,
             checkpoint_wall_minutes: None,
+            max_frames: None,
         }
     }
 }
