@@ -17,6 +17,9 @@ use std::collections::BTreeMap;
 use std::io;
 use std::path::{Path, PathBuf};
 
+/// A .pvd series: (time, frame file) per frame.
+pub type Series = Vec<(f64, String)>;
+
 /// A run directory being filled.
 pub struct RunDir {
     path: PathBuf,
@@ -89,7 +92,7 @@ impl RunDir {
     }
 
     /// The .pvd series' entries (time, file), for a checkpoint.
-    pub fn series(&self) -> (Vec<(f64, String)>, Vec<(f64, String)>) {
+    pub fn series(&self) -> (Series, Series) {
         (self.particles.clone(), self.blocks.clone())
     }
 

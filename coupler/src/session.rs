@@ -801,15 +801,15 @@ impl Session {
     /// without them.
     fn checkpoint_due(&mut self) -> bool {
         let mut due = false;
-        if let (Some(next), Some(every)) = (self.next_checkpoint, self.opts.checkpoint_interval) {
-            if self.time >= next * (1.0 - 1e-12) {
-                due = true;
-                let mut n = next;
-                while n <= self.time * (1.0 + 1e-12) {
-                    n += every;
-                }
-                self.next_checkpoint = Some(n);
+        if let (Some(next), Some(every)) = (self.next_checkpoint, self.opts.checkpoint_interval)
+            && self.time >= next * (1.0 - 1e-12)
+        {
+            due = true;
+            let mut n = next;
+            while n <= self.time * (1.0 + 1e-12) {
+                n += every;
             }
+            self.next_checkpoint = Some(n);
         }
         if self
             .opts

@@ -71,6 +71,10 @@ impl BlockState {
     }
 }
 
+/// What a restored world hands back to the solver: the integrator's state, the energy monitor
+/// and `blocks.csv`'s mark.
+pub(crate) type SolverParts = (Vec<u8>, EnergyMonitor, (Option<Real>, usize));
+
 /// The solid solver's checkpoint.
 #[derive(serde::Serialize, serde::Deserialize)]
 pub(crate) struct SolidState {
@@ -122,10 +126,7 @@ impl SolidState {
     }
 
     /// Restores the world; returns the integrator's state, the energy monitor and the csv mark.
-    pub(crate) fn restore(
-        self,
-        world: &mut World,
-    ) -> Result<(Vec<u8>, EnergyMonitor, (Option<Real>, usize)), String> {
+    pub(crate) fn restore(self, world: &mut World) -> Result<SolverParts, String> {
         if self.blocks.len() != world.blocks.len() {
             return Err(format!(
                 "the checkpoint holds {} blocks, the scene {}: it was written for another scene",
