@@ -238,6 +238,12 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             return Err(format!("{flag} {v}: must be a positive number of seconds"));
         }
     }
+    if args.attach && args.retries > 0 {
+        return Err(format!(
+            "--retries {} with --attach: the coupler can only restart nodes it started itself. Fix: drop --attach, or --retries (and resume by hand with --resume)",
+            args.retries
+        ));
+    }
     for (flag, v) in [
         ("--checkpoint-interval", args.checkpoint_interval),
         ("--checkpoint-wall-minutes", args.checkpoint_wall_minutes),
