@@ -672,10 +672,19 @@ impl Session {
                 });
             }
             if sent.elapsed() > timeout {
-                let p = self
-                    .peers
+                // When neither node answered, one is waiting for the other's data within the
+                // step (the step contract): the parallel scheme's solid for the fluid's loads,
+                // the serial scheme's fluid for the solid's new geometry. The one waited for
+                // is the hung one (a restart must know which node failed).
+                let waited_for = match self.scheme() {
+                    Scheme::Parallel => Role::Fluid,
+                    Scheme::Serial => Role::Solid,
+                };
+                let silent: Vec<&Peer> = self.peers.iter().filter(|p| !p.answered).collect();
+                let p = silent
                     .iter()
-                    .find(|p| !p.answered)
+                    .find(|p| silent.len() > 1 && !checkpoint && p.role == waited_for)
+                    .or(silent.first())
                     .expect("someone has not answered");
                 return Err(RunError::Hung {
                     node: p.label(),

@@ -317,3 +317,46 @@ fn a_killed_fluid_node_loses_at_most_one_output_interval_of_gauges() {
     assert!(leftovers(&id).is_empty());
     cleanup(&[&dir]);
 }
+
+#[test]
+fn a_node_that_hangs_again_at_the_same_step_stops_the_run_and_wall_clock_checkpoints_are_taken() {
+    // The hidden --hang-after-steps hook: the node stops answering from step 30 on, at every
+    // start; the coupler declares it hung after --step-timeout, restarts it once, and stops.
+    let (id, dir) = fresh("retry-hang");
+    let fluid = format!("{} --hang-after-steps 30", bin("fluid-node").display());
+    let out = run(coupler(
+        &id,
+        &dir,
+        &[
+            "--dx",
+            "0.08",
+            "--end",
+            "0.1",
+            "--checkpoint-wall-minutes",
+            "0.001",
+            "--retries",
+            "1",
+            "--step-timeout",
+            "1",
+            "--fluid-cmd",
+            &fluid,
+        ],
+    ));
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("hung at step 30") && err.contains("restart 1 of 1"),
+        "{err}"
+    );
+    let s = summary(&dir);
+    let msg = s["message"].as_str().unwrap();
+    assert!(
+        msg.contains("hung at step 30") && msg.contains("again"),
+        "{msg}"
+    );
+    // A checkpoint every 60 ms of wall time: there was one to go back to.
+    assert!(s["stats"]["checkpoints"].as_u64().unwrap() >= 1, "{s}");
+    assert!(s["stats"]["resumed_from_step"].as_u64().unwrap() > 0, "{s}");
+    assert!(leftovers(&id).is_empty());
+    cleanup(&[&dir]);
+}
