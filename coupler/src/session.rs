@@ -698,8 +698,10 @@ impl Session {
     }
 
     /// A node whose process ended (or, for attached nodes, whose pid vanished) ends the run.
+    /// Only nodes that have not answered the current command count: a node that answered a
+    /// stop exits at once, and must not be taken for dead while the other one still flushes.
     fn check_peers(&mut self, step: u64) -> Result<(), RunError> {
-        for p in self.peers.iter_mut() {
+        for p in self.peers.iter_mut().filter(|p| !p.answered) {
             let how = match p.process.as_mut() {
                 Some(proc_) => proc_.exited().map(describe_exit),
                 None => {
