@@ -1,5 +1,6 @@
 //! `coupler run`: the command a user types.
 
+use crate::checkpoint::CouplerCheckpoint;
 use crate::launch::NodeCommand;
 use crate::output::{RunDir, Summary};
 use crate::session::{RunOptions, Session};
@@ -74,6 +75,25 @@ pub struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Checkpoint every this many simulated seconds (overrides the scene's
+    /// `output.checkpoint_interval`). Checkpoints never change the steps taken.
+    #[arg(long, value_name = "SECONDS")]
+    pub checkpoint_interval: Option<f64>,
+    /// Checkpoint every this many wall-clock minutes (overrides the scene's
+    /// `output.checkpoint_wall_minutes`; 10 when --retries is given and no checkpoint is asked
+    /// for).
+    #[arg(long, value_name = "MINUTES")]
+    pub checkpoint_wall_minutes: Option<f64>,
+    /// Continue the run in RUN_DIR from its last complete checkpoint, with the scene, solvers
+    /// and scheme it was started with; its CSV files are cut back and its later frames removed
+    /// first, so the finished run is identical to an uninterrupted one.
+    #[arg(long, value_name = "RUN_DIR", conflicts_with_all = ["scene", "out", "dx", "target_error", "end", "solid_substeps"])]
+    pub resume: Option<PathBuf>,
+    /// Restart a node that dies or hangs up to N times: every node goes back to the last
+    /// checkpoint (t = 0 without one) and the run continues; a node that fails again at the
+    /// same step stops the run.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub retries: u32,
 }
 
 /// Runs `coupler run`; returns the process exit code.
@@ -87,11 +107,92 @@ pub fn run(args: RunArgs) -> u8 {
     }
 }
 
+/// The scene, last checkpoint and settings of a run to resume (`--resume RUN_DIR`).
+struct Resumed {
+    scene: shared::scene::Scene,
+    checkpoint: CouplerCheckpoint,
+}
+
+fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
+    let path = dir.join("scene.toml");
+    if !path.is_file() {
+        return Err(format!(
+            "--resume {}: no scene.toml there: not a run directory of `coupler run`. Fix: name the directory the run wrote (its --out)",
+            dir.display()
+        ));
+    }
+    let scene = crate::scenes::load(Some(&path)).map_err(|e| e.to_string())?;
+    let Some(ck) = crate::checkpoint::latest(dir)? else {
+        return Err(format!(
+            "--resume {}: the run wrote no complete checkpoint (checkpoints/coupler-*.ckpt). Fix: start it again with --checkpoint-interval or --checkpoint-wall-minutes",
+            dir.display()
+        ));
+    };
+    let hash = shared::checkpoint::scene_hash(
+        &crate::session::scene_text(&scene).map_err(|e| e.to_string())?,
+    );
+    if hash != ck.scene_hash {
+        return Err(format!(
+            "--resume {}: scene.toml is not the scene the checkpoint at step {} was written for (scene hash {hash:016x}, checkpoint {:016x}). Fix: restore the run's own scene.toml",
+            dir.display(),
+            ck.step,
+            ck.scene_hash
+        ));
+    }
+    for (flag, given, saved) in [
+        ("--fluid-solver", &args.fluid_solver, &ck.fluid_solver),
+        ("--solid-solver", &args.solid_solver, &ck.solid_solver),
+    ] {
+        if let (Some(g), Some(s)) = (given, saved)
+            && g != s
+        {
+            return Err(format!(
+                "--resume: {flag} {g}, but the checkpoint was written by solver '{s}'. Fix: drop {flag} (a resumed run keeps its solvers)"
+            ));
+        }
+    }
+    if let Some(scheme) = args.scheme
+        && scheme != ck.scheme
+    {
+        return Err(format!(
+            "--resume: --scheme {scheme}, but the run was coupled {}. Fix: drop --scheme",
+            ck.scheme
+        ));
+    }
+    if args.dt_factor != 1.0 && args.dt_factor != ck.dt_factor {
+        return Err(format!(
+            "--resume: --dt-factor {}, but the run was started with {}. Fix: drop --dt-factor",
+            args.dt_factor, ck.dt_factor
+        ));
+    }
+    Ok(Resumed {
+        scene,
+        checkpoint: ck,
+    })
+}
+
 fn run_inner(args: RunArgs) -> Result<u8, String> {
-    let mut scene = crate::scenes::load(args.scene.as_deref()).map_err(|e| e.to_string())?;
-    let origin = match &args.scene {
-        Some(path) => path.display().to_string(),
-        None => shared::scene::DEFAULT_SCENE_ORIGIN.to_string(),
+    let resume = match &args.resume {
+        Some(dir) => Some(resumed(&args, dir)?),
+        None => None,
+    };
+    if let Some(r) = &resume {
+        let ck = &r.checkpoint;
+        eprintln!(
+            "coupler: resuming {} from its checkpoint at step {} (t = {:.6} s)",
+            args.resume.as_ref().expect("resuming").display(),
+            ck.step,
+            ck.time
+        );
+    }
+    let mut scene = match &resume {
+        Some(r) => r.scene.clone(),
+        None => crate::scenes::load(args.scene.as_deref()).map_err(|e| e.to_string())?,
+    };
+    let origin = match (&args.resume, &args.scene) {
+        (Some(dir), _) => dir.join("scene.toml").display().to_string(),
+        (None, Some(path)) => path.display().to_string(),
+        (None, None) => shared::scene::DEFAULT_SCENE_ORIGIN.to_string(),
     };
     if let Some(dx) = args.dx {
         if !(dx.is_finite() && dx > 0.0) {
@@ -137,6 +238,31 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             return Err(format!("{flag} {v}: must be a positive number of seconds"));
         }
     }
+    if args.attach && args.retries > 0 {
+        return Err(format!(
+            "--retries {} with --attach: the coupler can only restart nodes it started itself. Fix: drop --attach, or --retries (and resume by hand with --resume)",
+            args.retries
+        ));
+    }
+    for (flag, v) in [
+        ("--checkpoint-interval", args.checkpoint_interval),
+        ("--checkpoint-wall-minutes", args.checkpoint_wall_minutes),
+    ] {
+        if let Some(v) = v
+            && !(v.is_finite() && v > 0.0)
+        {
+            return Err(format!(
+                "{flag} {v}: must be a positive number. Fix: leave it out for no checkpoints"
+            ));
+        }
+    }
+    let checkpoint_interval = args
+        .checkpoint_interval
+        .or(scene.output.checkpoint_interval);
+    let checkpoint_wall_minutes = args
+        .checkpoint_wall_minutes
+        .or(scene.output.checkpoint_wall_minutes)
+        .or((args.retries > 0 && checkpoint_interval.is_none()).then_some(10.0));
     if !(args.dt_factor.is_finite() && args.dt_factor > 0.0) {
         return Err(format!(
             "--dt-factor {}: must be a positive number",
@@ -176,11 +302,24 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             cmd.check()?;
         }
     }
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}", scene.name, run_id)));
-    let mut dir = RunDir::create(&out, &scene)?;
+    let out = match (&args.resume, &args.out) {
+        (Some(dir), _) => dir.clone(),
+        (None, Some(out)) => out.clone(),
+        (None, None) => PathBuf::from("runs").join(format!("{}-{}", scene.name, run_id)),
+    };
+    let mut dir = match &resume {
+        Some(r) => {
+            let mut dir = RunDir::open_existing(&out, &scene);
+            let ck = &r.checkpoint;
+            crate::checkpoint::rollback(&out, ck)?;
+            dir.restore_series(ck.particles.clone(), ck.blocks.clone())
+                .map_err(|e| {
+                    format!("cannot rewrite the .pvd series in '{}': {e}", out.display())
+                })?;
+            dir
+        }
+        None => RunDir::create(&out, &scene)?,
+    };
 
     // Cheap housekeeping: files of runs whose processes were all killed long ago.
     let stale = shared::transport::remove_stale_runs(Duration::from_secs(60));
@@ -191,9 +330,20 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         );
     }
 
-    let scheme = args.scheme.unwrap_or(scene.coupling.scheme);
+    let saved = resume.as_ref().map(|r| &r.checkpoint);
+    let scheme = saved
+        .map(|c| c.scheme)
+        .or(args.scheme)
+        .unwrap_or(scene.coupling.scheme);
+    let args_fluid_solver = saved
+        .and_then(|c| c.fluid_solver.clone())
+        .or(args.fluid_solver.clone());
+    let args_solid_solver = saved
+        .and_then(|c| c.solid_solver.clone())
+        .or(args.solid_solver.clone());
+    let dt_factor = saved.map_or(args.dt_factor, |c| c.dt_factor);
     let fluid_solver = roles.contains(&Role::Fluid).then(|| {
-        args.fluid_solver.clone().unwrap_or_else(|| {
+        args_fluid_solver.clone().unwrap_or_else(|| {
             scene
                 .fluid
                 .as_ref()
@@ -202,7 +352,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         })
     });
     let solid_solver = roles.contains(&Role::Solid).then(|| {
-        args.solid_solver
+        args_solid_solver
             .clone()
             .unwrap_or_else(|| scene.solid.solver.clone())
     });
@@ -215,9 +365,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     );
     let opts = RunOptions {
         scene: scene.clone(),
-        fluid_solver: args.fluid_solver.clone(),
-        solid_solver: args.solid_solver.clone(),
-        scheme: args.scheme,
+        fluid_solver: args_fluid_solver,
+        solid_solver: args_solid_solver,
+        scheme: Some(scheme),
         fluid_cmd,
         solid_cmd,
         attach: args.attach,
@@ -225,8 +375,12 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         connect_timeout: Duration::from_secs_f64(args.connect_timeout),
         step_timeout: Duration::from_secs_f64(args.step_timeout),
         setup_timeout: Duration::from_secs_f64(args.setup_timeout),
-        dt_factor: args.dt_factor,
+        dt_factor,
         progress: !args.quiet,
+        checkpoint_interval,
+        checkpoint_wall: checkpoint_wall_minutes.map(|m| Duration::from_secs_f64(m * 60.0)),
+        resume: resume.map(|r| r.checkpoint),
+        retries: args.retries,
     };
     let (stats, outcome) = Session::execute(opts, &mut dir);
     let summary = Summary::gather(

@@ -2,6 +2,7 @@
 //! timestep and writes the run directory.
 
 pub mod chart;
+pub mod checkpoint;
 pub mod cli;
 pub mod coupled_sweep;
 pub mod fluid_sweep;

@@ -17,6 +17,9 @@ use std::collections::BTreeMap;
 use std::io;
 use std::path::{Path, PathBuf};
 
+/// A .pvd series: (time, frame file) per frame.
+pub type Series = Vec<(f64, String)>;
+
 /// A run directory being filled.
 pub struct RunDir {
     path: PathBuf,
@@ -66,8 +69,54 @@ impl RunDir {
         Ok(dir)
     }
 
+    /// The directory of an earlier run, to continue it (`coupler run --resume`): it must hold
+    /// the `scene.toml` the run was started with.
+    pub fn open_existing(path: &Path, scene: &Scene) -> RunDir {
+        RunDir {
+            path: path.to_path_buf(),
+            particles: Vec::new(),
+            blocks: Vec::new(),
+            static_blocks: !scene.has_moving_blocks()
+                && scene.output.vtk
+                && !scene.blocks.is_empty(),
+        }
+    }
+
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Whether one blocks_00000.vtp serves every frame (no solid node runs).
+    pub fn static_blocks(&self) -> bool {
+        self.static_blocks
+    }
+
+    /// The .pvd series' entries (time, file), for a checkpoint.
+    pub fn series(&self) -> (Series, Series) {
+        (self.particles.clone(), self.blocks.clone())
+    }
+
+    /// Sets the .pvd series to a checkpoint's entries (none: a restart from t = 0) and
+    /// rewrites the files.
+    pub fn restore_series(
+        &mut self,
+        particles: Vec<(f64, String)>,
+        blocks: Vec<(f64, String)>,
+    ) -> io::Result<()> {
+        self.particles = particles;
+        self.blocks = blocks;
+        for (name, list) in [
+            ("particles.pvd", &self.particles),
+            ("blocks.pvd", &self.blocks),
+        ] {
+            let path = self.path.join(name);
+            if !list.is_empty() {
+                shared::vtk::write_pvd(&path, list)?;
+            } else if path.exists() {
+                std::fs::remove_file(&path)?;
+            }
+        }
+        Ok(())
     }
 
     fn write_static_blocks(&self, scene: &Scene) -> io::Result<()> {

@@ -5,6 +5,7 @@
 //! command goes to both nodes at once; the nodes exchange geometry and loads directly with each
 //! other (see `shared::runtime`) and each answers with a status and its next proposal.
 
+use crate::checkpoint::CouplerCheckpoint;
 use crate::launch::{NodeCommand, NodeProcess, describe_exit};
 use crate::output::RunDir;
 use iceoryx2::port::listener::Listener;
@@ -42,6 +43,14 @@ pub struct RunOptions {
     pub dt_factor: f64,
     /// Draw a progress bar on stderr.
     pub progress: bool,
+    /// Checkpoint every this many simulated seconds and/or wall-clock time (none: never).
+    pub checkpoint_interval: Option<f64>,
+    pub checkpoint_wall: Option<Duration>,
+    /// Continue from this checkpoint of the run directory (`--resume`, or a restart).
+    pub resume: Option<CouplerCheckpoint>,
+    /// How often a node that dies or hangs is restarted, every node rolling back to the last
+    /// checkpoint (or to t = 0 without one).
+    pub retries: u32,
 }
 
 /// How a run ended, when it did not complete.
@@ -93,6 +102,11 @@ pub enum RunError {
     Interrupted { step: u64, time: f64 },
     #[error("transport: {0}")]
     Transport(String),
+    #[error("{cause} (again, after a restart from step {from_step}: the run stops)")]
+    Again {
+        cause: Box<RunError>,
+        from_step: u64,
+    },
 }
 
 impl RunError {
@@ -106,6 +120,18 @@ impl RunError {
             | RunError::Handshake(_)
             | RunError::Transport(_) => 3,
             RunError::Interrupted { .. } => 130,
+            RunError::Again { cause, .. } => cause.exit_code(),
+        }
+    }
+
+    /// The node ("fluid node (...)") and step of a death or hang, which a restart may cure.
+    fn restartable(&self) -> Option<(String, u64)> {
+        match self {
+            RunError::Died { node, step, .. } | RunError::Hung { node, step, .. } => {
+                let role = node.split(" node").next().unwrap_or(node).to_string();
+                Some((role, *step))
+            }
+            _ => None,
         }
     }
 }
@@ -121,7 +147,7 @@ impl From<transport::TransportError> for RunError {
 }
 
 /// What a run did, completed or not.
-#[derive(Debug, Clone, Default, serde::Serialize)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct RunStats {
     pub steps: u64,
     /// Simulated time reached [s].
@@ -154,6 +180,16 @@ pub struct RunStats {
     /// Solvers the nodes actually run (a node may be started with its own `--solver`).
     pub fluid_solver: Option<String>,
     pub solid_solver: Option<String>,
+    /// Checkpoints written (over the whole run, resumed parts included).
+    #[serde(default)]
+    pub checkpoints: u64,
+    /// Node restarts after a death or hang (`--retries`), in this invocation.
+    #[serde(default)]
+    pub restarts: u32,
+    /// The step this invocation resumed from (`--resume`, or its last restart); null if it ran
+    /// from the start.
+    #[serde(default)]
+    pub resumed_from_step: Option<u64>,
 }
 
 /// One node as the coupler sees it.
@@ -192,6 +228,12 @@ pub struct Session {
     stats: RunStats,
     step: u64,
     time: f64,
+    /// The next frame's number and the next output time.
+    frame: u32,
+    next_output: f64,
+    /// The next simulated time a checkpoint is due, and when the last one was written.
+    next_checkpoint: Option<f64>,
+    last_checkpoint: Instant,
 }
 
 impl Session {
@@ -237,6 +279,10 @@ impl Session {
             stats: RunStats::default(),
             step: 0,
             time: 0.0,
+            frame: 1,
+            next_output: 0.0,
+            next_checkpoint: None,
+            last_checkpoint: Instant::now(),
         })
     }
 
@@ -273,17 +319,88 @@ impl Session {
 
     /// Runs the whole thing: start, step to the end, stop. The run directory receives what was
     /// written whatever the outcome; `stats` tells how far it got.
-    pub fn execute(opts: RunOptions, dir: &mut RunDir) -> (RunStats, Result<(), RunError>) {
+    ///
+    /// With `retries`, a node that dies or hangs is restarted: every process of the attempt is
+    /// ended, the run directory and the coupler go back to the last complete checkpoint (or to
+    /// t = 0 without one), and fresh nodes resume from their checkpoint files. A node that
+    /// fails again at the same step stops the run with its cause.
+    pub fn execute(mut opts: RunOptions, dir: &mut RunDir) -> (RunStats, Result<(), RunError>) {
         let id = opts.run_id.clone();
         let started = Instant::now();
-        let (mut stats, result) = match Session::open(opts) {
-            Ok(mut session) => {
-                let result = session.start(dir).and_then(|_| session.advance_to_end(dir));
-                let result = session.stop(result);
-                (session.stats.clone(), result)
+        let mut failures: Vec<(String, u64)> = Vec::new();
+        let mut restarts = 0u32;
+        let (mut stats, result) = loop {
+            let (stats, result) = match Session::open(opts.clone()) {
+                Ok(mut session) => {
+                    let result = session.start(dir).and_then(|_| session.advance_to_end(dir));
+                    let result = session.stop(result);
+                    (session.stats.clone(), result)
+                }
+                Err(e) => (RunStats::default(), Err(e)),
+            };
+            // The session is gone, and with it every node of this attempt.
+            let Err(e) = &result else {
+                break (stats, result);
+            };
+            let Some(failure) = e.restartable() else {
+                break (stats, result);
+            };
+            let from_step = opts.resume.as_ref().map_or(0, |c| c.step);
+            if failures.contains(&failure) {
+                let Err(cause) = result else { unreachable!() };
+                let again = RunError::Again {
+                    cause: Box::new(cause),
+                    from_step,
+                };
+                break (stats, Err(again));
             }
-            Err(e) => (RunStats::default(), Err(e)),
+            if restarts >= opts.retries {
+                break (stats, result);
+            }
+            failures.push(failure);
+            restarts += 1;
+            transport::remove_run_files(&id);
+            let back = match crate::checkpoint::latest(dir.path()) {
+                Ok(Some(ck)) => crate::checkpoint::rollback(dir.path(), &ck)
+                    .and_then(|_| {
+                        dir.restore_series(ck.particles.clone(), ck.blocks.clone())
+                            .map_err(|e| format!("cannot rewrite the .pvd series: {e}"))
+                    })
+                    .map(|_| Some(ck)),
+                Ok(None) => crate::checkpoint::rollback_to_start(dir.path(), dir.static_blocks())
+                    .and_then(|_| {
+                        dir.restore_series(Vec::new(), Vec::new())
+                            .map_err(|e| format!("cannot rewrite the .pvd series: {e}"))
+                    })
+                    .map(|_| None),
+                Err(e) => Err(e),
+            };
+            match back {
+                Ok(ck) => {
+                    eprintln!(
+                        "coupler: {e}; restart {restarts} of {}: every node goes back to {}",
+                        opts.retries,
+                        match &ck {
+                            Some(c) =>
+                                format!("the checkpoint at step {} (t = {:.6} s)", c.step, c.time),
+                            None => "t = 0 (no checkpoint yet)".into(),
+                        }
+                    );
+                    opts.resume = ck;
+                }
+                Err(msg) => {
+                    let Err(cause) = result else { unreachable!() };
+                    break (
+                        stats,
+                        Err(RunError::Input(format!(
+                            "{cause}; the restart failed: {msg}"
+                        ))),
+                    );
+                }
+            }
         };
+        stats.restarts = restarts;
+        stats.resumed_from_step = opts.resume.as_ref().map(|c| c.step);
         stats.wall_seconds = started.elapsed().as_secs_f64();
         stats.coupler_cpu_seconds = shared::runtime::process_cpu_seconds();
         stats.coupler_peak_rss_bytes = shared::runtime::process_peak_rss_bytes();
@@ -325,8 +442,7 @@ impl Session {
         self.handshake(&roles, processes)?;
 
         let setup = Setup {
-            scene_toml: toml::to_string(&self.opts.scene)
-                .map_err(|e| RunError::Input(format!("cannot serialise the scene: {e}")))?,
+            scene_toml: scene_text(&self.opts.scene)?,
             run_dir: dir.path().to_path_buf(),
             scheme: self.scheme(),
             fluid_present: roles.contains(&Role::Fluid),
@@ -334,6 +450,10 @@ impl Session {
             fluid_solver: self.fluid_solver(),
             solid_solver: self.solid_solver(),
             coupler_pid: std::process::id(),
+            resume: self.opts.resume.as_ref().map(|c| Resume {
+                step: c.step,
+                time: c.time,
+            }),
         };
         let bytes = setup.encode();
         let mut sample = self
@@ -347,7 +467,26 @@ impl Session {
         let sample = sample.write_from_slice(&bytes);
         sample.send().map_err(iox("send setup"))?;
         self.ring();
-        self.collect_statuses(0, self.opts.setup_timeout)?;
+        let interval = self.opts.scene.output.interval;
+        self.next_output = interval.min(self.opts.scene.time.end);
+        self.next_checkpoint = self.opts.checkpoint_interval;
+        if let Some(ck) = self.opts.resume.clone() {
+            // The nodes restore theirs; the coupler continues from its own.
+            let stats = std::mem::take(&mut self.stats);
+            self.stats = RunStats {
+                fluid_solver: stats.fluid_solver,
+                solid_solver: stats.solid_solver,
+                ..ck.stats.clone()
+            };
+            self.step = ck.step;
+            self.time = ck.time;
+            self.frame = ck.frame;
+            self.next_output = ck.next_output;
+            self.next_checkpoint = ck.next_checkpoint;
+            self.collect_statuses(ck.step, self.opts.setup_timeout, false)?;
+            return Ok(());
+        }
+        self.collect_statuses(0, self.opts.setup_timeout, false)?;
         if self.opts.scene.output.vtk {
             dir.add_frame(
                 0,
@@ -452,8 +591,14 @@ impl Session {
         Ok(())
     }
 
-    /// Waits until every node answered `step`; records proposals; turns failures into errors.
-    fn collect_statuses(&mut self, step: u64, timeout: Duration) -> Result<(), RunError> {
+    /// Waits until every node answered `step` (the checkpoint command of `step` when
+    /// `checkpoint`); records proposals; turns failures into errors.
+    fn collect_statuses(
+        &mut self,
+        step: u64,
+        timeout: Duration,
+        checkpoint: bool,
+    ) -> Result<(), RunError> {
         for p in self.peers.iter_mut() {
             p.answered = false;
         }
@@ -466,8 +611,11 @@ impl Session {
                 };
                 let node = peer.label();
                 match StatusCode::from_u32(s.code) {
-                    StatusCode::Ok | StatusCode::Warning | StatusCode::Stopped => {
-                        if s.step != step {
+                    code @ (StatusCode::Ok
+                    | StatusCode::Warning
+                    | StatusCode::Stopped
+                    | StatusCode::Checkpointed) => {
+                        if s.step != step || (code == StatusCode::Checkpointed) != checkpoint {
                             continue; // stale answer to an earlier command
                         }
                         peer.answered = true;
@@ -524,10 +672,19 @@ impl Session {
                 });
             }
             if sent.elapsed() > timeout {
-                let p = self
-                    .peers
+                // When neither node answered, one is waiting for the other's data within the
+                // step (the step contract): the parallel scheme's solid for the fluid's loads,
+                // the serial scheme's fluid for the solid's new geometry. The one waited for
+                // is the hung one (a restart must know which node failed).
+                let waited_for = match self.scheme() {
+                    Scheme::Parallel => Role::Fluid,
+                    Scheme::Serial => Role::Solid,
+                };
+                let silent: Vec<&Peer> = self.peers.iter().filter(|p| !p.answered).collect();
+                let p = silent
                     .iter()
-                    .find(|p| !p.answered)
+                    .find(|p| silent.len() > 1 && !checkpoint && p.role == waited_for)
+                    .or(silent.first())
                     .expect("someone has not answered");
                 return Err(RunError::Hung {
                     node: p.label(),
@@ -541,8 +698,10 @@ impl Session {
     }
 
     /// A node whose process ended (or, for attached nodes, whose pid vanished) ends the run.
+    /// Only nodes that have not answered the current command count: a node that answered a
+    /// stop exits at once, and must not be taken for dead while the other one still flushes.
     fn check_peers(&mut self, step: u64) -> Result<(), RunError> {
-        for p in self.peers.iter_mut() {
+        for p in self.peers.iter_mut().filter(|p| !p.answered) {
             let how = match p.process.as_mut() {
                 Some(proc_) => proc_.exited().map(describe_exit),
                 None => {
@@ -568,20 +727,21 @@ impl Session {
         let interval = scene.output.interval;
         let dt_max = scene.time.dt_max;
         let rule = StepRule::new(dt_max, scene.time.dt_min).with_factor(self.opts.dt_factor);
-        let mut frame: u32 = 1;
-        let mut next_output = interval.min(end);
         let roles: Vec<Role> = self.peers.iter().map(|p| p.role).collect();
         let progress = crate::progress::Progress::new(self.opts.progress, end);
         // Step wall times, for the median and tail the benchmark reports.
         let expected_steps = (end / dt_max.max(1e-12)).min(1e7) as usize;
         let mut step_walls: Vec<f32> = Vec::with_capacity(expected_steps);
-        self.stats.dt_min = f64::INFINITY;
+        if self.opts.resume.is_none() {
+            self.stats.dt_min = f64::INFINITY;
+        }
+        self.last_checkpoint = Instant::now();
         let tol = 1e-12 * end.max(1.0);
 
         while self.time < end - tol {
             // The shared step: the most restrictive proposal, never past dt_max, landing
             // exactly on the next output time.
-            let target = next_output.min(end);
+            let target = self.next_output.min(end);
             let proposals = self.peers.iter().map(|p| (p.label(), p.proposal));
             let granted = step::grant(proposals, &rule, self.time, target).map_err(|c| {
                 RunError::Collapsed {
@@ -593,12 +753,12 @@ impl Session {
                 }
             })?;
             let (dt, lands) = (granted.dt, granted.lands);
-            let output_frame = if lands && self.opts.scene.output.vtk && (next_output <= end + tol)
-            {
-                frame as i32
-            } else {
-                -1
-            };
+            let output_frame =
+                if lands && self.opts.scene.output.vtk && (self.next_output <= end + tol) {
+                    self.frame as i32
+                } else {
+                    -1
+                };
             let cmd = Command {
                 kind: CommandKind::Advance as u32,
                 output_frame,
@@ -611,7 +771,7 @@ impl Session {
                 .send_copy(cmd)
                 .map_err(iox("send command"))?;
             self.ring();
-            self.collect_statuses(self.step, self.opts.step_timeout)?;
+            self.collect_statuses(self.step, self.opts.step_timeout, false)?;
             step_walls.push(sent.elapsed().as_secs_f32());
 
             self.stats.dt_min = self.stats.dt_min.min(dt);
@@ -622,13 +782,16 @@ impl Session {
             self.stats.time = self.time;
             if lands {
                 if output_frame >= 0 {
-                    dir.add_frame(frame, self.time, &roles).map_err(|e| {
+                    dir.add_frame(self.frame, self.time, &roles).map_err(|e| {
                         RunError::Input(format!("cannot write to the run directory: {e}"))
                     })?;
-                    self.stats.frames = frame + 1;
-                    frame += 1;
+                    self.stats.frames = self.frame + 1;
+                    self.frame += 1;
                 }
-                next_output += interval;
+                self.next_output += interval;
+            }
+            if self.time < end - tol && self.checkpoint_due() {
+                self.checkpoint(dir)?;
             }
             progress.update(self.time, self.step);
         }
@@ -641,6 +804,77 @@ impl Session {
             self.stats.step_wall_median_us = at(0.5);
             self.stats.step_wall_p99_us = at(0.99);
         }
+        Ok(())
+    }
+
+    /// Whether a checkpoint is due after this step: the simulated interval was crossed, or the
+    /// wall interval passed. Checkpoints never cut a step: the grants stay those of a run
+    /// without them.
+    fn checkpoint_due(&mut self) -> bool {
+        let mut due = false;
+        if let (Some(next), Some(every)) = (self.next_checkpoint, self.opts.checkpoint_interval)
+            && self.time >= next * (1.0 - 1e-12)
+        {
+            due = true;
+            let mut n = next;
+            while n <= self.time * (1.0 + 1e-12) {
+                n += every;
+            }
+            self.next_checkpoint = Some(n);
+        }
+        if self
+            .opts
+            .checkpoint_wall
+            .is_some_and(|w| self.last_checkpoint.elapsed() >= w)
+        {
+            due = true;
+        }
+        due
+    }
+
+    /// A checkpoint of the state after `self.step` steps: each node writes its own file and
+    /// answers, then the coupler records the series' lengths and its state (last, so that a
+    /// coupler file means a complete checkpoint).
+    fn checkpoint(&mut self, dir: &RunDir) -> Result<(), RunError> {
+        let cmd = Command {
+            kind: CommandKind::Checkpoint as u32,
+            output_frame: -1,
+            step: self.step,
+            time: self.time,
+            dt: 0.0,
+        };
+        self.command_out
+            .send_copy(cmd)
+            .map_err(iox("send command"))?;
+        self.ring();
+        self.collect_statuses(self.step, self.opts.step_timeout, true)?;
+        let fail = |e: String| RunError::Failed {
+            node: "coupler".into(),
+            step: self.step,
+            time: self.time,
+            cause: format!("checkpoint: {e}"),
+        };
+        let series = crate::checkpoint::series_lengths(dir.path()).map_err(fail)?;
+        let (particles, blocks) = dir.series();
+        self.stats.checkpoints += 1;
+        let ck = CouplerCheckpoint {
+            scene_hash: shared::checkpoint::scene_hash(&scene_text(&self.opts.scene)?),
+            fluid_solver: self.stats.fluid_solver.clone(),
+            solid_solver: self.stats.solid_solver.clone(),
+            scheme: self.scheme(),
+            dt_factor: self.opts.dt_factor,
+            step: self.step,
+            time: self.time,
+            frame: self.frame,
+            next_output: self.next_output,
+            next_checkpoint: self.next_checkpoint,
+            stats: self.stats.clone(),
+            particles,
+            blocks,
+            series,
+        };
+        ck.write(dir.path()).map_err(fail)?;
+        self.last_checkpoint = Instant::now();
         Ok(())
     }
 
@@ -666,7 +900,7 @@ impl Session {
         self.ring();
         let stopped = if outcome.is_ok() {
             // A clean end: wait for the nodes to confirm they flushed their outputs.
-            self.collect_statuses(self.step, Duration::from_secs(30))
+            self.collect_statuses(self.step, Duration::from_secs(30), false)
         } else {
             Ok(())
         };
@@ -679,4 +913,10 @@ impl Session {
         }
         outcome.and(stopped)
     }
+}
+
+/// The scene as run, as the TOML text the nodes get, `scene.toml` holds and the checkpoints'
+/// scene hash is taken of.
+pub fn scene_text(scene: &Scene) -> Result<String, RunError> {
+    toml::to_string(scene).map_err(|e| RunError::Input(format!("cannot serialise the scene: {e}")))
 }

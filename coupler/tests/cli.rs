@@ -172,6 +172,39 @@ fn bad_overrides_are_named() {
         .unwrap();
     assert_ne!(o.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&o.stderr).contains("sideways"));
+    for (args, named) in [
+        (&["--checkpoint-interval", "0"][..], "--checkpoint-interval"),
+        (
+            &["--checkpoint-wall-minutes", "nan"][..],
+            "--checkpoint-wall-minutes",
+        ),
+        (&["--attach", "--retries", "2"][..], "--retries"),
+    ] {
+        let o = coupler().arg("run").args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains(named) && err.contains("Fix"),
+            "{args:?}: {err}"
+        );
+    }
+    // --resume continues a run as it was: it takes no scene-changing flag, and needs a run.
+    let dir = temp("resume");
+    let o = coupler()
+        .args(["run", "--dx", "0.1", "--resume"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_ne!(o.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--dx"));
+    let o = coupler()
+        .args(["run", "--resume"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("no scene.toml"), "{err}");
 }
 
 /// The default scene plus `extra`, written to `dir/name.toml`; returns the path and the line

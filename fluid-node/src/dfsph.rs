@@ -157,7 +157,7 @@ pub const WARM_START: Real = 0.5;
 pub const ABSURD_DENSITY_ERROR: Real = 0.10;
 
 /// The scheme's constants, resolved from `[fluid.dfsph]` and the scene.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct DfsphConstants {
     pub cfl: Real,
     /// Mean density error tolerance η, as a fraction (0.0005 = 0.05 %).
@@ -171,7 +171,7 @@ pub struct DfsphConstants {
 }
 
 /// Iterations and final errors of the last step's two solves.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SolveStats {
     pub density_iterations: usize,
     /// Mean compression after the density solve (fraction of ρ0).
@@ -181,6 +181,7 @@ pub struct SolveStats {
     pub divergence_error: Real,
 }
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Dfsph {
     kernel: WendlandC2,
     pub constants: DfsphConstants,

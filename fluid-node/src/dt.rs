@@ -7,7 +7,7 @@
 use shared::math::Real;
 
 /// Inputs of the proposal.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct StepLimits {
     /// Length scale of the kernel (smoothing length h) [m].
     pub h: Real,

@@ -68,6 +68,7 @@ const WARNING_EVERY: u64 = 1000;
 /// Verlet skin of the Müller scheme's neighbour lists over the support (see [`crate::wcsph::WCSPH_SKIN`]).
 pub const MULLER_SKIN: Real = 0.1;
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Muller {
     poly6: Poly6,
     spiky: Spiky,

@@ -5,7 +5,7 @@ use rayon::prelude::*;
 use shared::math::{Real, Vector};
 
 /// All per-particle state. Every particle has the same mass ρ0·dx³, kept once in the solver.
-#[derive(Debug, Default, Clone)]
+#[derive(Debug, Default, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Particles {
     pub position: Vec<Vector>,
     pub velocity: Vec<Vector>,

@@ -78,6 +78,20 @@ impl<S: Scheme> Solver for Sph<S> {
     fn finish(&mut self) -> Result<(), SolverError> {
         self.sys.finish()
     }
+
+    fn save_state(&mut self) -> Result<Vec<u8>, SolverError> {
+        crate::system::checkpoint::save(&mut self.sys, &self.scheme, self.dt_next)
+    }
+
+    fn restore_state(
+        &mut self,
+        state: &[u8],
+        run_dir: &std::path::Path,
+    ) -> Result<(), SolverError> {
+        self.dt_next =
+            crate::system::checkpoint::restore(&mut self.sys, &mut self.scheme, state, run_dir)?;
+        Ok(())
+    }
 }
 
 impl<S: Scheme> FluidSolver for Sph<S> {

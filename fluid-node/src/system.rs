@@ -69,6 +69,10 @@ impl Initial {
     }
 }
 
+// A child module: a checkpoint saves and restores the system's private state.
+#[path = "checkpoint.rs"]
+pub(crate) mod checkpoint;
+
 /// Per-step state shared by the solvers.
 pub struct FluidSystem {
     pub solver: &'static str,
@@ -297,6 +301,23 @@ impl FluidSystem {
             self.grid_valid = true;
             self.bodies_valid = false;
         }
+    }
+
+    /// The grid and lists of the last sort, rebuilt from the positions then (after a restart:
+    /// the particles are in that sort's order, so sorting those positions is the identity).
+    fn relist_as_sorted(&mut self) -> Result<(), SolverError> {
+        let order = self.grid.sort(&self.sorted_at);
+        if order.iter().enumerate().any(|(k, &i)| k != i as usize) {
+            return Err(SolverError::Failed(
+                "the checkpoint's particles are not in the order of their last sort: the file is damaged or from another build".into(),
+            ));
+        }
+        let (pos, radius) = (&self.sorted_at, self.grid.radius());
+        self.fluid_lists.build(pos, pos, &self.grid, radius, true);
+        self.boundary.list_fixed(pos, &self.grid, radius);
+        self.grid_valid = true;
+        self.bodies_valid = false;
+        Ok(())
     }
 
     /// [`Self::prepare`], then the fluid's neighbours among the moving blocks' boundary

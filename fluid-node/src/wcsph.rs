@@ -75,7 +75,7 @@ impl SolverParams for WcsphParams {
 }
 
 /// Time integration scheme.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Integrator {
     /// Predictor at t + dt/2, corrector to t + dt: two force evaluations, second order.
@@ -101,7 +101,7 @@ pub const VERLET_EULER_EVERY: u64 = 40;
 pub const WCSPH_SKIN: Real = 0.1;
 
 /// The scheme's constants, resolved from `[fluid.wcsph]` and the scene.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct WcsphConstants {
     pub sound_speed: Real,
     pub gamma: Real,
@@ -113,6 +113,7 @@ pub struct WcsphConstants {
     pub integrator: Integrator,
 }
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Wcsph {
     kernel: WendlandC2,
     pub constants: WcsphConstants,
@@ -123,8 +124,10 @@ pub struct Wcsph {
     /// What the pair loop reads of a neighbour, packed into one cache line per particle
     /// (scratch, recomputed before every evaluation): p/ρ² and 1/ρ are computed once per
     /// particle, so the loop divides once per pair rather than five times, and a neighbour
-    /// costs one line fetch rather than five.
+    /// costs one line fetch rather than five. Not checkpointed: scratch.
+    #[serde(skip)]
     near: Vec<NearData>,
+    #[serde(skip)]
     inv_rho: Vec<Real>,
 }
 

@@ -36,7 +36,7 @@ pub const WINDOW: usize = 24;
 pub const SWING: Real = 10.0;
 
 /// One moving block as the monitor sees it.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 struct Watched {
     name: String,
     mass: Real,
@@ -47,7 +47,7 @@ struct Watched {
 }
 
 /// Watches the loads of the moving blocks, step by step.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct AddedMassMonitor {
     blocks: Vec<Watched>,
     /// |g| [m/s²].

@@ -1,6 +1,7 @@
 //! rockwave's solver SDK.
 //!
 //! - [`added_mass`]: detection of the added-mass instability of partitioned coupling.
+//! - [`checkpoint`]: checkpoint files (atomic writes, format version, scene hash).
 //! - [`math`]: the scalar and vector types used everywhere.
 //! - [`scene`]: the scene schema (TOML), its validation and the embedded default scene.
 //! - [`geometry`]: convex polyhedra built from scene shapes (faces, edges, mass properties).
@@ -13,6 +14,7 @@
 //! - [`runtime`]: the node runtime that does all the talking for a solver.
 
 pub mod added_mass;
+pub mod checkpoint;
 pub mod geometry;
 pub mod math;
 pub mod protocol;

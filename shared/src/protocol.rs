@@ -6,8 +6,9 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
-/// Version of every layout in this module. Checked at the handshake.
-pub const PROTOCOL_VERSION: u32 = 2;
+/// Version of every layout in this module. Checked at the handshake. 3: the checkpoint command
+/// and its answer, and a setup that may resume from a checkpoint.
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// Which side of the coupling a node plays.
 #[repr(u32)]
@@ -110,6 +111,16 @@ pub struct Setup {
     pub solid_solver: String,
     /// Process id of the coupler: a node whose coupler died stops at once.
     pub coupler_pid: u32,
+    /// Continue from a checkpoint instead of the scene's initial state.
+    pub resume: Option<Resume>,
+}
+
+/// Where a resumed node starts: the checkpoint it wrote after `step` steps (at `time`), which
+/// is its [`crate::checkpoint::node_file`] in the run directory.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Resume {
+    pub step: u64,
+    pub time: f64,
 }
 
 impl Setup {
@@ -138,6 +149,9 @@ pub enum CommandKind {
     Advance = 1,
     /// Finish (flush outputs) and exit.
     Stop = 2,
+    /// Write a checkpoint of the state after `step` steps (at `time`) into the run directory's
+    /// `checkpoints/` and answer [`StatusCode::Checkpointed`].
+    Checkpoint = 3,
 }
 
 /// Coupler → node, every step.
@@ -169,6 +183,8 @@ pub enum StatusCode {
     Failed = 3,
     /// Answer to [`CommandKind::Stop`]: outputs flushed, exiting.
     Stopped = 4,
+    /// Answer to [`CommandKind::Checkpoint`]: the node's checkpoint file is on disk.
+    Checkpointed = 5,
 }
 
 impl StatusCode {
@@ -178,6 +194,7 @@ impl StatusCode {
             1 => StatusCode::Warning,
             2 => StatusCode::Unstable,
             4 => StatusCode::Stopped,
+            5 => StatusCode::Checkpointed,
             _ => StatusCode::Failed,
         }
     }
@@ -298,7 +315,9 @@ pub struct LoadsHeader {
 /// Force and torque (about the centroid) the water exerts on one moving block: the opposite of
 /// the paper's Eq. 22 forces on the particles, summed.
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, serde::Serialize, serde::Deserialize,
+)]
 pub struct BlockLoad {
     pub block: u32,
     pub _reserved: u32,

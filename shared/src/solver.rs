@@ -64,6 +64,27 @@ pub trait Solver {
     fn finish(&mut self) -> Result<(), SolverError> {
         Ok(())
     }
+    /// Checkpoint: flushes the output files, then encodes everything that affects future steps
+    /// (state, scheme history, the previous step, the output writers' position), but no cache
+    /// that is rebuilt from it (neighbour lists, contact candidates). Restoring it into a solver
+    /// built from the same scene must give a run identical to the byte.
+    fn save_state(&mut self) -> Result<Vec<u8>, SolverError> {
+        Err(SolverError::Failed(format!(
+            "solver '{}' cannot write checkpoints. Fix: run without checkpoints (no \
+             output.checkpoint_interval, checkpoint_wall_minutes, --checkpoint-*, --retries)",
+            self.name()
+        )))
+    }
+    /// Restores what [`Solver::save_state`] wrote into a solver just built from the same scene
+    /// (whose output files went elsewhere), and continues the output files in `run_dir`, which
+    /// the coupler cut back to their lengths at the checkpoint.
+    fn restore_state(&mut self, state: &[u8], run_dir: &Path) -> Result<(), SolverError> {
+        let _ = (state, run_dir);
+        Err(SolverError::Failed(format!(
+            "solver '{}' cannot resume from checkpoints",
+            self.name()
+        )))
+    }
 }
 
 /// The water side: reads block geometry, writes loads on blocks.

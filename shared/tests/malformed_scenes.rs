@@ -388,6 +388,26 @@ fn cases() -> Vec<Case> {
             "ramp",
         ),
         case(
+            "sine peak speed beyond any landslide",
+            kin("motion = { type = \"sine\", amplitude = [1.0, 0.0, 0.0], period = 0.001 }"),
+            "block[6].motion.period",
+            "period = 0.001",
+        ),
+        case(
+            "kinematic block starting inside a fixed one",
+            plus(
+                "[[block]]\nname = \"paddle\"\nkind = \"kinematic\"\nshape = { type = \"box\", min = [4.9, 0.3, 0.6], max = [5.1, 0.5, 0.8] }\nmotion = { type = \"sine\", amplitude = [0.1, 0.0, 0.0], period = 2.0 }",
+            ),
+            "block[6].shape",
+            "min = [4.9",
+        ),
+        case(
+            "output.max_frames negative",
+            edit("interval = 0.05", "interval = 0.05\nmax_frames = -1.0"),
+            "output.max_frames",
+            "max_frames",
+        ),
+        case(
             "block friction angle negative",
             edit(
                 "density = 2500.0",
@@ -673,4 +693,40 @@ fn repository_scenes_stay_valid() {
             }
         }
     }
+}
+
+#[test]
+fn the_frame_cap_names_its_override_and_the_overlap_names_both_blocks() {
+    let many = edit("interval = 0.05", "interval = 1e-4");
+    let Err(SceneError::Invalid { errors, .. }) = Scene::parse(&many, "many.toml") else {
+        panic!("25 000 frames accepted");
+    };
+    let e = errors
+        .iter()
+        .find(|e| e.path == "output.interval")
+        .expect("output.interval named");
+    assert!(e.to_string().contains("output.max_frames"), "{e}");
+    let raised = edit("interval = 0.05", "interval = 1e-4\nmax_frames = 30000");
+    Scene::parse(&raised, "raised.toml").unwrap_or_else(|e| panic!("{e}"));
+
+    let paddle = plus(
+        "[[block]]\nname = \"paddle\"\nkind = \"kinematic\"\nshape = { type = \"box\", min = [4.9, 0.3, 0.6], max = [5.1, 0.5, 0.8] }\nmotion = { type = \"sine\", amplitude = [0.1, 0.0, 0.0], period = 2.0 }",
+    );
+    let Err(SceneError::Invalid { errors, .. }) = Scene::parse(&paddle, "paddle.toml") else {
+        panic!("overlap accepted");
+    };
+    let msg = errors
+        .iter()
+        .map(|e| e.to_string())
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        msg.contains("'paddle' (kinematic)") && msg.contains("'far_wall' (fixed"),
+        "{msg}"
+    );
+    // Touching is fine: the paddle's face on the wall's.
+    let touching = plus(
+        "[[block]]\nname = \"paddle\"\nkind = \"kinematic\"\nshape = { type = \"box\", min = [4.8, 0.3, 0.6], max = [5.0, 0.5, 0.8] }\nmotion = { type = \"sine\", amplitude = [0.1, 0.0, 0.0], period = 2.0 }",
+    );
+    Scene::parse(&touching, "touching.toml").unwrap_or_else(|e| panic!("{e}"));
 }

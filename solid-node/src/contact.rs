@@ -10,7 +10,9 @@ use shared::math::{Point, Real, Vector};
 /// - [`Feature::VertexOfA`]: vertex `i` of a against a face of b;
 /// - [`Feature::VertexOfB`]: vertex `i` of b against a face of a;
 /// - [`Feature::EdgeEdge`]: edge `i` of a crossing edge `j` of b.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub enum Feature {
     VertexOfA,
     VertexOfB,
@@ -18,7 +20,9 @@ pub enum Feature {
 }
 
 /// Identifies a contact across steps.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub struct ContactKey {
     pub a: u32,
     pub b: u32,
@@ -28,7 +32,7 @@ pub struct ContactKey {
 }
 
 /// The three Mohr–Coulomb states of DDA's open–close logic (Shi 1993).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum ContactState {
     /// Not touching: no spring.
     #[default]
@@ -40,7 +44,7 @@ pub enum ContactState {
 }
 
 /// One vertex–face or edge–edge contact.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Contact {
     pub key: ContactKey,
     /// Block owning the vertex (or edge i): the force [`Contact::force`] acts on it.

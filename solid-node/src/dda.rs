@@ -1,6 +1,7 @@
 //! The solid node's solver: a block system advanced by one of the integrators, behind the
 //! coupling interface ([`SolidSolver`]): loads in, geometry out, outputs on request.
 
+use crate::checkpoint::SolidState;
 use crate::energy::EnergyMonitor;
 use crate::integrator::Integrator;
 use crate::output::{self, KinematicsCsv};
@@ -9,7 +10,7 @@ use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError, StepReport};
 use shared::strain::Strain;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 pub struct DdaSolver {
     pub world: World,
@@ -148,6 +149,30 @@ impl Solver for DdaSolver {
 
     fn finish(&mut self) -> Result<(), SolverError> {
         self.csv.flush()?;
+        Ok(())
+    }
+
+    fn save_state(&mut self) -> Result<Vec<u8>, SolverError> {
+        self.csv.flush()?;
+        let integrator = self.integrator.save().map_err(SolverError::Failed)?;
+        let state = SolidState::save(&mut self.world, integrator, &self.energy, self.csv.mark());
+        let bytes = shared::checkpoint::encode(&state).map_err(SolverError::Failed);
+        state.give_back(&mut self.world);
+        bytes
+    }
+
+    fn restore_state(&mut self, state: &[u8], run_dir: &Path) -> Result<(), SolverError> {
+        let state: SolidState =
+            shared::checkpoint::decode(state, "solid checkpoint").map_err(SolverError::Failed)?;
+        let (integrator, energy, mark) = state
+            .restore(&mut self.world)
+            .map_err(SolverError::Failed)?;
+        self.integrator
+            .restore(&integrator)
+            .map_err(SolverError::Failed)?;
+        self.energy = energy;
+        self.run_dir = run_dir.to_path_buf();
+        self.csv.resume(run_dir, mark)?;
         Ok(())
     }
 }

@@ -32,7 +32,7 @@ use shared::scene::ElasticSpec;
 use shared::strain::{self, Matrix6, Strain};
 
 /// The strain state and matrices of one deformable block.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Elastic {
     pub young_modulus: Real,
     pub poisson_ratio: Real,

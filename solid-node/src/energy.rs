@@ -16,7 +16,7 @@ use shared::solver::SolverError;
 /// Ratio of (kinetic + contact) energy to the energy available above which a run is unstable.
 pub const GROWTH_LIMIT: Real = 4.0;
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct EnergyMonitor {
     /// Kinetic + contact + potential energy at the start [J].
     initial: Real,

@@ -74,6 +74,7 @@ impl Scheme for CentralDifference {
     }
 }
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct CentralDifference {
     /// v_{n−½} of each block (indexed like `World::blocks`).
     half_velocity: Vec<Vector>,
@@ -140,6 +141,15 @@ fn limit_hint(world: &World, est: &Estimate) -> String {
 impl Integrator for CentralDifference {
     fn name(&self) -> &'static str {
         <Self as Scheme>::NAME
+    }
+
+    fn save(&self) -> Result<Vec<u8>, String> {
+        shared::checkpoint::encode(self)
+    }
+
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        *self = shared::checkpoint::decode(state, "explicit integrator")?;
+        Ok(())
     }
 
     fn init(&mut self, world: &mut World) {

@@ -112,7 +112,7 @@ const SOLVE_TOLERANCE: Real = 1e-11;
 const STATE_TOLERANCE: Real = 1e-6;
 
 /// The per-iteration state of one contact.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 struct Trial {
     state: ContactState,
     /// Normal force of the last solve [N] (the sliding friction of the next solve uses it).
@@ -132,6 +132,7 @@ enum Cut {
 
 /// Shi's implicit scheme over blocks of `N` unknowns: 6 (rigid blocks only) or 12 (a scene
 /// with deformable blocks).
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Newmark<const N: usize> {
     max_open_close: u32,
     displacement_limit: Real,
@@ -598,6 +599,15 @@ impl<const N: usize> Newmark<N> {
 impl<const N: usize> Integrator for Newmark<N> {
     fn name(&self) -> &'static str {
         Implicit::NAME
+    }
+
+    fn save(&self) -> Result<Vec<u8>, String> {
+        shared::checkpoint::encode(self)
+    }
+
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        *self = shared::checkpoint::decode(state, "implicit integrator")?;
+        Ok(())
     }
 
     fn init(&mut self, world: &mut World) {

@@ -35,4 +35,9 @@ pub trait Integrator: Send {
     ) -> Result<StepReport, SolverError>;
     /// Step proposed for the next advance.
     fn dt_proposal(&self, world: &World) -> Real;
+    /// Checkpoint: the integrator's history (previous step, half-step velocities, the
+    /// open–close trials, its scratch), encoded with `shared::checkpoint::encode`.
+    fn save(&self) -> Result<Vec<u8>, String>;
+    /// Restores [`Integrator::save`].
+    fn restore(&mut self, state: &[u8]) -> Result<(), String>;
 }

@@ -10,6 +10,7 @@
 //! - [`world`]: the block system shared by the integrators;
 //! - [`explicit`] (paper Eqs. 5–8) and [`implicit`] (Shi's Newmark β = ½, γ = 1, paper Eq. 4);
 //! - [`stability`], [`energy`]: the explicit limit 2/ω_max and the detection of instability;
+//! - [`checkpoint`]: what a checkpoint saves of the block system to continue exactly;
 //! - [`dda`]: the [`shared::solver::SolidSolver`] the node runtime drives, built by a scheme
 //!   of [`REGISTRY`] (read by the node binary, `solid-validate`, `solid-bench` and the
 //!   coupler's sweeps); [`output`]: CSV and VTK files;
@@ -17,6 +18,7 @@
 
 pub mod block;
 pub mod broad_phase;
+pub mod checkpoint;
 pub mod contact;
 pub mod dda;
 pub mod elastic;

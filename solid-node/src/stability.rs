@@ -31,7 +31,7 @@ use shared::math::{Point, Real, Vector};
 use shared::strain;
 
 /// An ω² estimate and what binds it.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Estimate {
     /// ω_max² [1/s²].
     pub omega2: Real,
@@ -51,7 +51,7 @@ impl Estimate {
 }
 
 /// Per-block matrices reused between calls.
-#[derive(Debug, Default)]
+#[derive(Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Scratch {
     rigid: Vec<Matrix6<Real>>,
     strain: Vec<Matrix6<Real>>,

@@ -42,8 +42,8 @@ pub struct World {
     pub broad: BroadPhase,
     /// Current contacts, sorted by key.
     pub contacts: Vec<Contact>,
-    previous: Vec<Contact>,
-    slots: Vec<Vec<Contact>>,
+    pub(crate) previous: Vec<Contact>,
+    pub(crate) slots: Vec<Vec<Contact>>,
     /// Fluid loads per block (force, torque about the centroid), for the coming step.
     pub load_force: Vec<Vector>,
     pub load_torque: Vec<Vector>,

@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 /// Müller et al. (2003) poly6 kernel, used for density (paper Eqs. 12–13):
 /// W = 315/(64π h⁹)·(h² − r²)³ for r ≤ h. Its value needs only r², but its gradient vanishes at
 /// r = 0, which is why pressure uses the spiky kernel instead.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Poly6 {
     h: Real,
     h2: Real,

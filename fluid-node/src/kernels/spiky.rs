@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 /// at r = 0, so close particles keep repelling each other instead of clustering.
 ///
 /// The paper prints Eq. 15 garbled; this is Müller's form, which the paper cites.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Spiky {
     h: Real,
     c: Real,

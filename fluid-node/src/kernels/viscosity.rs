@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 /// Müller et al. (2003) viscosity kernel (paper Eq. 19):
 /// W = 15/(2π h³)·(−r³/(2h³) + r²/h² + h/(2r) − 1), whose Laplacian 45/(π h⁶)·(h − r) is
 /// positive everywhere, so the viscous force (paper Eq. 18) only ever damps relative velocity.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct ViscosityKernel {
     h: Real,
     c: Real,

@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 /// Wendland (1995) C2 kernel in 3D with smoothing length h and support 2h:
 /// W = 21/(16π h³)·(1 − q/2)⁴(2q + 1), q = r/h ≤ 2. Positive Fourier transform, so it does not
 /// suffer the pairing instability of the cubic spline (Dehnen & Aly 2012).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct WendlandC2 {
     h: Real,
     inv_h: Real,

@@ -26,4 +26,8 @@ pub(super) struct NodeArgs {
     /// Stop answering after this many steps (tests the coupler's hang detection).
     #[arg(long, hide = true)]
     pub hang_after_steps: Option<u64>,
+    /// Kill this node (SIGKILL) when told to take this step, every time it starts (tests the
+    /// coupler's restarts: a node that fails again at the same step stops the run).
+    #[arg(long, hide = true)]
+    pub die_at_step: Option<u64>,
 }

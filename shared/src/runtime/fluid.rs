@@ -11,7 +11,7 @@ use super::FluidFactory;
 use super::args::NodeArgs;
 use super::control::{self, Control, Fatal, iox};
 use super::serve::{self, Side, StepFailure};
-use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Role};
+use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Resume, Role};
 use crate::scene::Scheme;
 use crate::solver::{FluidSolver, Solver, StepReport};
 use crate::transport::{Ipc, Pub, Run, Sub};
@@ -31,7 +31,7 @@ pub(super) fn run_node(
         return Ok(super::exit::SOLVER);
     };
     let n_moving = built.scene.moving_blocks().len();
-    let opts = serve::Options::new(&built.scene, args);
+    let opts = serve::Options::new(&built.scene, args, setup, Role::Fluid);
     let mut solver = built.solver;
     let solid = if setup.solid_present {
         match SolidLink::open(run, joined.inbox, joined.peer_bell, n_moving) {
@@ -46,6 +46,7 @@ pub(super) fn run_node(
         solid,
         scheme: setup.scheme,
         n_moving,
+        sent: SentLoads::default(),
     };
     serve::serve(control, &mut fluid, &opts)
 }
@@ -91,6 +92,17 @@ struct Fluid {
     solid: Solid,
     scheme: Scheme,
     n_moving: usize,
+    /// The last loads sent. In the serial scheme the solid consumes them in the step after the
+    /// one that computed them, from a fluid state that is gone by then: a checkpoint between
+    /// the two steps must keep them (the runtime's part of the fluid's checkpoint).
+    sent: SentLoads,
+}
+
+/// A loads message as sent.
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+struct SentLoads {
+    header: Option<(u64, f64)>,
+    loads: Vec<BlockLoad>,
 }
 
 impl SolidLink {
@@ -128,21 +140,42 @@ impl SolidLink {
         Ok(t.elapsed())
     }
 
-    /// Computes the coupling loads straight into a loaned shared-memory slice and sends them.
+    /// Computes the coupling loads straight into a loaned shared-memory slice and sends them;
+    /// keeps a copy in `sent` (a few numbers per moving block).
     fn send_loads(
         &self,
         solver: &mut dyn FluidSolver,
         n_moving: usize,
         tag: u64,
         time: f64,
+        sent: &mut SentLoads,
     ) -> Result<Duration, Fatal> {
         let t = Instant::now();
         let mut sample = self.loads.loan_slice(n_moving).map_err(iox("loan loads"))?;
         *sample.user_header_mut() = LoadsHeader { step: tag, time };
         solver.write_loads(sample.payload_mut());
+        sent.header = Some((tag, time));
+        sent.loads.clear();
+        sent.loads.extend_from_slice(sample.payload());
         sample.send().map_err(iox("send loads"))?;
         self.bell.notify().map_err(iox("notify solid"))?;
         Ok(t.elapsed())
+    }
+
+    /// Sends loads saved in a checkpoint again (a resumed serial run).
+    fn resend_loads(&self, sent: &SentLoads) -> Result<(), Fatal> {
+        let Some((step, time)) = sent.header else {
+            return Ok(());
+        };
+        let mut sample = self
+            .loads
+            .loan_slice(sent.loads.len())
+            .map_err(iox("loan loads"))?;
+        *sample.user_header_mut() = LoadsHeader { step, time };
+        sample.payload_mut().copy_from_slice(&sent.loads);
+        sample.send().map_err(iox("send loads"))?;
+        self.bell.notify().map_err(iox("notify solid"))?;
+        Ok(())
     }
 }
 
@@ -151,13 +184,33 @@ impl Side for Fluid {
         self.solver.as_mut()
     }
 
-    fn initial_exchange(&mut self, control: &Control) -> Result<(), Fatal> {
+    fn initial_exchange(
+        &mut self,
+        control: &Control,
+        resume: Option<&Resume>,
+    ) -> Result<(), Fatal> {
         if let Solid::Coupled(link) = &self.solid
             && self.scheme == Scheme::Serial
         {
-            link.receive_geometry(control, self.solver.as_mut(), 0)?;
-            link.send_loads(self.solver.as_mut(), self.n_moving, 0, 0.0)?;
+            match resume {
+                // The loads of solid step k were computed in fluid step k − 1 (from G_k,
+                // which the solid sends again and this node skips as old).
+                Some(_) => link.resend_loads(&self.sent)?,
+                None => {
+                    link.receive_geometry(control, self.solver.as_mut(), 0)?;
+                    link.send_loads(self.solver.as_mut(), self.n_moving, 0, 0.0, &mut self.sent)?;
+                }
+            }
         }
+        Ok(())
+    }
+
+    fn save_runtime(&self) -> Result<Vec<u8>, String> {
+        crate::checkpoint::encode(&self.sent)
+    }
+
+    fn restore_runtime(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.sent = crate::checkpoint::decode(bytes, "the fluid runtime's loads")?;
         Ok(())
     }
 
@@ -176,7 +229,13 @@ impl Side for Fluid {
                     Scheme::Serial => cmd.step + 1,
                 };
                 compute += link.receive_geometry(control, self.solver.as_mut(), tag)?;
-                compute += link.send_loads(self.solver.as_mut(), self.n_moving, tag, cmd.time)?;
+                compute += link.send_loads(
+                    self.solver.as_mut(),
+                    self.n_moving,
+                    tag,
+                    cmd.time,
+                    &mut self.sent,
+                )?;
             }
             Solid::Absent => {
                 // Only fixed walls, still computed through the same path.

@@ -8,10 +8,12 @@
 use super::args::NodeArgs;
 use super::control::{Control, Fatal, SLICE};
 use super::exit;
-use crate::protocol::{Command, CommandKind, Role, Setup, StatusCode};
+use crate::checkpoint::{self, NodeCheckpoint, NodeHeader};
+use crate::protocol::{Command, CommandKind, Resume, Role, Setup, StatusCode};
 use crate::scene::Scene;
 use crate::solver::{SetupContext, Solver, SolverError, StepReport};
 use crate::transport::TransportError;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// One side of the coupling, as the command loop drives it.
@@ -22,8 +24,15 @@ pub(super) trait Side {
     fn coupling_proposal(&mut self) -> f64 {
         self.solver().dt_proposal()
     }
-    /// The set-up exchange, before the first status.
-    fn initial_exchange(&mut self, control: &Control) -> Result<(), Fatal>;
+    /// The set-up exchange, before the first status; `resume` is where a resumed run
+    /// continues from.
+    fn initial_exchange(&mut self, control: &Control, resume: Option<&Resume>)
+    -> Result<(), Fatal>;
+    /// The runtime's own part of a checkpoint: what this side sent that the peer has not
+    /// consumed yet, and its watches.
+    fn save_runtime(&self) -> Result<Vec<u8>, String>;
+    /// Restores [`Side::save_runtime`].
+    fn restore_runtime(&mut self, bytes: &[u8]) -> Result<(), String>;
     /// One step's exchange with the other node and the solver's advance (not the output
     /// frame). Returns the solver's report and the time spent computing (not waiting).
     fn advance(
@@ -87,9 +96,25 @@ pub(super) fn build<S: ?Sized>(
             return Ok(None);
         }
     };
+    // A resumed solver is built into a scratch directory: its constructor starts output files
+    // afresh, while the run's own ones must keep what was written before the checkpoint.
+    // `restore_state` then continues those (the coupler cut them back to the checkpoint).
+    let run_dir = match &setup.resume {
+        Some(_) => {
+            let scratch = scratch_dir(&setup.run_dir, role);
+            std::fs::create_dir_all(&scratch).map_err(|e| {
+                Fatal::Transport(TransportError::Iceoryx(format!(
+                    "cannot create '{}': {e}",
+                    scratch.display()
+                )))
+            })?;
+            scratch
+        }
+        None => setup.run_dir.clone(),
+    };
     let ctx = SetupContext {
         scene: &scene,
-        run_dir: &setup.run_dir,
+        run_dir: &run_dir,
         scheme: setup.scheme,
         peer_present: match role {
             Role::Fluid => setup.solid_present,
@@ -114,21 +139,81 @@ pub(super) fn build<S: ?Sized>(
     }
 }
 
-/// How the loop runs, from the scene and the command line.
+/// Where a resumed node builds its solver (removed once the state is restored).
+fn scratch_dir(run_dir: &Path, role: Role) -> PathBuf {
+    checkpoint::dir(run_dir).join(format!("scratch-{}", role.name()))
+}
+
+/// How the loop runs, from the setup, the scene and the command line.
 pub(super) struct Options {
     /// Write frame 0 at set-up (frames after it are asked for by the coupler).
     pub write_vtk: bool,
     /// Test hook: stop answering from this step on.
     pub hang_after: Option<u64>,
+    /// Test hook: SIGKILL this node when told to take this step (every time it is started).
+    pub die_at: Option<u64>,
+    pub role: Role,
+    pub run_dir: PathBuf,
+    /// [`checkpoint::scene_hash`] of the scene as run.
+    pub scene_hash: u64,
+    /// Continue from this checkpoint.
+    pub resume: Option<Resume>,
 }
 
 impl Options {
-    pub fn new(scene: &Scene, args: &NodeArgs) -> Options {
+    pub fn new(scene: &Scene, args: &NodeArgs, setup: &Setup, role: Role) -> Options {
         Options {
             write_vtk: scene.output.vtk,
             hang_after: args.hang_after_steps,
+            die_at: args.die_at_step,
+            role,
+            run_dir: setup.run_dir.clone(),
+            scene_hash: checkpoint::scene_hash(&setup.scene_toml),
+            resume: setup.resume.clone(),
         }
     }
+
+    fn header(&self, solver: &str, step: u64, time: f64) -> NodeHeader {
+        NodeHeader {
+            role: self.role.name().into(),
+            solver: solver.into(),
+            scene_hash: self.scene_hash,
+            step,
+            time,
+        }
+    }
+}
+
+/// Writes this node's checkpoint after `step` steps (the state at `time`).
+fn save(side: &mut dyn Side, opts: &Options, step: u64, time: f64) -> Result<(), SolverError> {
+    let runtime = side.save_runtime().map_err(SolverError::Failed)?;
+    let solver = side.solver().save_state()?;
+    let file = NodeCheckpoint {
+        header: opts.header(side.solver().name(), step, time),
+        runtime,
+        solver,
+    };
+    let dir = checkpoint::dir(&opts.run_dir);
+    std::fs::create_dir_all(&dir)?;
+    let path = checkpoint::node_file(&opts.run_dir, opts.role.name(), step);
+    checkpoint::write_file(&path, &file).map_err(SolverError::Failed)
+}
+
+/// Restores this node from its checkpoint `resume`, after checking that it is this node's,
+/// for this scene and solver, at the step the coupler resumes.
+fn restore(side: &mut dyn Side, opts: &Options, resume: &Resume) -> Result<(), SolverError> {
+    let path = checkpoint::node_file(&opts.run_dir, opts.role.name(), resume.step);
+    let file: NodeCheckpoint = checkpoint::read_file(&path).map_err(SolverError::Failed)?;
+    let expected = opts.header(side.solver().name(), resume.step, resume.time);
+    file.header
+        .check(&expected, &path)
+        .map_err(SolverError::Failed)?;
+    side.restore_runtime(&file.runtime)
+        .map_err(SolverError::Failed)?;
+    side.solver().restore_state(&file.solver, &opts.run_dir)?;
+    // The scratch directory only held the files the constructor started.
+    let _ = std::fs::remove_dir_all(scratch_dir(&opts.run_dir, opts.role));
+    Ok(())
 }
 
 /// Reports a failure of the set-up (before the loop) and flushes what the solver wrote.
@@ -153,10 +238,18 @@ pub(super) fn serve(control: &Control, side: &mut dyn Side, opts: &Options) -> R
 
 fn serve_inner(control: &Control, side: &mut dyn Side, opts: &Options) -> Result<u8, Fatal> {
     let t0 = Instant::now();
-    if let Err(f) = side.initial_exchange(control) {
-        return fail(control, side.solver(), fatal_to_solver(f), 0, 0.0);
+    let (step0, time0) = opts.resume.as_ref().map_or((0, 0.0), |r| (r.step, r.time));
+    if let Some(resume) = &opts.resume
+        && let Err(e) = restore(side, opts, resume)
+    {
+        return fail(control, side.solver(), e, step0, time0);
     }
+    if let Err(f) = side.initial_exchange(control, opts.resume.as_ref()) {
+        return fail(control, side.solver(), fatal_to_solver(f), step0, time0);
+    }
+    // A resumed run has its frame 0 already.
     if opts.write_vtk
+        && opts.resume.is_none()
         && let Err(e) = side.solver().write_frame(0, 0.0)
     {
         return fail(control, side.solver(), e, 0, 0.0);
@@ -164,8 +257,8 @@ fn serve_inner(control: &Control, side: &mut dyn Side, opts: &Options) -> Result
     let dt = side.coupling_proposal();
     control.report(
         StatusCode::Ok,
-        0,
-        0.0,
+        step0,
+        time0,
         dt,
         t0.elapsed().as_secs_f64(),
         "ready",
@@ -181,7 +274,30 @@ fn serve_inner(control: &Control, side: &mut dyn Side, opts: &Options) -> Result
                 control.report(StatusCode::Stopped, cmd.step, cmd.time, 0.0, 0.0, "stopped")?;
                 return Ok(0);
             }
+            k if k == CommandKind::Checkpoint as u32 => {
+                let t = Instant::now();
+                if let Err(e) = save(side, opts, cmd.step, cmd.time) {
+                    return fail(control, side.solver(), e, cmd.step, cmd.time);
+                }
+                let dt = side.coupling_proposal();
+                let secs = t.elapsed().as_secs_f64();
+                control.report(
+                    StatusCode::Checkpointed,
+                    cmd.step,
+                    cmd.time,
+                    dt,
+                    secs,
+                    "checkpoint written",
+                )?;
+            }
             k if k == CommandKind::Advance as u32 => {
+                if opts.die_at == Some(cmd.step) {
+                    // Test hook: crash as a SIGKILL would, with nothing flushed or said.
+                    // SAFETY: raise(2) on this process.
+                    unsafe {
+                        libc::raise(libc::SIGKILL);
+                    }
+                }
                 if opts.hang_after.is_some_and(|n| cmd.step >= n) {
                     // Test hook: behave like a node stuck in an endless computation.
                     loop {

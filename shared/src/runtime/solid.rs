@@ -24,7 +24,7 @@ use super::serve::{self, Side, StepFailure};
 use crate::added_mass::AddedMassMonitor;
 use crate::geometry::Polyhedron;
 use crate::math::Vector;
-use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Role};
+use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Resume, Role};
 use crate::scene::{BlockKind, Scene};
 use crate::solver::{SolidSolver, Solver, SolverError, StepReport};
 use crate::transport::{Ipc, Pub, Run, Sub};
@@ -45,7 +45,7 @@ pub(super) fn run_node(
     };
     let scene = &built.scene;
     let n_moving = scene.moving_blocks().len();
-    let opts = serve::Options::new(scene, args);
+    let opts = serve::Options::new(scene, args, setup, Role::Solid);
     let added_mass = scene
         .fluid
         .as_ref()
@@ -241,9 +241,33 @@ impl Side for Solid {
         self.substeps as f64 * self.solver.dt_proposal()
     }
 
-    fn initial_exchange(&mut self, _control: &Control) -> Result<(), Fatal> {
+    fn initial_exchange(
+        &mut self,
+        _control: &Control,
+        resume: Option<&Resume>,
+    ) -> Result<(), Fatal> {
+        // G_0, or G_k of a run resumed after k steps (the fluid of the parallel scheme reads
+        // it first; the serial one has used it before the checkpoint and skips it).
+        let (step, time) = resume.map_or((0, 0.0), |r| (r.step, r.time));
         if let Fluid::Coupled(link) = &self.fluid {
-            link.send_geometry(self.solver.as_ref(), self.n_moving, 0, 0.0)?;
+            link.send_geometry(self.solver.as_ref(), self.n_moving, step, time)?;
+        }
+        Ok(())
+    }
+
+    fn save_runtime(&self) -> Result<Vec<u8>, String> {
+        let watch = match &self.fluid {
+            Fluid::Coupled(link) => link.added_mass.clone(),
+            Fluid::Absent => None,
+        };
+        crate::checkpoint::encode(&watch)
+    }
+
+    fn restore_runtime(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let watch: Option<AddedMassMonitor> =
+            crate::checkpoint::decode(bytes, "the solid runtime's added-mass watch")?;
+        if let Fluid::Coupled(link) = &mut self.fluid {
+            link.added_mass = watch;
         }
         Ok(())
     }

@@ -340,6 +340,18 @@ pub struct OutputSpec {
     /// XML, exact and fast to write) or `"ascii"` (human-readable numbers).
     #[serde(default)]
     pub vtk_format: VtkFormat,
+    /// Checkpoint every this many simulated seconds (`coupler run --checkpoint-interval`);
+    /// none by default. A checkpoint never changes the steps taken.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoint_interval: Option<f64>,
+    /// Checkpoint every this many wall-clock minutes (`--checkpoint-wall-minutes`); none by
+    /// default, 10 with `--retries`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoint_wall_minutes: Option<f64>,
+    /// Most frames the run may ask for (time.end / interval); 10 000 when unset. Each frame is a
+    /// step landed exactly and a VTK file per node: raise it only when you mean it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_frames: Option<f64>,
 }
 
 /// `output.vtk_format`: how the .vtp frames store their numbers.
@@ -360,6 +372,9 @@ impl Default for OutputSpec {
             vtk: true,
             povray: false,
             vtk_format: VtkFormat::Binary,
+            checkpoint_interval: None,
+            checkpoint_wall_minutes: None,
+            max_frames: None,
         }
     }
 }

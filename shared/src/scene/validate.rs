@@ -56,7 +56,8 @@ impl std::fmt::Display for FieldError {
 
 /// Largest domain coordinate [m]: a 10 000 km box holds any landslide tsunami.
 const MAX_DOMAIN: f64 = 1e7;
-/// Most output frames a run may ask for (time.end / output.interval).
+/// Most output frames a run may ask for (time.end / output.interval), unless the scene raises
+/// it with `output.max_frames`.
 const MAX_FRAMES: f64 = 1e4;
 /// Smallest block, as a fraction of the domain diagonal (cube root of the volume).
 const MIN_BLOCK_OF_DOMAIN: f64 = 1e-6;
@@ -299,17 +300,47 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
             s.output.interval,
             "give the time between frames, e.g. interval = 0.05",
         );
+        if let Some(m) = s.output.max_frames {
+            c.positive(
+                "max_frames",
+                m,
+                "give the most frames the run may write, e.g. max_frames = 20000, or leave it out for 10000",
+            );
+        }
+        let max_frames = s
+            .output
+            .max_frames
+            .filter(|m| m.is_finite() && *m > 0.0)
+            .unwrap_or(MAX_FRAMES);
         let frames = s.time.end / s.output.interval;
-        if s.output.interval > 0.0 && frames > MAX_FRAMES {
+        if s.output.interval > 0.0 && frames > max_frames {
             c.fail(
                 "interval",
                 s.output.interval,
                 &format!(
-                    "asks for {frames:.3e} frames over time.end = {} s (at most {MAX_FRAMES:.0}); \
-                     each frame is a step landed exactly and a VTK file per node",
+                    "asks for {frames:.3e} frames over time.end = {} s (at most {max_frames:.0}, \
+                     output.max_frames); each frame is a step landed exactly and a VTK file per node",
                     s.time.end
                 ),
-                &format!("use interval >= {:.3e}", s.time.end / MAX_FRAMES),
+                &format!(
+                    "use interval >= {:.3e}, or raise output.max_frames to {:.0} if you mean it",
+                    s.time.end / max_frames,
+                    frames.ceil()
+                ),
+            );
+        }
+        if let Some(v) = s.output.checkpoint_interval {
+            c.positive(
+                "checkpoint_interval",
+                v,
+                "give the simulated seconds between checkpoints, e.g. checkpoint_interval = 1.0, or leave it out",
+            );
+        }
+        if let Some(v) = s.output.checkpoint_wall_minutes {
+            c.positive(
+                "checkpoint_wall_minutes",
+                v,
+                "give the wall-clock minutes between checkpoints, e.g. checkpoint_wall_minutes = 30, or leave it out",
             );
         }
     });
@@ -566,6 +597,22 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                                 c.fail("ramp", *ramp, "must be finite", "give the ramp-in time in seconds, or 0");
                             }
                             c.positive("period", *period, "give the period in seconds");
+                            // The peak speed of A·sin(2πt/T) is 2π|A|/T.
+                            let a = amplitude.iter().map(|x| x * x).sum::<f64>().sqrt();
+                            let peak = 2.0 * std::f64::consts::PI * a / period;
+                            if a.is_finite() && *period > 0.0 && peak > MAX_SPEED {
+                                c.fail(
+                                    "period",
+                                    *period,
+                                    &format!(
+                                        "gives a peak speed 2π·|amplitude|/period = {peak:.3e} m/s, faster than {MAX_SPEED} m/s"
+                                    ),
+                                    &format!(
+                                        "lengthen the period to at least {:.3e} s or shrink the amplitude",
+                                        2.0 * std::f64::consts::PI * a / MAX_SPEED
+                                    ),
+                                );
+                            }
                             if ramp.is_nan() || *ramp < 0.0 {
                                 c.fail(
                                     "ramp",
@@ -630,10 +677,18 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
 
     // Moving blocks must not start inside each other: the contact springs act on penetrations
     // of the order of allowed_penetration, and two blocks sharing their interiors move as one.
+    // Nor may a kinematic block start inside a fixed one: the solid node computes no contact
+    // between two blocks that are not free (their motions are given), so the prescribed motion
+    // would carry it through the fixed block, and the water between them, unopposed.
     for i in 0..s.blocks.len() {
         for j in 0..i {
             let (bi, bj) = (&s.blocks[i], &s.blocks[j]);
-            if bi.kind == BlockKind::Fixed || bj.kind == BlockKind::Fixed {
+            let fixed = [bi.kind, bj.kind]
+                .iter()
+                .filter(|k| **k == BlockKind::Fixed)
+                .count();
+            let kinematic = [bi.kind, bj.kind].contains(&BlockKind::Kinematic);
+            if fixed == 2 || (fixed == 1 && !kinematic) {
                 continue;
             }
             let (Some(pi), Some(pj)) = (&polys[i], &polys[j]) else {
@@ -651,11 +706,22 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                         c.fail(
                             "shape",
                             shape_summary(&bi.shape),
-                            &format!(
-                                "the interior of block '{}' overlaps that of block '{}' (block[{j}]) by {depth:.3e} m: \
-                                 moving blocks that start inside each other feel no contact and move as one",
-                                bi.name, bj.name
-                            ),
+                            &if fixed == 1 {
+                                format!(
+                                    "the interior of block '{}' ({}) overlaps that of block '{}' ({}, block[{j}]) by {depth:.3e} m: \
+                                     a kinematic block feels no contact with a fixed one and its prescribed motion would run through it",
+                                    bi.name,
+                                    kind_name(bi.kind),
+                                    bj.name,
+                                    kind_name(bj.kind)
+                                )
+                            } else {
+                                format!(
+                                    "the interior of block '{}' overlaps that of block '{}' (block[{j}]) by {depth:.3e} m: \
+                                     moving blocks that start inside each other feel no contact and move as one",
+                                    bi.name, bj.name
+                                )
+                            },
                             "move the blocks apart (touching faces are fine)",
                         )
                     })
@@ -746,4 +812,13 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
         }
     }
     c.errors
+}
+
+/// A block kind as the scene writes it.
+fn kind_name(k: BlockKind) -> &'static str {
+    match k {
+        BlockKind::Fixed => "fixed",
+        BlockKind::Kinematic => "kinematic",
+        BlockKind::Free => "free",
+    }
 }

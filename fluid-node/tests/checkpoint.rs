@@ -1,0 +1,81 @@
+//! Every fluid solver continues exactly from its own checkpoint: a solver saved after some steps
+//! and restored into one freshly built from the same scene takes the next steps to the bit
+//! (particles, step proposals, gauge and probe rows). Through the coupler and three processes
+//! this is `tests/tests/checkpoint.rs`; here every registry solver and the Verlet integrator.
+
+use fluid_node::REGISTRY;
+use fluid_node::sph::SphSolver;
+use fluid_node::validation::*;
+use shared::scene::Scene;
+
+fn advance(s: &mut dyn SphSolver, steps: usize) -> Vec<f64> {
+    (0..steps)
+        .map(|_| {
+            s.write_loads(&mut []);
+            let dt = s.dt_proposal();
+            s.advance(dt).unwrap();
+            dt
+        })
+        .collect()
+}
+
+fn bits(s: &dyn SphSolver) -> Vec<u64> {
+    let p = &s.system().particles;
+    p.position
+        .iter()
+        .chain(&p.velocity)
+        .flat_map(|v| v.iter().copied())
+        .chain(p.density.iter().copied())
+        .chain(p.pressure.iter().copied())
+        .map(f64::to_bits)
+        .collect()
+}
+
+fn continues_exactly(solver: &str, scene: &Scene, what: &str) {
+    let (da, db, scratch) = (
+        TempRunDir::new("ckpt-a").unwrap(),
+        TempRunDir::new("ckpt-b").unwrap(),
+        TempRunDir::new("ckpt-scratch").unwrap(),
+    );
+    let mut a = build(solver, scene, da.path()).unwrap();
+    advance(a.as_mut(), 25);
+    let state = a.save_state().unwrap();
+    for f in ["gauges.csv", "probes.csv"] {
+        if da.path().join(f).exists() {
+            std::fs::copy(da.path().join(f), db.path().join(f)).unwrap();
+        }
+    }
+    let mut b = build(solver, scene, scratch.path()).unwrap();
+    b.restore_state(&state, db.path()).unwrap();
+    assert_eq!(
+        a.dt_proposal().to_bits(),
+        b.dt_proposal().to_bits(),
+        "{what}"
+    );
+    let (ta, tb) = (advance(a.as_mut(), 25), advance(b.as_mut(), 25));
+    assert_eq!(ta, tb, "{what}: step sizes");
+    assert!(
+        bits(a.as_ref()) == bits(b.as_ref()),
+        "{what}: particles differ"
+    );
+    a.finish().unwrap();
+    b.finish().unwrap();
+    for f in ["gauges.csv", "probes.csv"] {
+        let read = |d: &TempRunDir| std::fs::read(d.path().join(f)).ok();
+        assert_eq!(read(&da), read(&db), "{what}: {f}");
+    }
+}
+
+#[test]
+fn every_solver_continues_exactly_from_its_checkpoint() {
+    for solver in REGISTRY.names() {
+        let scene = dam_break_scene(solver, 2, 0.1, 6, None);
+        continues_exactly(solver, &scene, solver);
+    }
+    let mut scene = dam_break_scene("wcsph", 2, 0.1, 6, None);
+    scene.fluid.as_mut().unwrap().solvers.insert(
+        "wcsph".into(),
+        toml::Value::Table(toml::from_str("integrator = \"verlet\"").unwrap()),
+    );
+    continues_exactly("wcsph", &scene, "wcsph with Verlet");
+}
