@@ -329,12 +329,13 @@ pub fn known_limitation(solver: &str, walls: Option<Walls>, check: Check) -> Opt
         Check::SelfConvergence { finest } if penalty && finest > 16 => {
             Some("Eq. 22 walls do not converge with dx")
         }
-        // The weakly compressible impact peak is an acoustic (water-hammer) spike that grows
-        // with resolution and with c0 (docs/VALIDATION.md "Impact pressure"): above the
-        // experiment's band from H/dx = 30; at H/dx = 15 the kernel still smears it into it.
-        Check::ImpactPeak { per_h } if solver == "wcsph" && per_h >= 30 => {
-            Some("weakly compressible impact peak: acoustic spike ∝ c0, grows with resolution")
-        }
+        // The weakly compressible impact peak is the first crest of an acoustic ringing at the
+        // wall that grows with resolution and depends on c0 (docs/VALIDATION.md "Impact
+        // pressure"): above the experiment's band from H/dx = 30; at H/dx = 15 the kernel still
+        // smears it into the band.
+        Check::ImpactPeak { per_h } if solver == "wcsph" && per_h >= 30 => Some(
+            "WCSPH impact peak is an acoustic crest that grows with resolution; the impulse is the check",
+        ),
         _ => None,
     }
 }
