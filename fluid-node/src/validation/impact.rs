@@ -4,9 +4,8 @@
 //! with the reference data of docs/REFERENCES.md ("Lobovský et al. 2014").
 //!
 //! The tank is 1.61 m long; the water column is 0.6 m long and H high against the left wall,
-//! released at once (no gate: the paper's gate is fast enough to be disregarded, §4.2 as cited
-//! in docs/REFERENCES.md). The pressure sensors sit on the right wall at heights z above the
-//! bed, on its centre line. The paper's tank is 0.15 m wide so that the flow stays quasi-2D: it
+//! released at once (the experiment's gate lift is not modelled). The pressure sensors sit on
+//! the right wall at heights z above the bed, on its centre line. The paper's tank is 0.15 m wide so that the flow stays quasi-2D: it
 //! is modelled, as the Martin & Moyce case, as a slab of [`SLAB_LAYERS`] particle layers between
 //! free-slip side walls (a 2D flow; docs/VALIDATION.md "Impact pressure").
 //!
@@ -25,9 +24,9 @@
 
 use super::*;
 
-/// Tank length [m] (Lobovský et al. 2014, §2).
+/// Tank length [m] (Lobovský et al. 2014; docs/REFERENCES.md §1.3).
 pub const TANK_LENGTH: f64 = 1.61;
-/// Water column length [m] (§2).
+/// Water column length [m].
 pub const COLUMN_LENGTH: f64 = 0.6;
 
 /// A wall pressure sensor and its measured peak pressure over the repeated runs [Pa].
@@ -79,7 +78,8 @@ pub const LOBOVSKY_H300: [Sensor; 4] = [
 ];
 
 /// H = 600 mm, sensor 1 (3 mm above the bed): median pressure impulse over the impact time
-/// [Pa·s] (§5.2.3: 12.74 mbar·s) and median peak [Pa] (185.69 mbar); docs/REFERENCES.md.
+/// [Pa·s] (§5.2.3 as transcribed: 12.74 mbar·s) and median peak [Pa] (185.69 mbar);
+/// docs/REFERENCES.md §1.3.
 pub const LOBOVSKY_H600_S1_IMPULSE: f64 = 12.74 * MBAR;
 pub const LOBOVSKY_H600_S1_PEAK: f64 = 185.69 * MBAR;
 
@@ -108,8 +108,8 @@ pub struct ImpactCase {
 
 impl ImpactCase {
     /// H, H/dx and the window, with the defaults: the run to t·sqrt(g/H) = 4.5 (the first
-    /// impact and its decay; the paper's first peak is near 2.4 for H = 300 mm), no extra
-    /// parameters.
+    /// impact, at t·sqrt(g/H) ≈ 1.5 for H = 600 mm and 2.4 for 300 mm in our runs, and its
+    /// decay), no extra parameters.
     pub fn new(height: f64, per_h: usize, window: Option<f64>) -> Self {
         Self {
             height,
