@@ -15,6 +15,7 @@
 //! geometry before it computes anything).
 
 use super::FluidSystem;
+use crate::gauges::RecorderMark;
 use crate::particles::Particles;
 use shared::checkpoint::{decode, encode};
 use shared::math::{Real, Vector};
@@ -27,7 +28,7 @@ struct Saved<'a, S> {
     sorted_at: &'a [Vector],
     time: Real,
     steps: u64,
-    recorder: (Real, usize),
+    recorder: RecorderMark,
     scheme: &'a S,
     dt_next: Real,
 }
@@ -38,7 +39,7 @@ struct Restored<S> {
     sorted_at: Vec<Vector>,
     time: Real,
     steps: u64,
-    recorder: (Real, usize),
+    recorder: RecorderMark,
     scheme: S,
     dt_next: Real,
 }

@@ -41,6 +41,17 @@
 //! Samples are taken after a step but no more often than `output.interval/50` of simulated time,
 //! and every row is flushed to the file as it is written, so a run that is killed keeps
 //! everything it had recorded.
+//!
+//! # What a probe reads
+//!
+//! The Shepard-normalised SPH interpolation of the particles' pressure at the probe's point
+//! ([`FluidView::pressure_at`]); NaN where no particle is within a kernel support (a dry point).
+//! A probe with `window = w` ([`ProbeSpec::window`]) is read after **every** step instead, and
+//! its row at time t holds the time-weighted box average over (t − w, t] (over (0, t] while
+//! t < w) of those readings, each held over the step it ends ([`BoxAverage`]): a pressure
+//! sensor sampled by an acquisition that averages over w. In the average a dry reading counts as
+//! 0 Pa (atmospheric: pressures are gauge pressures), and a window with no wet reading is NaN,
+//! like the instantaneous dry reading.
 
 use crate::kernel::Kernel;
 use crate::neighbors::CellGrid;
@@ -95,7 +106,79 @@ impl Series {
     }
 }
 
+/// The time-weighted box average of a piecewise-constant signal over a trailing window: each
+/// reading holds from the previous reading's time to its own (module doc, "What a probe reads").
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct BoxAverage {
+    window: Real,
+    /// (time, reading) of the readings whose interval reaches into the window, oldest first.
+    readings: std::collections::VecDeque<(Real, Real)>,
+    /// Time of the reading before the oldest kept one (the start of its interval).
+    start: Real,
+}
+
+impl BoxAverage {
+    /// An average over `window` seconds of readings starting at time `start`.
+    pub fn new(window: Real, start: Real) -> Self {
+        Self {
+            window,
+            readings: Default::default(),
+            start,
+        }
+    }
+
+    /// Adds the reading at `time` (held over (previous time, time]).
+    pub fn push(&mut self, time: Real, value: Real) {
+        self.readings.push_back((time, value));
+        // Drop readings whose interval ended before the window.
+        while let Some(&(t, _)) = self.readings.front() {
+            if t <= time - self.window && self.readings.len() > 1 {
+                self.start = t;
+                self.readings.pop_front();
+            } else {
+                break;
+            }
+        }
+    }
+
+    /// The average over (t − w, t] at the latest reading's time t (over what was read if less);
+    /// NaN readings count as 0, and NaN when every reading in the window is NaN or there is none.
+    pub fn mean(&self) -> Real {
+        let Some(&(now, _)) = self.readings.back() else {
+            return Real::NAN;
+        };
+        let from = (now - self.window).max(self.start);
+        let (mut sum, mut span, mut wet) = (0.0, 0.0, false);
+        let mut prev = self.start;
+        for &(t, v) in &self.readings {
+            let held = t - prev.max(from);
+            if held > 0.0 {
+                span += held;
+                if v.is_finite() {
+                    sum += v * held;
+                    wet = true;
+                }
+            }
+            prev = t;
+        }
+        if wet && span > 0.0 {
+            sum / span
+        } else {
+            Real::NAN
+        }
+    }
+}
+
 /// Gauges and probes of a scene and their CSV files.
+/// Where a [`Recorder`] is in its sampling, for a checkpoint: the last sample time, the rows
+/// written, and the probes' running box averages.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct RecorderMark {
+    last: Real,
+    rows: usize,
+    averages: Vec<Option<BoxAverage>>,
+}
+
 pub struct Recorder {
     gauges: Vec<GaugeSpec>,
     /// Bed elevation under each gauge: what a dry gauge reads.
@@ -103,6 +186,8 @@ pub struct Recorder {
     probes: Vec<ProbeSpec>,
     gauge_file: Option<Series>,
     probe_file: Option<Series>,
+    /// The box average of each probe with a window ([`ProbeSpec::window`]).
+    averages: Vec<Option<BoxAverage>>,
     min_interval: Real,
     last: Real,
     rows: usize,
@@ -140,6 +225,10 @@ impl Recorder {
         Ok(Self {
             gauges: gauges.to_vec(),
             beds: beds.to_vec(),
+            averages: probes
+                .iter()
+                .map(|p| p.window.map(|w| BoxAverage::new(w, 0.0)))
+                .collect(),
             probes: probes.to_vec(),
             gauge_file,
             probe_file,
@@ -157,6 +246,12 @@ impl Recorder {
     ) -> std::io::Result<()> {
         if self.gauge_file.is_none() && self.probe_file.is_none() {
             return Ok(());
+        }
+        // Windowed probes read after every step.
+        for (p, avg) in self.probes.iter().zip(&mut self.averages) {
+            if let Some(avg) = avg {
+                avg.push(time, view.pressure_at(&Vector::from(p.position)));
+            }
         }
         if time - self.last < self.min_interval * (1.0 - 1e-9) {
             return Ok(());
@@ -179,7 +274,11 @@ impl Recorder {
             s.row.extend(
                 self.probes
                     .iter()
-                    .map(|p| view.pressure_at(&Vector::from(p.position))),
+                    .zip(&self.averages)
+                    .map(|(p, avg)| match avg {
+                        Some(avg) => avg.mean(),
+                        None => view.pressure_at(&Vector::from(p.position)),
+                    }),
             );
             s.write(time)?;
         }
@@ -191,14 +290,23 @@ impl Recorder {
     }
 
     /// The sampling state a checkpoint keeps: the last sample's time and the row count.
-    pub fn mark(&self) -> (Real, usize) {
-        (self.last, self.rows)
+    pub fn mark(&self) -> RecorderMark {
+        RecorderMark {
+            last: self.last,
+            rows: self.rows,
+            averages: self.averages.clone(),
+        }
     }
 
     /// Continues the files in `run_dir` from a checkpoint's `mark` (instead of the ones this
     /// recorder started).
-    pub fn resume(&mut self, run_dir: &Path, mark: (Real, usize)) -> std::io::Result<()> {
-        (self.last, self.rows) = mark;
+    pub fn resume(&mut self, run_dir: &Path, mark: RecorderMark) -> std::io::Result<()> {
+        if mark.averages.len() != self.averages.len() {
+            return Err(std::io::Error::other(
+                "the checkpoint's probe averages do not match the scene's probes",
+            ));
+        }
+        (self.last, self.rows, self.averages) = (mark.last, mark.rows, mark.averages);
         if self.gauge_file.is_some() {
             self.gauge_file = Some(Series::append(&run_dir.join("gauges.csv"))?);
         }
@@ -529,5 +637,36 @@ mod tests {
             let (eta, _) = read(&pts, 0.5, 0.5);
             assert!((eta - 0.5).abs() < 0.2 * DX, "{name}: {eta}");
         });
+    }
+
+    #[test]
+    fn the_box_average_weights_each_reading_by_its_step() {
+        let mut a = BoxAverage::new(0.01, 0.0);
+        assert!(a.mean().is_nan(), "no reading yet");
+        // Steps of 2, 3 and 5 ms: readings 10, 20, 40 held over them.
+        a.push(0.002, 10.0);
+        assert!((a.mean() - 10.0).abs() < 1e-12, "over (0, t] while t < w");
+        a.push(0.005, 20.0);
+        a.push(0.010, 40.0);
+        let full = (10.0 * 0.002 + 20.0 * 0.003 + 40.0 * 0.005) / 0.01;
+        assert!((a.mean() - full).abs() < 1e-9, "{} vs {full}", a.mean());
+        // At 11 ms the window (1, 11] ms keeps 1 ms of the first reading.
+        a.push(0.011, 0.0);
+        let slid = (10.0 * 0.001 + 20.0 * 0.003 + 40.0 * 0.005) / 0.01;
+        assert!((a.mean() - slid).abs() < 1e-9, "{} vs {slid}", a.mean());
+        // Long after, only the latest readings count.
+        a.push(0.030, 7.0);
+        assert!((a.mean() - 7.0).abs() < 1e-9, "{}", a.mean());
+    }
+
+    #[test]
+    fn a_dry_reading_counts_as_atmospheric_and_a_dry_window_is_nan() {
+        let mut a = BoxAverage::new(0.004, 0.0);
+        a.push(0.002, Real::NAN);
+        assert!(a.mean().is_nan());
+        a.push(0.004, 100.0);
+        assert!((a.mean() - 50.0).abs() < 1e-9, "{}", a.mean());
+        a.push(0.008, Real::NAN);
+        assert!(a.mean().is_nan(), "{}", a.mean());
     }
 }

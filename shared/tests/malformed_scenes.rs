@@ -593,6 +593,42 @@ fn cases() -> Vec<Case> {
             "[4.95, 0.4]",
         ),
         case(
+            "probe window zero",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nwindow = 0.0",
+            ),
+            "probe[0].window",
+            "window = 0.0",
+        ),
+        case(
+            "probe window negative",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nwindow = -0.001",
+            ),
+            "probe[0].window",
+            "window = -0.001",
+        ),
+        case(
+            "probe window not finite",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nwindow = inf",
+            ),
+            "probe[0].window",
+            "window = inf",
+        ),
+        case(
+            "probe window not a number",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nwindow = \"5 ms\"",
+            ),
+            "probe[0].window",
+            "5 ms",
+        ),
+        case(
             "dx not a number",
             edit("\ndx = 0.04", "\ndx = \"fine\""),
             "fluid.dx",

@@ -1,10 +1,11 @@
 //! `fluid-validate [--quick] [--out FILE]`: runs the fluid validation cases (still water, Martin &
-//! Moyce dam break n² = 2 and 1 with self-convergence) for both solvers in-process and prints a
+//! Moyce dam break n² = 2 and 1 with self-convergence, for every solver; the impact pressures of
+//! Lobovský et al. 2014, for the default WCSPH) in-process and prints a
 //! markdown table; `--out` also writes it to a file. Exits 0 when every row is as documented: every
 //! ordinary row passes and every known limitation (`validation::known_limitation`) fails.
 
 use fluid_node::REGISTRY;
-use fluid_node::validation::{Plan, markdown, validate_solver};
+use fluid_node::validation::{Plan, markdown, validate_impact, validate_solver};
 use shared::scene::Walls;
 use std::process::ExitCode;
 
@@ -40,6 +41,8 @@ fn main() -> ExitCode {
             eprintln!("  {l}")
         }));
     }
+    // The impact pressures of Lobovský et al. (2014): the default solver.
+    rows.extend(validate_impact("wcsph", &plan, |l| eprintln!("  {l}")));
     let table = markdown(&rows);
     println!("{table}");
     eprintln!("fluid-validate: {:.0} s", start.elapsed().as_secs_f64());

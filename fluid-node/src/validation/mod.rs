@@ -5,8 +5,10 @@
 //! - Still water: pressure against depth, p = ρ0 g (η − z) (hydrostatics; docs/REFERENCES.md).
 //! - Dam break (Martin & Moyce 1952, n² = H/a = 2 and 1): surge front Z = x/a against
 //!   T = n·t·sqrt(g/a) at the published points, and self-convergence over three resolutions.
+//! - Impact pressure (Lobovský et al. 2014): the peak and the impulse of the surge on the
+//!   downstream wall, at pressure probes with an averaging window.
 //!
-//! Both are thin 3D slabs (a few particle layers between free-slip side walls), i.e. 2D flows
+//! All are thin 3D slabs (a few particle layers between free-slip side walls), i.e. 2D flows
 //! at a 3D code's cost of a 2D problem.
 
 use crate::REGISTRY;
@@ -19,10 +21,12 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 mod dam_break;
+mod impact;
 mod still_water;
 mod table;
 
 pub use dam_break::*;
+pub use impact::*;
 pub use still_water::*;
 pub use table::*;
 

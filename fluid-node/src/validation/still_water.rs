@@ -99,7 +99,7 @@ pub fn still_water(
     })
 }
 
-fn read_csv(path: &Path) -> Result<Vec<Vec<f64>>, SolverError> {
+pub(crate) fn read_csv(path: &Path) -> Result<Vec<Vec<f64>>, SolverError> {
     let text = std::fs::read_to_string(path)?;
     Ok(text
         .lines()

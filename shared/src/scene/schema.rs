@@ -506,4 +506,10 @@ pub struct GaugeSpec {
 pub struct ProbeSpec {
     pub name: String,
     pub position: [f64; 3],
+    /// Averaging window [s]: when given, each row of `probes.csv` holds the time-weighted box
+    /// average of the reading taken after every step over the last `window` seconds (a sensor
+    /// and its data acquisition's sampling, docs/VALIDATION.md "Pressure probes"); absent, the
+    /// row holds the reading at the row's time (the instantaneous value).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub window: Option<f64>,
 }

@@ -759,6 +759,13 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                         "give every probe a unique name",
                     );
                 }
+                if let Some(w) = p.window {
+                    c.positive(
+                        "window",
+                        w,
+                        "give the averaging window in seconds (e.g. window = 0.001), or leave it out for the instantaneous reading",
+                    );
+                }
             })
         });
     }

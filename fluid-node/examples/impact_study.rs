@@ -1,0 +1,61 @@
+//! The impact-pressure study of docs/VALIDATION.md ("Impact pressure"): one Lobovský et al.
+//! (2014) dam-break run, its sensors' pulses, and optionally the probe series as CSV.
+//!
+//! `cargo run --release -p fluid-node --example impact_study -- H PER_H [--window W]
+//! [--solver NAME] [--param 'key = value']... [--csv FILE]`
+
+use fluid_node::validation::{ImpactCase, LOBOVSKY_H300, impact};
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let num = |i: usize| -> f64 { args.get(i).and_then(|a| a.parse().ok()).expect("H PER_H") };
+    let mut case = ImpactCase::new(num(0), num(1) as usize, None);
+    let (mut solver, mut csv) = ("wcsph".to_string(), None);
+    let mut params = Vec::new();
+    let mut i = 2;
+    while i < args.len() {
+        let v = args.get(i + 1).cloned().expect("a value after the option");
+        match args[i].as_str() {
+            "--window" => case.window = Some(v.parse().expect("window [s]")),
+            "--solver" => solver = v,
+            "--param" => params.push(v),
+            "--csv" => csv = Some(v),
+            "--end-star" => case.end_star = v.parse().expect("t·sqrt(g/H)"),
+            o => panic!("unknown option {o}"),
+        }
+        i += 2;
+    }
+    case.params = params.join("\n");
+    let r = impact(&solver, &case).expect("run");
+    println!(
+        "H = {} m, H/dx = {}, window {:?}, {solver} {:?}: {} particles, {} steps, {:.1} s",
+        case.height, case.per_h, case.window, case.params, r.particles, r.steps, r.seconds
+    );
+    let star = (9.81 / case.height).sqrt();
+    for (s, p) in LOBOVSKY_H300.iter().zip(&r.pulses) {
+        match p {
+            Some(p) => println!(
+                "  {} z = {:.3}: peak {:7.0} Pa at t* {:.3}, rise {:5.1} ms, decay {:6.1} ms, impulse {:7.1} Pa·s",
+                s.name,
+                s.z,
+                p.peak,
+                p.t_peak * star,
+                1e3 * p.rise,
+                1e3 * p.decay,
+                p.impulse
+            ),
+            None => println!("  {}: no pulse", s.name),
+        }
+    }
+    if let Some(path) = csv {
+        let mut out = String::from("time,s1,s2,s3,s4\n");
+        for (k, t) in r.times.iter().enumerate() {
+            out.push_str(&format!("{t}"));
+            for s in &r.series {
+                out.push_str(&format!(",{}", s[k]));
+            }
+            out.push('\n');
+        }
+        std::fs::write(path, out).expect("write csv");
+    }
+}
