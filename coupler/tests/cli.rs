@@ -259,6 +259,12 @@ fn solver_tables_and_sizes_are_refused_by_check_naming_field_and_line() {
             "cfl",
         ),
         (
+            "skin_too_big",
+            format!("{d}\n[fluid.wcsph]\nskin = 2.5\n"),
+            "fluid.wcsph.skin",
+            "skin",
+        ),
+        (
             "support_zero",
             format!("{d}\n[fluid.muller]\nsupport_ratio = 0.0\n"),
             "fluid.muller.support_ratio",

@@ -39,6 +39,9 @@ pub struct WcsphParams {
     pub integrator: Integrator,
     /// CFL number; default 0.2.
     pub cfl: Option<f64>,
+    /// Verlet skin of the neighbour lists, as a fraction of the kernel support; default 0.1
+    /// ([`WCSPH_SKIN`]); 0 rebuilds the lists at every step.
+    pub skin: Option<f64>,
 }
 
 impl SolverParams for WcsphParams {
@@ -71,6 +74,16 @@ impl SolverParams for WcsphParams {
             );
         }
         c.positive("cfl", self.cfl, "e.g. cfl = 0.2");
+        if let Some(k) = self.skin
+            && !(k.is_finite() && (0.0..=1.0).contains(&k))
+        {
+            c.fail(
+                "skin",
+                k,
+                "must be a fraction of the kernel support in [0, 1]",
+                "e.g. skin = 0.1, or 0 to rebuild the neighbour lists every step",
+            );
+        }
     }
 }
 
@@ -95,9 +108,10 @@ pub enum Integrator {
 /// them (Monaghan 1989; DualSPHysics' default).
 pub const VERLET_EULER_EVERY: u64 = 40;
 
-/// Verlet skin of WCSPH's neighbour lists over the support: lists reach 1.1 supports and are
-/// kept until a particle has moved half the skin (about 0.13 h, several steps at the
-/// acoustic step). Measured on the 3D dam break: docs/PERFORMANCE.md.
+/// Default Verlet skin of WCSPH's neighbour lists over the support: lists reach 1.1 supports
+/// and are kept until a particle may have moved half the skin (0.13 h: about four steps at the
+/// acoustic step in a developed dam-break flow). Measured against 0, 0.05 and 0.2 on the 3D
+/// dam break: docs/PERFORMANCE.md.
 pub const WCSPH_SKIN: Real = 0.1;
 
 /// The scheme's constants, resolved from `[fluid.wcsph]` and the scene.
@@ -408,8 +422,7 @@ impl Scheme for Wcsph {
             density,
             support: kernel.support(),
             sound_speed: c0,
-            // see WCSPH_SKIN.
-            skin_ratio: WCSPH_SKIN,
+            skin_ratio: spec.skin.unwrap_or(WCSPH_SKIN),
         };
         let scheme = Self {
             kernel,
