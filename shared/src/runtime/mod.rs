@@ -21,6 +21,7 @@
 mod args;
 mod control;
 mod fluid;
+mod presence;
 mod serve;
 mod solid;
 
@@ -84,6 +85,8 @@ fn node_main(
             return ExitCode::from(exit::TRANSPORT);
         }
     };
+    // A claim on the run, so that of two orphaned nodes the last one out tidies up.
+    let presence = presence::Presence::hold(&id);
     // The run (this process's iceoryx2 node) is gone again before the exit is handled.
     let served = Run::join(&id, &who)
         .map_err(Fatal::from)
@@ -97,7 +100,11 @@ fn node_main(
         Err(Fatal::CouplerGone) => {
             eprintln!("{who}: the coupler of run {id} is gone; stopping");
             // Nobody else may be left to tidy up: the last one out removes the run's files.
-            if !transport::run_has_live_nodes(&id) {
+            let last = presence.map_or_else(
+                || !transport::run_has_live_nodes(&id),
+                |p| p.release_is_last(&id),
+            );
+            if last {
                 transport::remove_run_files(&id);
             }
             ExitCode::from(exit::TRANSPORT)
