@@ -237,9 +237,9 @@ impl Wcsph {
             });
     }
 
-    fn symplectic(&mut self, sys: &mut FluidSystem, dt: Real) {
-        // Predictor: half a step from (r, v, ρ)^n with the rates at n.
-        self.rates(sys);
+    /// Predictor: keeps (r, v, ρ)^n and moves half a step with the rates in `acceleration`
+    /// and `density_rate`.
+    fn predict_half_step(sys: &mut FluidSystem, dt: Real) {
         let p = &mut sys.particles;
         let half = 0.5 * dt;
         p.position0.copy_from_slice(&p.position);
@@ -257,9 +257,13 @@ impl Wcsph {
             .par_iter_mut()
             .zip(p.density_rate.par_iter())
             .for_each(|(r, d)| *r += d * half);
-        // Corrector from the rates at n + 1/2 (neighbour cells of t^n; particles moved < 0.1h).
-        self.rates(sys);
+    }
+
+    /// Corrector: from (r, v, ρ)^n to n + 1 with the rates at n + 1/2 (evaluated on the
+    /// neighbour lists of the last sort; the lists' skin covers the move).
+    fn correct(sys: &mut FluidSystem, dt: Real) {
         let p = &mut sys.particles;
+        let half = 0.5 * dt;
         p.velocity
             .par_iter_mut()
             .zip(p.position.par_iter_mut())
@@ -279,51 +283,26 @@ impl Wcsph {
             });
     }
 
-    /// Drift–kick–drift with one evaluation (see [`Integrator::Leapfrog`]). Rates of the last
-    /// step are in `acceleration` and `density_rate`; the first step evaluates them once.
+    /// Symplectic position Verlet: the predictor with the rates at n, the corrector with those
+    /// at n + 1/2.
+    fn symplectic(&mut self, sys: &mut FluidSystem, dt: Real) {
+        self.rates(sys);
+        Self::predict_half_step(sys, dt);
+        self.rates(sys);
+        Self::correct(sys, dt);
+    }
+
+    /// Drift–kick–drift with one evaluation (see [`Integrator::Leapfrog`]): the predictor with
+    /// the last step's rates (positions drift on v^n alone, exact; velocity and density enter
+    /// only viscosity, continuity and the EOS), the corrector unchanged. The first step
+    /// evaluates the rates once.
     fn leapfrog(&mut self, sys: &mut FluidSystem, dt: Real) {
         if sys.steps == 0 {
             self.rates(sys);
         }
-        let p = &mut sys.particles;
-        let half = 0.5 * dt;
-        p.position0.copy_from_slice(&p.position);
-        p.velocity0.copy_from_slice(&p.velocity);
-        p.density0.copy_from_slice(&p.density);
-        // Half a step: positions on v^n (exact for the drift), velocity and density predicted
-        // with the previous rates (they enter only viscosity, continuity and the EOS).
-        p.position
-            .par_iter_mut()
-            .zip(p.velocity.par_iter_mut())
-            .zip(p.acceleration.par_iter())
-            .for_each(|((x, v), a)| {
-                *x += *v * half;
-                *v += a * half;
-            });
-        p.density
-            .par_iter_mut()
-            .zip(p.density_rate.par_iter())
-            .for_each(|(r, d)| *r += d * half);
+        Self::predict_half_step(sys, dt);
         self.rates(sys);
-        // The corrector of the symplectic scheme, unchanged.
-        let p = &mut sys.particles;
-        p.velocity
-            .par_iter_mut()
-            .zip(p.position.par_iter_mut())
-            .zip(p.velocity0.par_iter().zip(p.position0.par_iter()))
-            .zip(p.acceleration.par_iter())
-            .for_each(|(((v, x), (v0, x0)), a)| {
-                *v = v0 + a * dt;
-                *x = x0 + (*v + v0) * half;
-            });
-        p.density
-            .par_iter_mut()
-            .zip(p.density0.par_iter())
-            .zip(p.density_rate.par_iter())
-            .for_each(|((r, r0), d)| {
-                let eps = -d / *r * dt;
-                *r = r0 * (2.0 - eps) / (2.0 + eps);
-            });
+        Self::correct(sys, dt);
     }
 
     fn verlet(&mut self, sys: &mut FluidSystem, dt: Real) {
