@@ -200,6 +200,11 @@ impl<'r> Control<'r> {
             return Err(Fatal::CouplerGone);
         }
         if self.run.termination_requested() {
+            // A dead coupler's nodes get SIGTERM from the kernel (PR_SET_PDEATHSIG): then this
+            // is the coupler gone, and the last node out must tidy up the run.
+            if !transport::process_alive(self.coupler_pid) {
+                return Err(Fatal::CouplerGone);
+            }
             return Err(Fatal::Signal);
         }
         Ok(())
