@@ -141,8 +141,6 @@ pub struct Wcsph {
     /// costs one line fetch rather than five. Not checkpointed: scratch.
     #[serde(skip)]
     near: Vec<NearData>,
-    #[serde(skip)]
-    inv_rho: Vec<Real>,
 }
 
 impl Wcsph {
@@ -159,22 +157,20 @@ impl Wcsph {
         let p = &mut sys.particles;
         let n = p.len();
         self.near.resize(n, NearData::default());
-        self.inv_rho.resize(n, 0.0);
         let (pos, vel) = (&p.position, &p.velocity);
         p.pressure
             .par_iter_mut()
             .zip(self.near.par_iter_mut())
-            .zip(self.inv_rho.par_iter_mut())
             .zip(p.density.par_iter())
             .enumerate()
-            .for_each(|(i, (((pr, near), inv), &r))| {
+            .for_each(|(i, ((pr, near), &r))| {
                 *pr = tait(&prm, rho0, r);
-                *inv = 1.0 / r;
+                let inv = 1.0 / r;
                 *near = NearData {
                     position: pos[i],
                     density: r,
                     velocity: vel[i],
-                    p_over_rho2: *pr * *inv * *inv,
+                    p_over_rho2: *pr * inv * inv,
                 };
             });
         let this = &*self;
@@ -190,7 +186,7 @@ impl Wcsph {
         let prm = self.constants;
         let (m, g, rho0) = (sys.mass, sys.gravity, sys.rest_density);
         let kernel = &self.kernel;
-        let (near, inv_rho) = (&self.near, &self.inv_rho);
+        let near = &self.near;
         let s2 = kernel.support().powi(2);
         let delta_coef = prm.delta * prm.h * prm.sound_speed;
         let inv_c2 = 1.0 / (prm.sound_speed * prm.sound_speed);
@@ -215,7 +211,7 @@ impl Wcsph {
                 // viscosity (Monaghan 1992), continuity, δ-SPH diffusion (Molteni & Colagrossi
                 // 2009) minus its hydrostatic part (Fourtakas et al. 2019), linearised:
                 // ρ0((1 + ρ0 g·r_ji/B)^(1/γ) − 1) ≈ ρ0 g·r_ji/c0², exact to O((ρ0gΔz/B)²).
-                let (mut ai, mut di, diffusion) = fluid_sums(me, lists.of(i), near, inv_rho, &pc);
+                let (mut ai, mut di, diffusion) = fluid_sums(me, lists.of(i), near, &pc);
                 ai *= m;
                 di = m * di + 2.0 * delta_coef * m * diffusion;
                 // Boundary particles, fixed and moving: the same pressure term (a moving block
@@ -410,7 +406,6 @@ impl Scheme for Wcsph {
             limits,
             verlet_step: 0,
             near: Vec::new(),
-            inv_rho: Vec::new(),
         };
         Ok((scheme, layout))
     }
