@@ -50,30 +50,15 @@ fn finish(child: Child, what: &str) -> String {
     stderr(&out)
 }
 
-/// The result files of a run directory, sorted.
-fn results(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| {
-            matches!(n.as_str(), "gauges.csv" | "blocks.csv" | "probes.csv")
-                || n.ends_with(".pvd")
-                || n.ends_with(".vtp")
-        })
-        .collect();
-    names.sort();
-    names
-}
-
 /// Every result file of `b` equals `a`'s to the byte.
 fn assert_identical(a: &Path, b: &Path, what: &str) {
-    let names = results(a);
+    let names = result_files(a);
     assert!(
         names.len() > 10 && names.iter().any(|n| n == "gauges.csv"),
         "{what}: too few results in {}: {names:?}",
         a.display()
     );
-    assert_eq!(names, results(b), "{what}: different sets of files");
+    assert_eq!(names, result_files(b), "{what}: different sets of files");
     for n in &names {
         let (x, y) = (
             std::fs::read(a.join(n)).unwrap(),

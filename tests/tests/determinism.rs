@@ -51,22 +51,6 @@ struct Run {
     dir: PathBuf,
 }
 
-/// The compared files of a run directory, sorted by name.
-fn compared_files(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| {
-            matches!(n.as_str(), "gauges.csv" | "blocks.csv" | "probes.csv")
-                || n.ends_with(".pvd")
-                || ((n.starts_with("particles_") || n.starts_with("blocks_"))
-                    && n.ends_with(".vtp"))
-        })
-        .collect();
-    names.sort();
-    names
-}
-
 /// Where two byte strings first differ: None if equal, else a message with the 1-based line
 /// and column and a short excerpt of both lines around the difference.
 fn first_difference(a: &[u8], b: &[u8]) -> Option<String> {
@@ -120,7 +104,7 @@ fn assert_nontrivial(run: &Run) {
         let rows = csv_rows(&dir.join(f)).len();
         assert!(rows > 1, "{name}: {f} has {rows} data rows");
     }
-    let files = compared_files(dir);
+    let files = result_files(dir);
     for prefix in ["particles_", "blocks_"] {
         let frames = files.iter().filter(|n| n.starts_with(prefix)).count();
         assert!(frames >= 2, "{name}: {frames} {prefix}*.vtp frames");
@@ -178,7 +162,7 @@ fn concurrent_runs_of_the_same_scene_write_identical_files() {
         let same: Vec<&Run> = runs.iter().filter(|r| r.config == k).collect();
         let reference = same[0];
         assert_nontrivial(reference);
-        let names = compared_files(&reference.dir);
+        let names = result_files(&reference.dir);
         for n in [
             "gauges.csv",
             "blocks.csv",
@@ -193,7 +177,7 @@ fn concurrent_runs_of_the_same_scene_write_identical_files() {
         }
         for other in &same[1..] {
             assert_eq!(
-                compared_files(&other.dir),
+                result_files(&other.dir),
                 names,
                 "{}: runs {} and {} wrote different sets of files",
                 config.name,

@@ -164,3 +164,20 @@ pub fn running_nodes(pid: u32) -> Vec<u32> {
     std::thread::sleep(Duration::from_millis(300));
     children(pid)
 }
+
+/// The result files of a run directory that runs compare byte for byte (CSVs, .pvd series and
+/// frames), sorted by name.
+pub fn result_files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| {
+            matches!(n.as_str(), "gauges.csv" | "blocks.csv" | "probes.csv")
+                || n.ends_with(".pvd")
+                || ((n.starts_with("particles_") || n.starts_with("blocks_"))
+                    && n.ends_with(".vtp"))
+        })
+        .collect();
+    names.sort();
+    names
+}
