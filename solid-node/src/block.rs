@@ -462,6 +462,7 @@ mod tests {
             friction_angle: None,
             cohesion: None,
             elastic: None,
+            slide: None,
         }
     }
 
