@@ -153,7 +153,6 @@ pub fn resting_floor(world: &World) -> Estimate {
                 Estimate {
                     omega2: largest_eigenvalue(&k),
                     elastic: None,
-                    slide: None,
                 }
             };
             best = best.max(est);
@@ -229,7 +228,6 @@ pub fn current(world: &World, scratch: &mut Scratch) -> Estimate {
     let mut best = Estimate {
         omega2: rigid,
         elastic: None,
-        slide: None,
     };
     for &i in &world.deformable {
         let est = deformable_bound(&world.blocks[i], i, &scratch.rigid[i], &scratch.strain[i]);

@@ -1,0 +1,84 @@
+//! Gravity loading of a jointed rock mass before t = 0: the blocks cut from a `[[slide]]`
+//! start exactly touching, with unloaded joints. Switched on at once, gravity would set their
+//! contact springs ringing and the transient (up to twice the static load) would break joints
+//! that hold the slope statically. A real slope carries its weight already, so the solid node
+//! first brings the block system to static equilibrium with its bonds held elastic (no
+//! strength limit), by Shi's *static analysis* (DDA, Shi 1988: the velocities are reset to
+//! zero at the start of every step, so the steps walk down to equilibrium without inertia);
+//! then the joints' strength applies from t = 0: a slope past its limit fails at the first
+//! step, one within it stands.
+//!
+//! The settled poses differ from the scene's by the springs' elastic deflection (μm for the
+//! default contact stiffness). Deterministic: a fixed sequence of steps from the scene.
+
+use crate::energy::EnergyMonitor;
+use crate::integrator::Integrator;
+use crate::world::World;
+use shared::math::{Real, Vector};
+use shared::solver::SolverError;
+
+/// Most static steps; a slide that has not settled by then starts from where it got to.
+pub const MAX_STEPS: usize = 20_000;
+/// Settled when the net force on every free block is below this fraction of its weight (and
+/// the net torque below it times weight × size).
+const FORCE_TOLERANCE: Real = 1e-6;
+
+/// How the settling went.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Settled {
+    pub steps: usize,
+    /// Largest displacement of a block centroid from its scene position [m].
+    pub max_settlement: Real,
+    pub converged: bool,
+}
+
+/// Settles `world` (free blocks at rest, bonds elastic) and re-initialises `integrator` at the
+/// settled state, time 0. Only called when the scene has bonded joints.
+pub fn settle(world: &mut World, integrator: &mut dyn Integrator) -> Result<Settled, SolverError> {
+    let origin: Vec<_> = world.blocks.iter().map(|b| b.position).collect();
+    world.penalty.bonds_hold = true;
+    let mut report = Settled::default();
+    let mut result = Ok(());
+    while report.steps < MAX_STEPS {
+        let dt = integrator.dt_proposal(world);
+        let mut energy = EnergyMonitor::new(world);
+        if let Err(e) = integrator.advance(world, dt, &mut energy) {
+            result = Err(e);
+            break;
+        }
+        report.steps += 1;
+        for &i in &world.free {
+            let b = &mut world.blocks[i];
+            report.max_settlement = report.max_settlement.max((b.position - origin[i]).norm());
+            b.velocity = Vector::zeros();
+            b.angular_velocity = Vector::zeros();
+        }
+        rest(world, integrator);
+        let g = world.gravity.norm().max(1.0);
+        let balanced = world.free.iter().all(|&i| {
+            let b = &world.blocks[i];
+            let w = b.mass * g;
+            let f = b.mass * world.gravity + world.load_force[i] + world.contact_force[i];
+            let t = world.load_torque[i] + world.contact_torque[i];
+            f.norm() <= FORCE_TOLERANCE * w && t.norm() <= FORCE_TOLERANCE * w * b.size()
+        });
+        if balanced {
+            report.converged = true;
+            break;
+        }
+    }
+    world.penalty.bonds_hold = false;
+    world.time = 0.0;
+    result?;
+    rest(world, integrator);
+    Ok(report)
+}
+
+/// Blocks at rest where they are: no step displacement pending (the shear springs are not
+/// stretched again), the integrator's history restarted from zero velocities.
+fn rest(world: &mut World, integrator: &mut dyn Integrator) {
+    for b in &mut world.blocks {
+        b.remember_pose();
+    }
+    integrator.init(world);
+}
