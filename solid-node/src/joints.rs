@@ -5,8 +5,8 @@
 //! sets (the two blocks lie on either side of the plane and their faces on it overlap) is a
 //! *bond*: its set and the area the two faces share. The contacts of a bonded pair found at
 //! the start are bonded and share that area equally. A bonded contact is a Mohr–Coulomb joint
-//! with a tension cut-off (as DDA codes model intact joints; Shi 1988; Jing 1998, the bonded
-//! contacts of DDA for rock masses):
+//! with a tension cut-off, as DDA models an intact joint (Shi 1988: a joint's cohesion and
+//! tensile strength hold until it opens or slides, and are zero from then on):
 //!
 //! - normal: the spring carries compression and, while bonded, tension up to `T · A_i`;
 //! - shear: up to `c · A_i + N tan φ` (N ≥ 0 the compression);

@@ -31,8 +31,8 @@ pub struct PenaltyModel {
     pub margin: Real,
     /// Where `normal` came from, for the log.
     pub origin: String,
-    /// Bonded joints are elastic with no strength limit (while a slide settles under gravity
-    /// before t = 0, [`crate::settle`]).
+    /// Every contact holds elastically, with no strength limit: no slip, bonded joints in
+    /// tension too (while the slides settle under gravity before t = 0, [`crate::settle`]).
     pub bonds_hold: bool,
 }
 
@@ -133,7 +133,11 @@ impl PenaltyModel {
         let fn_ = (self.normal * -c.gap - self.dashpot(self.normal, m) * vn).max(0.0);
         let du = p.point_step_displacement(&c.point) - q.point_step_displacement(&c.point);
         c.shear += du - n * du.dot(&n);
-        let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, fn_);
+        let limit = if self.bonds_hold {
+            Real::INFINITY
+        } else {
+            Joint::shear_limit(c.tan_phi, c.cohesion, c.area, fn_)
+        };
         c.state = friction::classify_and_clamp(&mut c.shear, self.shear, limit);
         let mut ft = -self.shear * c.shear;
         if c.state == ContactState::Locked {

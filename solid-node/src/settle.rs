@@ -2,19 +2,23 @@
 //! start exactly touching, with unloaded joints. Switched on at once, gravity would set their
 //! contact springs ringing and the transient (up to twice the static load) would break joints
 //! that hold the slope statically. A real slope carries its weight already, so the solid node
-//! first brings the block system to static equilibrium with its bonds held elastic (no
-//! strength limit), by Shi's *static analysis* (DDA, Shi 1988: the velocities are reset to
-//! zero at the start of every step, so the steps walk down to equilibrium without inertia);
-//! then the joints' strength applies from t = 0: a slope past its limit fails at the first
-//! step, one within it stands.
+//! first brings the slides' blocks to static equilibrium with every contact held elastic (no
+//! slip, bonds without strength limit: the rock mass in place before it is released), by Shi's
+//! *static analysis* (DDA, Shi 1988: the velocities are reset to zero at the start of every
+//! step, so the steps walk down to equilibrium without inertia); then the joints' strength and
+//! the friction apply from t = 0: a slope past its limit fails at the first step, one within it
+//! stands. Blocks that are not cut from a slide keep their scene state meanwhile (put back
+//! after every settling step, so a block given an initial velocity starts with it).
 //!
 //! The settled poses differ from the scene's by the springs' elastic deflection (μm for the
 //! default contact stiffness). Deterministic: a fixed sequence of steps from the scene.
 
+use crate::block::Block;
 use crate::energy::EnergyMonitor;
 use crate::integrator::Integrator;
 use crate::world::World;
 use shared::math::{Real, Vector};
+use shared::scene::BlockKind;
 use shared::solver::SolverError;
 
 /// Most static steps; a slide that has not settled by then starts from where it got to.
@@ -36,6 +40,13 @@ pub struct Settled {
 /// settled state, time 0. Only called when the scene has bonded joints.
 pub fn settle(world: &mut World, integrator: &mut dyn Integrator) -> Result<Settled, SolverError> {
     let origin: Vec<_> = world.blocks.iter().map(|b| b.position).collect();
+    let others: Vec<(usize, Block)> = world
+        .blocks
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.slide.is_none() && b.kind != BlockKind::Fixed)
+        .map(|(i, b)| (i, b.clone()))
+        .collect();
     world.penalty.bonds_hold = true;
     let mut report = Settled::default();
     let mut result = Ok(());
@@ -47,21 +58,32 @@ pub fn settle(world: &mut World, integrator: &mut dyn Integrator) -> Result<Sett
             break;
         }
         report.steps += 1;
+        world.time = 0.0;
+        for (i, b) in &others {
+            world.blocks[*i] = b.clone();
+        }
         for &i in &world.free {
             let b = &mut world.blocks[i];
+            if b.slide.is_none() {
+                continue;
+            }
             report.max_settlement = report.max_settlement.max((b.position - origin[i]).norm());
             b.velocity = Vector::zeros();
             b.angular_velocity = Vector::zeros();
         }
         rest(world, integrator);
         let g = world.gravity.norm().max(1.0);
-        let balanced = world.free.iter().all(|&i| {
-            let b = &world.blocks[i];
-            let w = b.mass * g;
-            let f = b.mass * world.gravity + world.load_force[i] + world.contact_force[i];
-            let t = world.load_torque[i] + world.contact_torque[i];
-            f.norm() <= FORCE_TOLERANCE * w && t.norm() <= FORCE_TOLERANCE * w * b.size()
-        });
+        let balanced = world
+            .free
+            .iter()
+            .filter(|&&i| world.blocks[i].slide.is_some())
+            .all(|&i| {
+                let b = &world.blocks[i];
+                let w = b.mass * g;
+                let f = b.mass * world.gravity + world.load_force[i] + world.contact_force[i];
+                let t = world.load_torque[i] + world.contact_torque[i];
+                f.norm() <= FORCE_TOLERANCE * w && t.norm() <= FORCE_TOLERANCE * w * b.size()
+            });
         if balanced {
             report.converged = true;
             break;
@@ -74,8 +96,9 @@ pub fn settle(world: &mut World, integrator: &mut dyn Integrator) -> Result<Sett
     Ok(report)
 }
 
-/// Blocks at rest where they are: no step displacement pending (the shear springs are not
-/// stretched again), the integrator's history restarted from zero velocities.
+/// Blocks where they are: no step displacement pending (the shear springs are not stretched
+/// again), the integrator's history restarted from the blocks' velocities (zero for the
+/// slides').
 fn rest(world: &mut World, integrator: &mut dyn Integrator) {
     for b in &mut world.blocks {
         b.remember_pose();
