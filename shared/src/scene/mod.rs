@@ -117,7 +117,9 @@ impl Scene {
 
     /// Checks every value; returns all problems found (empty when the scene is usable).
     pub fn validate(&self) -> Vec<FieldError> {
-        validate::validate(self)
+        let mut errors = validate::validate(self);
+        slide::attribute(self, &mut errors);
+        errors
     }
 
     /// True when the scene has water, i.e. a fluid node must run.

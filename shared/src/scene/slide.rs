@@ -468,6 +468,28 @@ pub fn cut_slide(i: usize, s: &SlideSpec) -> Result<(Vec<BlockSpec>, SlideCut), 
     Ok((blocks, summary))
 }
 
+/// Points the problems of a cut block (`block[k]`, which the scene file does not hold) at the
+/// slide it was cut from, naming the block and what to change.
+pub(super) fn attribute(scene: &Scene, errors: &mut [FieldError]) {
+    for e in errors.iter_mut() {
+        let (Some(Seg::Key(k)), Some(Seg::Index(i))) = (e.segments.first(), e.segments.get(1))
+        else {
+            continue;
+        };
+        let Some(b) = scene.blocks.get(*i).filter(|_| k == "block") else {
+            continue;
+        };
+        let Some(m) = b.slide else { continue };
+        e.segments = vec![Seg::Key("slide".into()), Seg::Index(m.slide)];
+        e.path = super::span::render_path(&e.segments);
+        e.problem = format!("cut block '{}': {}", b.name, e.problem);
+        e.fix = format!(
+            "{} — the block was cut from this slide: raise min_block_volume to drop such blocks, or change the joint sets' spacing",
+            e.fix
+        );
+    }
+}
+
 /// Cuts every slide of `scene` and appends the blocks (done once, by [`Scene::parse_checked`]).
 /// Returns the problems; the summaries go to [`Scene::slide_cuts`].
 pub(super) fn expand(scene: &mut Scene) -> Vec<FieldError> {
@@ -612,6 +634,22 @@ mod tests {
         let text = scene(UNIT_BOX, 0.25, 0.0, "max_blocks = 60");
         let msg = Scene::parse(&text, "t").unwrap_err().to_string();
         assert!(msg.contains("more than 60"), "{msg}");
+    }
+
+    #[test]
+    fn a_cut_block_too_small_for_the_water_names_its_slide() {
+        // dx = 1 m: moving blocks under dx/4 = 0.25 m across are refused, and the corner
+        // block cut at offset 0.1 is 0.1 m across.
+        let text =
+            scene(UNIT_BOX, 0.25, 0.1, "").replace("[[slide]]", "[fluid]\ndx = 1.0\n[[slide]]");
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(
+            msg.contains("slide[0]")
+                && msg.contains("cut block 'rock/0'")
+                && msg.contains("min_block_volume")
+                && !msg.contains("block[0]"),
+            "{msg}"
+        );
     }
 
     #[test]
