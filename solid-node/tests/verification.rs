@@ -109,6 +109,6 @@ fn newmark_vibration_theory() {
 fn jointed_slopes_stand_or_fail_by_their_factor_of_safety() {
     let rows = v::jointed_rows(v::EXPLICIT);
     println!("{}", v::markdown(&rows));
-    assert_eq!(rows.len(), 4);
+    assert_eq!(rows.len(), 6);
     check(&rows);
 }
