@@ -44,7 +44,22 @@ impl DdaSolver {
         world.detect(world.penalty.margin);
         integrator.init(&mut world);
         let settled = if world.joints.bond_count() > 0 {
-            Some(crate::settle::settle(&mut world, integrator.as_mut())?)
+            let s = crate::settle::settle(&mut world, integrator.as_mut())?;
+            eprintln!(
+                "solid-node: {} bonded joint(s); the slides settled under gravity in {} static step(s), largest settlement {:.3e} m{}",
+                world.joints.bond_count(),
+                s.steps,
+                s.max_settlement,
+                if s.converged {
+                    String::new()
+                } else {
+                    format!(
+                        " — NOT in equilibrium after {} steps: the run starts from there",
+                        crate::settle::MAX_STEPS
+                    )
+                }
+            );
+            Some(s)
         } else {
             None
         };
