@@ -407,6 +407,30 @@ mod tests {
     }
 
     #[test]
+    fn a_failing_wedge_runs_the_same_to_the_bit() {
+        let w = Wedge {
+            plunge: 30.0,
+            alpha: 30.0,
+            phi_a: 19.3,
+            phi_b: 24.2,
+        };
+        let run = || {
+            let mut h = Harness::new(&w.scene(), EXPLICIT).unwrap();
+            h.run_until(0.1, None, |_| {}).unwrap();
+            let b = h.block("mass");
+            (b.position, b.rotation, b.velocity)
+        };
+        let (a, b) = (run(), run());
+        assert!(
+            a.0 != Harness::new(&w.scene(), EXPLICIT)
+                .unwrap()
+                .block("mass")
+                .position
+        );
+        assert_eq!(a, b);
+    }
+
+    #[test]
     fn the_implicit_solver_refuses_bonded_joints_with_the_fix() {
         let p = Planar {
             psi: 35.0,
