@@ -234,6 +234,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             list.join("\n")
         ));
     }
+    for line in crate::slides::describe(&scene) {
+        eprintln!("coupler: {line}");
+    }
     if let Some(e) = crate::sizes::estimate(&scene) {
         eprintln!("coupler: estimate: {}", e.describe());
     }

@@ -17,6 +17,7 @@ pub mod runup;
 pub mod scenes;
 pub mod session;
 pub mod sizes;
+pub mod slides;
 pub mod solid_sweep;
 pub mod speed_accuracy;
 pub mod stability;

@@ -5,6 +5,7 @@
 //! - [`math`]: the scalar and vector types used everywhere.
 //! - [`scene`]: the scene schema (TOML), its validation and the embedded default scene.
 //! - [`geometry`]: convex polyhedra built from scene shapes (faces, edges, mass properties).
+//! - [`cutting`]: Shi's block cutting of a convex region by joint planes (`[[slide]]`).
 //! - [`protocol`]: the versioned wire types exchanged over shared memory each step.
 //! - [`strain`]: the constant strain of a deformable (12-DOF) DDA block.
 //! - [`registry`]: the solvers a node crate offers, and each solver's own parameter table.
@@ -15,6 +16,7 @@
 
 pub mod added_mass;
 pub mod checkpoint;
+pub mod cutting;
 pub mod geometry;
 pub mod math;
 pub mod protocol;

@@ -3,10 +3,12 @@
 
 mod motion;
 pub mod schema;
+pub mod slide;
 mod span;
 mod validate;
 
 pub use schema::*;
+pub use slide::{JointSetSpec, SlideCut, SlideMember, SlideSpec};
 pub use validate::FieldError;
 
 use std::path::Path;
@@ -92,11 +94,13 @@ impl Scene {
         origin: &str,
         checks: &[&SceneCheck],
     ) -> Result<Scene, SceneError> {
-        let scene: Scene = toml::from_str(text).map_err(|e| SceneError::Syntax {
+        let mut scene: Scene = toml::from_str(text).map_err(|e| SceneError::Syntax {
             origin: origin.into(),
             message: syntax_message(text, &e),
         })?;
         let mut errors = span::array_lengths(text);
+        // Slides become blocks first, so that every check below sees the blocks that will run.
+        errors.extend(slide::expand(&mut scene));
         errors.extend(scene.validate());
         for check in checks {
             errors.extend(check(&scene));
@@ -113,7 +117,9 @@ impl Scene {
 
     /// Checks every value; returns all problems found (empty when the scene is usable).
     pub fn validate(&self) -> Vec<FieldError> {
-        validate::validate(self)
+        let mut errors = validate::validate(self);
+        slide::attribute(self, &mut errors);
+        errors
     }
 
     /// True when the scene has water, i.e. a fluid node must run.

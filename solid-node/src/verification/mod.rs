@@ -2,7 +2,8 @@
 //! incline that sticks or slides (with and without cohesion), slide-or-topple, the restitution
 //! of an undamped penalty bounce for both schemes, the explicit scheme pushed past its limit,
 //! a stack at rest, the embedded default scene's wedge, and a spinning block that must not
-//! grow; and the deformable (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints
+//! grow; jointed slopes cut from a `[[slide]]` against limit equilibrium (planar and wedge
+//! failure, explicit solver); and the deformable (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints
 //! them as a table; the tests run the same functions.
 //!
 //! Every case drives the solver through the [`SolidSolver`] interface, as the node runtime
@@ -30,12 +31,14 @@ mod contact;
 pub mod deformable;
 mod harness;
 mod incline;
+mod jointed;
 mod motion;
 mod scenes;
 
 pub use contact::*;
 pub use harness::*;
 pub use incline::*;
+pub use jointed::*;
 pub use motion::*;
 pub use scenes::*;
 
@@ -51,6 +54,7 @@ pub fn run_all(quick: bool) -> Vec<Row> {
         rows.extend(restitution_rows(solver));
         if solver == EXPLICIT {
             rows.extend(explicit_limit_rows());
+            rows.extend(jointed_rows(solver));
         }
         rows.push(stack_row(solver, if quick { 3.0 } else { 10.0 }));
         rows.extend(default_wedge_rows(solver));
