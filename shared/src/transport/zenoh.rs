@@ -137,8 +137,10 @@ impl ZenohRun {
             ("connect/endpoints", json_list(&endpoints.connect)),
             ("connect/timeout_ms", timeout_ms.to_string()),
             ("connect/exit_on_failure", "true".into()),
-            ("connect/retry/period_init_ms", "100".into()),
-            ("connect/retry/period_max_ms", "1000".into()),
+            (
+                "connect/retry",
+                "{ period_init_ms: 100, period_max_ms: 1000, period_increase_factor: 2 }".into(),
+            ),
             ("scouting/multicast/enabled", "false".into()),
             ("scouting/gossip/enabled", "false".into()),
             ("timestamping/enabled", "false".into()),
