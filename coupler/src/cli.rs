@@ -144,7 +144,10 @@ fn zenoh_endpoints(args: &RunArgs) -> Result<(Endpoints, Vec<String>), String> {
     // The nodes this coupler starts run on this host: "all interfaces" is reached locally.
     let node_connect = listen
         .iter()
-        .map(|e| e.replace("/0.0.0.0:", "/127.0.0.1:").replace("/[::]:", "/[::1]:"))
+        .map(|e| {
+            e.replace("/0.0.0.0:", "/127.0.0.1:")
+                .replace("/[::]:", "/[::1]:")
+        })
         .collect();
     Ok((
         Endpoints {

@@ -458,13 +458,14 @@ impl Session {
             }),
         };
         let bytes = setup.encode();
-        self.setup_out.publish(bytes.len(), &mut |header, payload| {
-            *header = SetupHeader {
-                protocol_version: PROTOCOL_VERSION,
-                payload_len: bytes.len() as u32,
-            };
-            payload.copy_from_slice(&bytes);
-        })?;
+        self.setup_out
+            .publish(bytes.len(), &mut |header, payload| {
+                *header = SetupHeader {
+                    protocol_version: PROTOCOL_VERSION,
+                    payload_len: bytes.len() as u32,
+                };
+                payload.copy_from_slice(&bytes);
+            })?;
         self.ring();
         let interval = self.opts.scene.output.interval;
         self.next_output = interval.min(self.opts.scene.time.end);

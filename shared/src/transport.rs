@@ -105,7 +105,6 @@ impl std::fmt::Display for RunId {
     }
 }
 
-
 /// Which transport a run uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Kind {
@@ -200,7 +199,8 @@ pub trait Transport {
 
     fn hello_out(&self) -> Result<Box<dyn Outbox<Hello>>, TransportError>;
     fn hello_in(&self) -> Result<Box<dyn Inbox<Hello>>, TransportError>;
-    fn setup_out(&self, max_len: usize) -> Result<Box<dyn Outbox<SetupHeader, u8>>, TransportError>;
+    fn setup_out(&self, max_len: usize)
+    -> Result<Box<dyn Outbox<SetupHeader, u8>>, TransportError>;
     fn setup_in(&self) -> Result<Box<dyn Inbox<SetupHeader, u8>>, TransportError>;
     fn command_out(&self) -> Result<Box<dyn Outbox<Command>>, TransportError>;
     fn command_in(&self) -> Result<Box<dyn Inbox<Command>>, TransportError>;
@@ -270,7 +270,6 @@ impl Party {
         }
     }
 }
-
 
 impl From<crate::protocol::Role> for Party {
     fn from(role: crate::protocol::Role) -> Party {

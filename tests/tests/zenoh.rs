@@ -112,8 +112,17 @@ fn node(wrap: &[&str], binary: &str, id: &shared::transport::RunId, endpoint: &s
 
 fn assert_identical(a: &Path, b: &Path) {
     let names = result_files(a);
-    for n in ["gauges.csv", "blocks.csv", "particles_00000.vtp", "blocks_00000.vtp"] {
-        assert!(names.iter().any(|m| m == n), "{n} not written in {}", a.display());
+    for n in [
+        "gauges.csv",
+        "blocks.csv",
+        "particles_00000.vtp",
+        "blocks_00000.vtp",
+    ] {
+        assert!(
+            names.iter().any(|m| m == n),
+            "{n} not written in {}",
+            a.display()
+        );
     }
     assert_eq!(result_files(b), names, "different sets of result files");
     for n in &names {
@@ -130,11 +139,20 @@ fn assert_identical(a: &Path, b: &Path) {
             y.len()
         );
     }
-    let rows = std::fs::read_to_string(a.join("blocks.csv")).unwrap().lines().count();
-    assert!(rows > 3, "blocks.csv has {rows} lines: nothing was simulated");
+    let rows = std::fs::read_to_string(a.join("blocks.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert!(
+        rows > 3,
+        "blocks.csv has {rows} lines: nothing was simulated"
+    );
     let (sa, sb) = (summary(a), summary(b));
     for key in ["steps", "frames", "dt_min", "dt_max"] {
-        assert_eq!(sa["stats"][key], sb["stats"][key], "summary.json stats.{key}");
+        assert_eq!(
+            sa["stats"][key], sb["stats"][key],
+            "summary.json stats.{key}"
+        );
     }
     assert!(sa["stats"]["steps"].as_u64().unwrap() > 10);
 }
@@ -206,10 +224,18 @@ fn wedge_over_zenoh_across_a_network_boundary_matches_iceoryx2() {
         stderr(&f),
         stderr(&s)
     );
-    assert!(f.status.success() && s.status.success(), "{}{}", stderr(&f), stderr(&s));
+    assert!(
+        f.status.success() && s.status.success(),
+        "{}{}",
+        stderr(&f),
+        stderr(&s)
+    );
     let (r, _) = wait_output(reference, Duration::from_secs(300));
     assert!(r.status.success(), "iceoryx2 run failed: {}", stderr(&r));
-    assert!(leftovers(&id).is_empty(), "the zenoh run left shared memory");
+    assert!(
+        leftovers(&id).is_empty(),
+        "the zenoh run left shared memory"
+    );
     assert_identical(&out_ref, &out);
     drop(netns);
     std::fs::remove_dir_all(&out).unwrap();
@@ -238,7 +264,11 @@ fn node_whose_host_goes_silent_is_named_within_the_lease() {
             &toy_solid(),
         ],
     );
-    let child = child.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let child = child
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
     let pid = child.id();
     let nodes = running_nodes(pid);
     std::thread::sleep(Duration::from_secs(1));
@@ -271,7 +301,10 @@ fn node_whose_host_goes_silent_is_named_within_the_lease() {
     let s = summary(&out);
     assert!(s["stats"]["steps"].is_u64(), "{s}");
     assert!(
-        s["message"].as_str().unwrap_or("").contains("no longer reachable"),
+        s["message"]
+            .as_str()
+            .unwrap_or("")
+            .contains("no longer reachable"),
         "{s}"
     );
     assert!(out.join("scene.toml").is_file(), "what was written is kept");
@@ -288,7 +321,10 @@ fn endpoint_mistakes_are_named_with_their_fix() {
             vec![s, "--transport", "zenoh", "--attach"],
             "Fix: add --listen",
         ),
-        (vec![s, "--listen", "tcp/127.0.0.1:7447"], "Fix: add --transport zenoh"),
+        (
+            vec![s, "--listen", "tcp/127.0.0.1:7447"],
+            "Fix: add --transport zenoh",
+        ),
         (
             vec![s, "--transport", "zenoh", "--listen", "127.0.0.1:7447"],
             "not a zenoh endpoint",

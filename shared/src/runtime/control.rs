@@ -7,9 +7,7 @@
 
 use super::args::NodeArgs;
 use crate::protocol::*;
-use crate::transport::{
-    Bell, Inbox, Outbox, Party, Transport, TransportError, Wake, Waiter, Wire,
-};
+use crate::transport::{Bell, Inbox, Outbox, Party, Transport, TransportError, Waiter, Wake, Wire};
 use std::time::{Duration, Instant};
 
 /// How long a node waits in one slice before checking that the coupler lives and no signal

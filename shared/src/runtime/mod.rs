@@ -100,9 +100,16 @@ fn node_main(
     let timeout = std::time::Duration::from_secs_f64(args.connect_timeout.clamp(0.0, 1e6));
     // The run (this process's iceoryx2 node or zenoh session) is gone again before the exit
     // is handled.
-    let served = transport::join(args.transport, &id, Party::from(role), &who, &endpoints, timeout)
-        .map_err(Fatal::from)
-        .and_then(|run| serve(run.as_ref(), &args));
+    let served = transport::join(
+        args.transport,
+        &id,
+        Party::from(role),
+        &who,
+        &endpoints,
+        timeout,
+    )
+    .map_err(Fatal::from)
+    .and_then(|run| serve(run.as_ref(), &args));
     match served {
         Ok(code) => ExitCode::from(code),
         Err(Fatal::Transport(e)) => {

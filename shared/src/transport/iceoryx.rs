@@ -11,7 +11,7 @@
 //! Every service is opened here and only here, so all three processes agree on its settings.
 
 use super::{
-    Bell, Inbox, Kind, Outbox, Party, RunId, Transport, TransportError, Wake, Waiter, Wire, iox,
+    Bell, Inbox, Kind, Outbox, Party, RunId, Transport, TransportError, Waiter, Wake, Wire, iox,
     process_alive,
 };
 use crate::protocol::{
@@ -151,7 +151,6 @@ pub fn wait(listener: &Listener<Ipc>, slice: Duration) -> Result<Wake, Transport
     }
 }
 
-
 /// A channel of single messages.
 struct ValueOut<M: Wire>(Pub<M>);
 struct ValueIn<M: Wire>(Sub<M>);
@@ -236,7 +235,10 @@ fn value_out<M: Wire>(
 fn value_in<M: Wire>(
     f: Result<PubSub<M, ()>, TransportError>,
 ) -> Result<Box<dyn Inbox<M>>, TransportError> {
-    let s = f?.subscriber_builder().create().map_err(iox("subscriber"))?;
+    let s = f?
+        .subscriber_builder()
+        .create()
+        .map_err(iox("subscriber"))?;
     Ok(Box::new(ValueIn(s)))
 }
 
@@ -256,7 +258,10 @@ fn slice_out<H: Wire + Default, T: Wire + Default>(
 fn slice_in<H: Wire, T: Wire>(
     f: Result<PubSub<[T], H>, TransportError>,
 ) -> Result<Box<dyn Inbox<H, T>>, TransportError> {
-    let s = f?.subscriber_builder().create().map_err(iox("subscriber"))?;
+    let s = f?
+        .subscriber_builder()
+        .create()
+        .map_err(iox("subscriber"))?;
     Ok(Box::new(SliceIn(s)))
 }
 

@@ -21,7 +21,7 @@
 //! the party gone within that bound, and the coupler names the node.
 
 use super::{
-    Bell, Endpoints, Inbox, Kind, Outbox, Party, RunId, Transport, TransportError, Wake, Waiter,
+    Bell, Endpoints, Inbox, Kind, Outbox, Party, RunId, Transport, TransportError, Waiter, Wake,
     Wire,
 };
 use crate::protocol::{
@@ -132,8 +132,14 @@ impl ZenohRun {
         }
         let timeout_ms = (connect_timeout.as_secs_f64() * 1e3).round().max(1.0) as u64;
         let settings = [
-            ("mode", format!("{:?}", if router { "router" } else { "client" })),
-            ("listen/endpoints", json_list(if router { &endpoints.listen } else { &[] })),
+            (
+                "mode",
+                format!("{:?}", if router { "router" } else { "client" }),
+            ),
+            (
+                "listen/endpoints",
+                json_list(if router { &endpoints.listen } else { &[] }),
+            ),
             ("connect/endpoints", json_list(&endpoints.connect)),
             ("connect/timeout_ms", timeout_ms.to_string()),
             ("connect/exit_on_failure", "true".into()),
@@ -251,7 +257,9 @@ impl ZenohRun {
                         .push_back(sample.payload().clone());
                     match wake.try_send(()) {
                         // Full: a wake-up is pending already; the receiver drains everything.
-                        Ok(()) | Err(TrySendError::Full(())) | Err(TrySendError::Disconnected(())) => {}
+                        Ok(())
+                        | Err(TrySendError::Full(()))
+                        | Err(TrySendError::Disconnected(())) => {}
                     }
                 })
                 .wait()
