@@ -336,3 +336,22 @@ fn endpoint_mistakes_are_named_with_their_fix() {
         assert!(!out.exists(), "{args:?} wrote {}", out.display());
     }
 }
+
+#[test]
+fn node_without_a_coupler_says_where_it_looked() {
+    let (id, _) = fresh("zenoh-alone");
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port("127.0.0.1"));
+    let mut cmd = node(&[], "fluid-node", &id, &endpoint);
+    cmd.args(["--connect-timeout", "1"]);
+    let (o, took) = wait_output(cmd.spawn().unwrap(), Duration::from_secs(30));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains(&format!("no coupler reachable at {endpoint}")) && err.contains("Fix:"),
+        "{err}"
+    );
+    assert!(
+        took < Duration::from_secs(20),
+        "gave up only after {took:?}"
+    );
+}

@@ -463,3 +463,121 @@ impl Drop for ZenohRun {
         let _ = self.session.close().wait();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn endpoint() -> String {
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .unwrap()
+            .port();
+        format!("tcp/127.0.0.1:{port}")
+    }
+
+    /// Blocks on `waiter` until `inbox` yields a message (bounded: 5 s).
+    fn take_one<H: Wire, T: Wire>(
+        waiter: &dyn Waiter,
+        inbox: &dyn Inbox<H, T>,
+        resend: &mut dyn FnMut(),
+    ) -> Result<(H, Vec<T>), TransportError> {
+        let start = Instant::now();
+        loop {
+            let mut got = None;
+            inbox.take(&mut |h, p| got = Some((*h, p.to_vec())))?;
+            if let Some(g) = got {
+                return Ok(g);
+            }
+            assert!(start.elapsed() < Duration::from_secs(5), "nothing arrived");
+            // The client learns of the router's subscriber asynchronously: say it again.
+            resend();
+            waiter.wait(Duration::from_millis(100))?;
+        }
+    }
+
+    #[test]
+    fn messages_cross_whole_malformed_ones_are_named_and_a_leaver_is_seen() {
+        let id = RunId::fresh();
+        let ep = endpoint();
+        let timeout = Duration::from_secs(5);
+        let coupler = ZenohRun::join(
+            &id,
+            Party::Coupler,
+            &Endpoints {
+                listen: vec![ep.clone()],
+                connect: vec![],
+            },
+            timeout,
+        )
+        .unwrap();
+        let waiter = coupler.waiter(Party::Coupler).unwrap();
+        let inbox = coupler.blocks_in().unwrap();
+        let solid = ZenohRun::join(
+            &id,
+            Party::Solid,
+            &Endpoints {
+                listen: vec![],
+                connect: vec![ep],
+            },
+            timeout,
+        )
+        .unwrap();
+        let outbox = solid.blocks_out(3).unwrap();
+        let header = GeometryHeader {
+            step: 7,
+            time: 0.25,
+            vertex_count: 24,
+            _reserved: 0,
+        };
+        let states: Vec<BlockState> = (0..3)
+            .map(|i| BlockState {
+                block: i,
+                centroid: [i as f64, -1.5, 1e-300],
+                ..Default::default()
+            })
+            .collect();
+        let mut send = || {
+            outbox
+                .publish(3, &mut |h, p| {
+                    *h = header;
+                    p.copy_from_slice(&states);
+                })
+                .unwrap()
+        };
+        send();
+        let (h, p) = take_one(&*waiter, &*inbox, &mut send).unwrap();
+        assert_eq!((h.step, h.time, h.vertex_count), (7, 0.25, 24));
+        assert_eq!(p, states, "the elements arrive bit for bit");
+        // Bytes that are not a header plus whole elements are refused, naming the channel
+        // (copies of the good message the retries sent may still come first).
+        let raw = solid.key("geometry/blocks");
+        let start = Instant::now();
+        let err = loop {
+            solid.session.put(&raw, vec![1u8, 2, 3]).wait().unwrap();
+            match inbox.take(&mut |_, _| {}) {
+                Err(e) => break e,
+                Ok(_) => assert!(start.elapsed() < Duration::from_secs(5), "not refused"),
+            }
+            waiter.wait(Duration::from_millis(100)).unwrap();
+        };
+        assert!(
+            err.to_string()
+                .contains("malformed message on 'geometry/blocks'"),
+            "{err}"
+        );
+
+        // The solid's token was seen; once it leaves, the coupler knows within the lease.
+        assert!(coupler.alive(Party::Solid, 0));
+        drop((outbox, solid));
+        let start = Instant::now();
+        while coupler.alive(Party::Solid, 0) {
+            assert!(
+                start.elapsed() < LEASE * 2,
+                "the solid's leaving went unseen"
+            );
+            waiter.wait(Duration::from_millis(100)).unwrap();
+        }
+        assert!(coupler.alive(Party::Coupler, 0));
+    }
+}
