@@ -7,7 +7,7 @@ use crate::session::{RunOptions, Session};
 use clap::Args;
 use shared::protocol::Role;
 use shared::scene::Scheme;
-use shared::transport::RunId;
+use shared::transport::{Endpoints, Kind, RunId};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -58,12 +58,26 @@ pub struct RunArgs {
     /// Executable to run as the solid node instead of the solid-node beside the coupler.
     #[arg(long)]
     pub solid_cmd: Option<String>,
-    /// Do not start the nodes: wait for nodes started by hand with `--prefix <run id>`.
+    /// Do not start the nodes: wait (up to --connect-timeout) for nodes started by hand with
+    /// `--prefix <run id>` (and, over zenoh, `--transport zenoh --connect <endpoint>`, possibly
+    /// on other hosts). The coupler prints the commands.
     #[arg(long)]
     pub attach: bool,
-    /// Run id (the iceoryx2 service prefix); default: a fresh unique one.
+    /// Run id (the iceoryx2 service prefix, the zenoh key prefix); default: a fresh unique one.
     #[arg(long)]
     pub run_id: Option<String>,
+    /// How the processes talk: iceoryx2 shared memory (one host, zero copy), or zenoh over TCP
+    /// (nodes may run on other hosts: see --listen and --attach).
+    #[arg(long, value_enum, default_value_t = Kind::Iceoryx2)]
+    pub transport: Kind,
+    /// zenoh endpoint the coupler listens on for its nodes, e.g. `tcp/0.0.0.0:7447` (all
+    /// interfaces) or `tcp/192.0.2.10:7447`. Repeatable. Default (nodes started here): a free
+    /// port on 127.0.0.1.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// zenoh endpoint the coupler connects to as well (another zenoh router). Repeatable.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
     /// Seconds to wait for the nodes to start and say hello.
     #[arg(long, default_value_t = 30.0)]
     pub connect_timeout: f64,
@@ -99,6 +113,63 @@ pub struct RunArgs {
     /// same step stops the run.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub retries: u32,
+}
+
+/// Where the coupler listens and connects (zenoh), and what the nodes it starts connect to.
+fn zenoh_endpoints(args: &RunArgs) -> Result<(Endpoints, Vec<String>), String> {
+    if args.transport != Kind::Zenoh {
+        if !args.listen.is_empty() || !args.connect.is_empty() {
+            return Err(
+                "--listen and --connect are zenoh endpoints. Fix: add --transport zenoh, or drop them"
+                    .into(),
+            );
+        }
+        return Ok((Endpoints::default(), Vec::new()));
+    }
+    for e in args.listen.iter().chain(&args.connect) {
+        let ok = e
+            .split_once('/')
+            .is_some_and(|(proto, addr)| !proto.is_empty() && addr.contains(':'));
+        if !ok {
+            return Err(format!(
+                "'{e}' is not a zenoh endpoint. Fix: write PROTOCOL/HOST:PORT, e.g. tcp/0.0.0.0:7447"
+            ));
+        }
+    }
+    let listen = if !args.listen.is_empty() {
+        args.listen.clone()
+    } else if args.attach {
+        return Err(
+            "--attach with --transport zenoh: the nodes on other hosts need an address to connect to. Fix: add --listen tcp/0.0.0.0:7447 (or this host's address and a free port)"
+                .into(),
+        );
+    } else {
+        vec![format!("tcp/127.0.0.1:{}", free_port()?)]
+    };
+    // The nodes this coupler starts run on this host: "all interfaces" is reached locally.
+    let node_connect = listen
+        .iter()
+        .map(|e| {
+            e.replace("/0.0.0.0:", "/127.0.0.1:")
+                .replace("/[::]:", "/[::1]:")
+        })
+        .collect();
+    Ok((
+        Endpoints {
+            listen,
+            connect: args.connect.clone(),
+        },
+        node_connect,
+    ))
+}
+
+/// A TCP port free on 127.0.0.1 right now (the system's choice; the coupler binds it moments
+/// later).
+fn free_port() -> Result<u16, String> {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .map_err(|e| format!("cannot find a free TCP port on 127.0.0.1: {e}"))
 }
 
 /// Runs `coupler run`; returns the process exit code.
@@ -249,6 +320,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             return Err(format!("{flag} {v}: must be a positive number of seconds"));
         }
     }
+    let (endpoints, node_connect) = zenoh_endpoints(&args)?;
     if args.attach && args.retries > 0 {
         return Err(format!(
             "--retries {} with --attach: the coupler can only restart nodes it started itself. Fix: drop --attach, or --retries (and resume by hand with --resume)",
@@ -383,6 +455,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         solid_cmd,
         attach: args.attach,
         run_id: run_id.clone(),
+        transport: args.transport,
+        endpoints,
+        node_connect,
         connect_timeout: Duration::from_secs_f64(args.connect_timeout),
         step_timeout: Duration::from_secs_f64(args.step_timeout),
         setup_timeout: Duration::from_secs_f64(args.setup_timeout),

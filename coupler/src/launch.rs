@@ -84,9 +84,13 @@ pub struct NodeProcess {
 }
 
 impl NodeProcess {
-    /// Starts `cmd` joining run `id`; the node inherits stdout and stderr, so its own messages
-    /// reach the user.
-    pub fn spawn(cmd: &NodeCommand, id: &RunId) -> Result<NodeProcess, String> {
+    /// Starts `cmd` joining run `id` (with `transport`, the arguments that say how to reach
+    /// the coupler); the node inherits stdout and stderr, so its own messages reach the user.
+    pub fn spawn(
+        cmd: &NodeCommand,
+        id: &RunId,
+        transport: &[String],
+    ) -> Result<NodeProcess, String> {
         let program = cmd.check()?;
         let coupler = std::process::id() as libc::pid_t;
         let mut command = Command::new(&program);
@@ -109,6 +113,7 @@ impl NodeProcess {
             .args(&cmd.args)
             .arg("--prefix")
             .arg(id.as_str())
+            .args(transport)
             .stdin(std::process::Stdio::null())
             .spawn()
             .map_err(|e| {

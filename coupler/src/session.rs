@@ -4,16 +4,19 @@
 //! cut to land exactly on the next output time and the end time ([`shared::step::grant`]); the
 //! command goes to both nodes at once; the nodes exchange geometry and loads directly with each
 //! other (see `shared::runtime`) and each answers with a status and its next proposal.
+//!
+//! The run talks through `shared::transport`'s seam: iceoryx2 shared memory by default, zenoh
+//! over TCP with `--transport zenoh` (nodes on other hosts). The session is the same for both.
 
 use crate::checkpoint::CouplerCheckpoint;
 use crate::launch::{NodeCommand, NodeProcess, describe_exit};
 use crate::output::RunDir;
-use iceoryx2::port::listener::Listener;
-use iceoryx2::port::notifier::Notifier;
 use shared::protocol::*;
 use shared::scene::{Scene, Scheme};
 use shared::step::{self, StepRule};
-use shared::transport::{self, Ipc, Party, Pub, Run, RunId, Sub};
+use shared::transport::{
+    self, Bell, Endpoints, Inbox, Kind, Outbox, Party, RunId, Transport, Waiter,
+};
 use std::time::{Duration, Instant};
 
 /// One slice of blocking wait between liveness checks.
@@ -32,6 +35,11 @@ pub struct RunOptions {
     /// Nodes are started by hand (or by another tool) with `--prefix <run id>`.
     pub attach: bool,
     pub run_id: RunId,
+    /// How the processes talk, and (zenoh) where: the coupler listens on `endpoints.listen`;
+    /// the nodes it starts connect to `node_connect`.
+    pub transport: Kind,
+    pub endpoints: Endpoints,
+    pub node_connect: Vec<String>,
     /// How long to wait for the nodes' hello.
     pub connect_timeout: Duration,
     /// How long one step may take before a silent node is declared hung.
@@ -136,10 +144,6 @@ impl RunError {
     }
 }
 
-fn iox<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> RunError {
-    move |e| RunError::Transport(format!("{what}: {e:?}"))
-}
-
 impl From<transport::TransportError> for RunError {
     fn from(e: transport::TransportError) -> Self {
         RunError::Transport(e.to_string())
@@ -216,14 +220,14 @@ impl Peer {
 /// The coupler's side of a run.
 pub struct Session {
     opts: RunOptions,
-    run: Run,
-    hello_in: Sub<Hello>,
-    status_in: Sub<Status>,
-    setup_out: Pub<[u8], SetupHeader>,
-    command_out: Pub<Command>,
-    listener: Listener<Ipc>,
-    fluid_bell: Notifier<Ipc>,
-    solid_bell: Notifier<Ipc>,
+    run: Box<dyn Transport>,
+    hello_in: Box<dyn Inbox<Hello>>,
+    status_in: Box<dyn Inbox<Status>>,
+    setup_out: Box<dyn Outbox<SetupHeader, u8>>,
+    command_out: Box<dyn Outbox<Command>>,
+    listener: Box<dyn Waiter>,
+    fluid_bell: Box<dyn Bell>,
+    solid_bell: Box<dyn Bell>,
     peers: Vec<Peer>,
     stats: RunStats,
     step: u64,
@@ -239,32 +243,21 @@ pub struct Session {
 impl Session {
     /// Opens the run's services. Nodes are started by [`Session::start`].
     pub fn open(opts: RunOptions) -> Result<Session, RunError> {
-        let run = Run::join(&opts.run_id, "coupler")?;
-        let hello_in = run
-            .hello()?
-            .subscriber_builder()
-            .create()
-            .map_err(iox("hello subscriber"))?;
-        let status_in = run
-            .status()?
-            .subscriber_builder()
-            .create()
-            .map_err(iox("status subscriber"))?;
-        let setup_out = run
-            .setup()?
-            .publisher_builder()
-            .initial_max_slice_len(1 << 16)
-            .allocation_strategy(iceoryx2::prelude::AllocationStrategy::PowerOfTwo)
-            .create()
-            .map_err(iox("setup publisher"))?;
-        let command_out = run
-            .command()?
-            .publisher_builder()
-            .create()
-            .map_err(iox("command publisher"))?;
-        let listener = run.listener(Party::Coupler)?;
-        let fluid_bell = run.notifier(Party::Fluid)?;
-        let solid_bell = run.notifier(Party::Solid)?;
+        let run = transport::join(
+            opts.transport,
+            &opts.run_id,
+            Party::Coupler,
+            "coupler",
+            &opts.endpoints,
+            opts.connect_timeout,
+        )?;
+        let hello_in = run.hello_in()?;
+        let status_in = run.status_in()?;
+        let setup_out = run.setup_out(1 << 16)?;
+        let command_out = run.command_out()?;
+        let listener = run.waiter(Party::Coupler)?;
+        let fluid_bell = run.bell(Party::Fluid)?;
+        let solid_bell = run.bell(Party::Solid)?;
         Ok(Session {
             opts,
             run,
@@ -427,16 +420,25 @@ impl Session {
                 } else {
                     &self.opts.solid_cmd
                 };
-                processes
-                    .push(NodeProcess::spawn(cmd, &self.opts.run_id).map_err(RunError::Input)?);
+                processes.push(
+                    NodeProcess::spawn(cmd, &self.opts.run_id, &self.node_transport_args())
+                        .map_err(RunError::Input)?,
+                );
             }
         } else {
             eprintln!(
-                "coupler: waiting for nodes of run {id}; start them with:",
+                "coupler: waiting up to {:.0} s for the nodes of run {id}; start them with:",
+                self.opts.connect_timeout.as_secs_f64(),
                 id = self.opts.run_id
             );
+            let extra = self.node_transport_args().join(" ");
             for &role in &roles {
-                eprintln!("  {}-node --prefix {}", role.name(), self.opts.run_id);
+                eprintln!(
+                    "  {}-node --prefix {}{}{extra}",
+                    role.name(),
+                    self.opts.run_id,
+                    if extra.is_empty() { "" } else { " " }
+                );
             }
         }
         self.handshake(&roles, processes)?;
@@ -456,16 +458,14 @@ impl Session {
             }),
         };
         let bytes = setup.encode();
-        let mut sample = self
-            .setup_out
-            .loan_slice_uninit(bytes.len())
-            .map_err(iox("loan setup"))?;
-        *sample.user_header_mut() = SetupHeader {
-            protocol_version: PROTOCOL_VERSION,
-            payload_len: bytes.len() as u32,
-        };
-        let sample = sample.write_from_slice(&bytes);
-        sample.send().map_err(iox("send setup"))?;
+        self.setup_out
+            .publish(bytes.len(), &mut |header, payload| {
+                *header = SetupHeader {
+                    protocol_version: PROTOCOL_VERSION,
+                    payload_len: bytes.len() as u32,
+                };
+                payload.copy_from_slice(&bytes);
+            })?;
         self.ring();
         let interval = self.opts.scene.output.interval;
         self.next_output = interval.min(self.opts.scene.time.end);
@@ -500,8 +500,23 @@ impl Session {
     }
 
     fn ring(&self) {
-        let _ = self.fluid_bell.notify();
-        let _ = self.solid_bell.notify();
+        let _ = self.fluid_bell.ring();
+        let _ = self.solid_bell.ring();
+    }
+
+    /// What the nodes need besides the run id to reach this coupler.
+    fn node_transport_args(&self) -> Vec<String> {
+        match self.opts.transport {
+            Kind::Iceoryx2 => Vec::new(),
+            Kind::Zenoh => {
+                let mut args = vec!["--transport".to_string(), "zenoh".to_string()];
+                for e in &self.opts.node_connect {
+                    args.push("--connect".into());
+                    args.push(e.clone());
+                }
+                args
+            }
+        }
     }
 
     /// Waits for a hello from each role; checks protocol versions.
@@ -512,8 +527,7 @@ impl Session {
     ) -> Result<(), RunError> {
         let started = Instant::now();
         while self.peers.len() < roles.len() {
-            while let Some(sample) = self.hello_in.receive().map_err(iox("receive hello"))? {
-                let hello = *sample.payload();
+            while let Some(hello) = self.hello_in.receive()? {
                 let Some(role) = Role::from_u32(hello.role).filter(|r| roles.contains(r)) else {
                     return Err(RunError::Handshake(format!(
                         "a node with unknown role {} said hello",
@@ -586,7 +600,7 @@ impl Session {
                     self.opts.connect_timeout.as_secs_f64()
                 )));
             }
-            transport::wait(&self.listener, SLICE)?;
+            self.listener.wait(SLICE)?;
         }
         Ok(())
     }
@@ -604,8 +618,7 @@ impl Session {
         }
         let sent = Instant::now();
         loop {
-            while let Some(sample) = self.status_in.receive().map_err(iox("receive status"))? {
-                let s = *sample.payload();
+            while let Some(s) = self.status_in.receive()? {
                 let Some(peer) = self.peers.iter_mut().find(|p| p.role as u32 == s.role) else {
                     continue;
                 };
@@ -693,20 +706,27 @@ impl Session {
                     waited: sent.elapsed().as_secs_f64(),
                 });
             }
-            transport::wait(&self.listener, SLICE)?;
+            self.listener.wait(SLICE)?;
         }
     }
 
-    /// A node whose process ended (or, for attached nodes, whose pid vanished) ends the run.
-    /// Only nodes that have not answered the current command count: a node that answered a
-    /// stop exits at once, and must not be taken for dead while the other one still flushes.
+    /// A node whose process ended (or, for attached nodes, whose pid vanished; over zenoh,
+    /// whose liveliness token was withdrawn) ends the run. Only nodes that have not answered
+    /// the current command count: a node that answered a stop exits at once, and must not be
+    /// taken for dead while the other one still flushes.
     fn check_peers(&mut self, step: u64) -> Result<(), RunError> {
+        let run = &self.run;
+        let remote = run.kind() != Kind::Iceoryx2;
         for p in self.peers.iter_mut().filter(|p| !p.answered) {
+            let gone = |p: &Peer| {
+                (!run.alive(Party::from(p.role), p.pid)).then(|| run.gone_how().to_string())
+            };
             let how = match p.process.as_mut() {
-                Some(proc_) => proc_.exited().map(describe_exit),
-                None => {
-                    (!transport::process_alive(p.pid)).then(|| "is no longer running".to_string())
-                }
+                Some(proc_) => match proc_.exited().map(describe_exit) {
+                    None if remote => gone(p),
+                    how => how,
+                },
+                None => gone(p),
             };
             if let Some(how) = how {
                 return Err(RunError::Died {
@@ -767,9 +787,7 @@ impl Session {
                 dt,
             };
             let sent = Instant::now();
-            self.command_out
-                .send_copy(cmd)
-                .map_err(iox("send command"))?;
+            self.command_out.send(cmd)?;
             self.ring();
             self.collect_statuses(self.step, self.opts.step_timeout, false)?;
             step_walls.push(sent.elapsed().as_secs_f32());
@@ -843,9 +861,7 @@ impl Session {
             time: self.time,
             dt: 0.0,
         };
-        self.command_out
-            .send_copy(cmd)
-            .map_err(iox("send command"))?;
+        self.command_out.send(cmd)?;
         self.ring();
         self.collect_statuses(self.step, self.opts.step_timeout, true)?;
         let fail = |e: String| RunError::Failed {
@@ -881,9 +897,15 @@ impl Session {
     /// Ends the run: asks the nodes to stop (they flush their files), then makes sure every
     /// process is gone. Returns the run's outcome.
     fn stop(&mut self, outcome: Result<(), RunError>) -> Result<(), RunError> {
-        // The nodes' peak memory, while they are still alive to be asked.
+        // The nodes' peak memory, while they are still alive to be asked (on this host: a
+        // node attached over zenoh may run elsewhere, where its pid means nothing here).
+        let local = self.run.kind() == Kind::Iceoryx2;
         for p in &self.peers {
-            let rss = shared::runtime::peak_rss_bytes_of(p.pid);
+            let rss = if local || p.process.is_some() {
+                shared::runtime::peak_rss_bytes_of(p.pid)
+            } else {
+                None
+            };
             match p.role {
                 Role::Fluid => self.stats.fluid_peak_rss_bytes = rss,
                 Role::Solid => self.stats.solid_peak_rss_bytes = rss,
@@ -896,7 +918,7 @@ impl Session {
             time: self.time,
             dt: 0.0,
         };
-        let _ = self.command_out.send_copy(cmd);
+        let _ = self.command_out.send(cmd);
         self.ring();
         let stopped = if outcome.is_ok() {
             // A clean end: wait for the nodes to confirm they flushed their outputs.

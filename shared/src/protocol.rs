@@ -1,9 +1,15 @@
 //! The wire protocol: `#[repr(C)]` types sent through iceoryx2 shared memory without copying.
 //!
+//! The same types cross the network as their bytes (the zenoh transport): each is
+//! [`bytemuck::Pod`], which the derive checks at compile time (no padding, no pointers, every
+//! bit pattern valid), so a message is its header's bytes followed by its payload's, in the
+//! hosts' byte order (little-endian on every platform rockwave builds for).
+//!
 //! Hot-path messages (geometry, loads, commands, status) are fixed-layout types and slices of
 //! them; the scene itself travels once, at start-up, as bincode bytes. Any change to a layout
 //! here must bump [`PROTOCOL_VERSION`]: the handshake refuses a node that speaks another one.
 
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Version of every layout in this module. Checked at the handshake. 3: the checkpoint command
@@ -42,6 +48,14 @@ pub struct Text<const N: usize> {
     bytes: [u8; N],
 }
 
+// SAFETY: `Text<N>` is `#[repr(C)]` of a u32 and N bytes: no padding when N is a multiple of
+// 4 (asserted at compile time for the sizes used), no pointers, every bit pattern valid
+// (`as_str` checks the length and the UTF-8).
+unsafe impl<const N: usize> Zeroable for Text<N> {}
+unsafe impl Pod for Text<64> {}
+unsafe impl Pod for Text<512> {}
+const _: () = assert!(size_of::<Text<64>>() == 4 + 64 && size_of::<Text<512>>() == 4 + 512);
+
 impl<const N: usize> Text<N> {
     /// Stores `s`, cut at a character boundary if it does not fit.
     pub fn new(s: &str) -> Self {
@@ -76,7 +90,7 @@ impl<const N: usize> std::fmt::Debug for Text<N> {
 
 /// Node → coupler, once: who I am and which protocol I speak.
 #[repr(C)]
-#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, ZeroCopySend, Pod, Zeroable)]
 pub struct Hello {
     pub protocol_version: u32,
     /// [`Role`] as u32.
@@ -87,7 +101,7 @@ pub struct Hello {
 
 /// Header of the coupler → node start message; the payload is the bincode-encoded [`Setup`].
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend, Pod, Zeroable)]
 pub struct SetupHeader {
     pub protocol_version: u32,
     pub payload_len: u32,
@@ -156,7 +170,7 @@ pub enum CommandKind {
 
 /// Coupler → node, every step.
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend, Pod, Zeroable)]
 pub struct Command {
     /// [`CommandKind`] as u32.
     pub kind: u32,
@@ -202,7 +216,7 @@ impl StatusCode {
 
 /// Node → coupler after each command.
 #[repr(C)]
-#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, ZeroCopySend, Pod, Zeroable)]
 pub struct Status {
     pub role: u32,
     /// [`StatusCode`] as u32.
@@ -218,11 +232,14 @@ pub struct Status {
     /// `compute_seconds` it shows what waiting costs (nothing, when nobody spins).
     pub cpu_seconds: f64,
     pub message: Text<512>,
+    /// Explicit padding to the 8-byte alignment (the layout is what it always was; named so
+    /// that the message has no uninitialised bytes to send).
+    pub _reserved: u32,
 }
 
 /// Header of a geometry message (solid → fluid): when it is valid.
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend, Pod, Zeroable)]
 pub struct GeometryHeader {
     pub step: u64,
     pub time: f64,
@@ -233,7 +250,7 @@ pub struct GeometryHeader {
 /// Pose and velocity of one moving block (payload of a geometry message, one per block in
 /// [`crate::scene::Scene::moving_blocks`] order).
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 pub struct BlockState {
     /// Index of the block in the scene's `[[block]]` list.
     pub block: u32,
@@ -306,7 +323,7 @@ impl BlockState {
 
 /// Header of a loads message (fluid → solid).
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, ZeroCopySend, Pod, Zeroable)]
 pub struct LoadsHeader {
     pub step: u64,
     pub time: f64,
@@ -316,7 +333,16 @@ pub struct LoadsHeader {
 /// the paper's Eq. 22 forces on the particles, summed.
 #[repr(C)]
 #[derive(
-    Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, serde::Serialize, serde::Deserialize,
+    Debug,
+    Clone,
+    Copy,
+    Default,
+    PartialEq,
+    ZeroCopySend,
+    Pod,
+    Zeroable,
+    serde::Serialize,
+    serde::Deserialize,
 )]
 pub struct BlockLoad {
     pub block: u32,

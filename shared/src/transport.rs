@@ -1,33 +1,33 @@
-//! The iceoryx2 services of one run.
+//! How the three processes of a run talk: the transport seam, and the run's identity.
 //!
-//! Every resource of a run carries the run's id twice: in the service names
-//! (`rockwave/<id>/...`) and as the file prefix iceoryx2 gives everything it creates in
-//! /dev/shm and /tmp/iceoryx2 (`<id>_...`). Two runs on one machine therefore never see each
-//! other, and a run's leftovers (after a node was killed) can be found and removed by prefix.
+//! The node runtime and the coupler talk through the traits here and nothing else: an
+//! [`Outbox`] and an [`Inbox`] per channel (one typed message, or a typed header with a slice
+//! of elements), a [`Bell`] to wake the receiver after sending, and a [`Waiter`] to block on
+//! (with a timeout) until something arrived. A [`Transport`] opens them; two implement it:
 //!
-//! iceoryx2 publish–subscribe is poll-only, so each receiver owns one event service (its
-//! "wake-up" bell). A sender publishes, then rings the receiver's bell; the receiver blocks on
-//! its listener and drains its subscribers when woken. Nobody spins.
+//! - [`iceoryx::Run`] (the default): iceoryx2 shared memory on one host. Senders loan memory
+//!   and the solver writes straight into it; receivers read in place. Zero copies.
+//! - [`zenoh::ZenohRun`] (`--transport zenoh`): zenoh over TCP, so that nodes can run on other
+//!   hosts. The same `#[repr(C)]` messages travel as their bytes (see [`crate::protocol`]).
 //!
-//! Every service is opened here and only here, so all three processes agree on its settings.
+//! The traits hand the message to a closure instead of returning it: iceoryx2's samples borrow
+//! shared memory, and the closure is how a solver writes into (or reads from) it in place.
+//!
+//! Every resource of a run carries the run's id: in iceoryx2's service names and file prefix,
+//! in zenoh's key expressions (`rockwave/<id>/...`). Two runs never see each other, and a
+//! run's leftovers (after a node was killed) can be found and removed by prefix.
+
+pub mod iceoryx;
+pub mod zenoh;
+
+pub use iceoryx::{Ipc, Pub, Run, Sub, wait};
 
 use crate::protocol::{
     BlockLoad, BlockState, Command, GeometryHeader, Hello, LoadsHeader, SetupHeader, Status,
 };
-use iceoryx2::port::listener::{Listener, ListenerWaitError};
-use iceoryx2::port::notifier::Notifier;
-use iceoryx2::port::publisher::Publisher;
-use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
-use iceoryx2::service::port_factory::{event, publish_subscribe};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-
-/// The service flavour: inter-process, single-threaded ports.
-pub type Ipc = ipc::Service;
-pub type Pub<T, H = ()> = Publisher<Ipc, T, H>;
-pub type Sub<T, H = ()> = Subscriber<Ipc, T, H>;
-type PubSub<T, H> = publish_subscribe::PortFactory<Ipc, T, H>;
 
 /// Where iceoryx2 keeps its non-shared-memory files (node monitors, service descriptions).
 pub const ICEORYX2_ROOT: &str = "/tmp/iceoryx2";
@@ -41,9 +41,13 @@ pub enum TransportError {
     BadRunId(String),
     #[error("iceoryx2: {0}")]
     Iceoryx(String),
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+    #[error("{0}")]
+    Protocol(String),
 }
 
-fn iox<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> TransportError + '_ {
+pub(crate) fn iox<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> TransportError + '_ {
     move |e| TransportError::Iceoryx(format!("{what}: {e:?}"))
 }
 
@@ -101,6 +105,154 @@ impl std::fmt::Display for RunId {
     }
 }
 
+/// Which transport a run uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Kind {
+    /// iceoryx2 shared memory: every process on one host, zero copies (the default).
+    #[default]
+    Iceoryx2,
+    /// zenoh over TCP: nodes may run on other hosts.
+    Zenoh,
+}
+
+impl std::fmt::Display for Kind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Kind::Iceoryx2 => "iceoryx2",
+            Kind::Zenoh => "zenoh",
+        })
+    }
+}
+
+/// A message type that is its bytes: `#[repr(C)]`, no padding, no pointers (checked by
+/// `bytemuck`), and shareable through iceoryx2.
+pub trait Wire: bytemuck::Pod + ZeroCopySend + std::fmt::Debug {}
+impl<T: bytemuck::Pod + ZeroCopySend + std::fmt::Debug> Wire for T {}
+
+/// The sending end of one channel: a header `H` and a slice of `T` (`T = ()` and length 0 for
+/// a channel of single messages, which travel as the header).
+pub trait Outbox<H: Wire, T: Wire = ()> {
+    /// Makes room for a message of `len` elements, lets `fill` write its header and elements
+    /// in place, and sends it. The receiver is not woken: ring its [`Bell`] after the sends.
+    fn publish(
+        &self,
+        len: usize,
+        fill: &mut dyn FnMut(&mut H, &mut [T]),
+    ) -> Result<(), TransportError>;
+}
+
+impl<M: Wire> dyn Outbox<M> + '_ {
+    /// Sends one single message.
+    pub fn send(&self, message: M) -> Result<(), TransportError> {
+        self.publish(0, &mut |m, _| *m = message)
+    }
+}
+
+/// The receiving end of one channel.
+pub trait Inbox<H: Wire, T: Wire = ()> {
+    /// Hands the oldest message waiting to `read` and returns true, or returns false at once
+    /// when none is waiting. Never blocks: block on the process's [`Waiter`].
+    fn take(&self, read: &mut dyn FnMut(&H, &[T])) -> Result<bool, TransportError>;
+}
+
+impl<M: Wire> dyn Inbox<M> + '_ {
+    /// The oldest single message waiting, if any.
+    pub fn receive(&self) -> Result<Option<M>, TransportError> {
+        let mut got = None;
+        self.take(&mut |m, _| got = Some(*m))?;
+        Ok(got)
+    }
+}
+
+/// Wakes one party after messages were sent to it.
+pub trait Bell {
+    fn ring(&self) -> Result<(), TransportError>;
+}
+
+/// Where one party blocks until a message may have arrived for it.
+pub trait Waiter {
+    /// Blocks for at most `slice`. Waiting is always in bounded slices, so that the caller can
+    /// check, between slices, that its peers are alive and no signal arrived.
+    fn wait(&self, slice: Duration) -> Result<Wake, TransportError>;
+}
+
+/// One process's membership of a run: opens the run's channels (every party opens them the
+/// same way, so all agree on their settings) and says whether the other parties are there.
+///
+/// The channels: node → coupler `hello` and `status`; coupler → nodes `setup` (the bincode
+/// [`crate::protocol::Setup`]) and `command`; solid → fluid `blocks` and `vertices` (the
+/// geometry); fluid → solid `loads`. `max_len` is the most elements one message will hold.
+pub trait Transport {
+    fn id(&self) -> &RunId;
+    fn kind(&self) -> Kind;
+    /// True once SIGINT or SIGTERM reached this process.
+    fn termination_requested(&self) -> bool;
+    /// Whether `party` is still there: its process (`pid`, as its hello or the setup said) on
+    /// this host for iceoryx2, its liveliness token for zenoh.
+    fn alive(&self, party: Party, pid: u32) -> bool;
+    /// How `party` is known to have gone, for messages ("is no longer running").
+    fn gone_how(&self) -> &'static str;
+    /// The place `me` blocks on; only that party opens it, once.
+    fn waiter(&self, me: Party) -> Result<Box<dyn Waiter>, TransportError>;
+    /// A handle to wake `party`.
+    fn bell(&self, party: Party) -> Result<Box<dyn Bell>, TransportError>;
+
+    fn hello_out(&self) -> Result<Box<dyn Outbox<Hello>>, TransportError>;
+    fn hello_in(&self) -> Result<Box<dyn Inbox<Hello>>, TransportError>;
+    fn setup_out(&self, max_len: usize)
+    -> Result<Box<dyn Outbox<SetupHeader, u8>>, TransportError>;
+    fn setup_in(&self) -> Result<Box<dyn Inbox<SetupHeader, u8>>, TransportError>;
+    fn command_out(&self) -> Result<Box<dyn Outbox<Command>>, TransportError>;
+    fn command_in(&self) -> Result<Box<dyn Inbox<Command>>, TransportError>;
+    fn status_out(&self) -> Result<Box<dyn Outbox<Status>>, TransportError>;
+    fn status_in(&self) -> Result<Box<dyn Inbox<Status>>, TransportError>;
+    fn blocks_out(
+        &self,
+        max_len: usize,
+    ) -> Result<Box<dyn Outbox<GeometryHeader, BlockState>>, TransportError>;
+    fn blocks_in(&self) -> Result<Box<dyn Inbox<GeometryHeader, BlockState>>, TransportError>;
+    fn vertices_out(
+        &self,
+        max_len: usize,
+    ) -> Result<Box<dyn Outbox<GeometryHeader, [f64; 3]>>, TransportError>;
+    fn vertices_in(&self) -> Result<Box<dyn Inbox<GeometryHeader, [f64; 3]>>, TransportError>;
+    fn loads_out(
+        &self,
+        max_len: usize,
+    ) -> Result<Box<dyn Outbox<LoadsHeader, BlockLoad>>, TransportError>;
+    fn loads_in(&self) -> Result<Box<dyn Inbox<LoadsHeader, BlockLoad>>, TransportError>;
+}
+
+/// Where a process finds the run on the network (zenoh): endpoints such as
+/// `tcp/127.0.0.1:7447`.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Endpoints {
+    /// Endpoints this process listens on (the coupler).
+    pub listen: Vec<String>,
+    /// Endpoints this process connects to (the nodes: the coupler's).
+    pub connect: Vec<String>,
+}
+
+/// Joins run `id` as `party` (named `name` for iceoryx2) over the transport `kind`.
+pub fn join(
+    kind: Kind,
+    id: &RunId,
+    party: Party,
+    name: &str,
+    endpoints: &Endpoints,
+    connect_timeout: Duration,
+) -> Result<Box<dyn Transport>, TransportError> {
+    match kind {
+        Kind::Iceoryx2 => Ok(Box::new(Run::join(id, name)?)),
+        Kind::Zenoh => Ok(Box::new(zenoh::ZenohRun::join(
+            id,
+            party,
+            endpoints,
+            connect_timeout,
+        )?)),
+    }
+}
+
 /// The three parties of a run; each owns one wake-up event service.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Party {
@@ -110,7 +262,7 @@ pub enum Party {
 }
 
 impl Party {
-    fn leaf(self) -> &'static str {
+    pub fn leaf(self) -> &'static str {
         match self {
             Party::Coupler => "coupler",
             Party::Fluid => "fluid",
@@ -119,112 +271,12 @@ impl Party {
     }
 }
 
-/// One process's membership of a run: its iceoryx2 node and the run's service catalogue.
-pub struct Run {
-    pub id: RunId,
-    pub node: Node<Ipc>,
-}
-
-/// The one set of publish–subscribe settings: two publishers and two subscribers at most (the
-/// hello and status services have one of each side), a few samples of slack, no history.
-macro_rules! pubsub {
-    ($run:expr, $payload:ty, $header:ty, $leaf:expr, $buffer:expr) => {
-        $run.node
-            .service_builder(&$run.name($leaf)?)
-            .publish_subscribe::<$payload>()
-            .user_header::<$header>()
-            .max_publishers(2)
-            .max_subscribers(2)
-            .subscriber_max_buffer_size($buffer)
-            .subscriber_max_borrowed_samples(2)
-            .history_size(0)
-            .enable_safe_overflow(true)
-            .open_or_create()
-            .map_err(iox($leaf))
-    };
-}
-
-impl Run {
-    /// Joins run `id` as an iceoryx2 node named `name`.
-    pub fn join(id: &RunId, name: &str) -> Result<Run, TransportError> {
-        // iceoryx2 warns on stderr when it tidies up after a killed peer; our own messages
-        // name what happened, so only its errors are shown.
-        set_log_level(LogLevel::Error);
-        let node = NodeBuilder::new()
-            .config(&id.config())
-            .name(&NodeName::new(name).map_err(iox("node name"))?)
-            .create::<Ipc>()
-            .map_err(iox("create node"))?;
-        Ok(Run {
-            id: id.clone(),
-            node,
-        })
-    }
-
-    fn name(&self, leaf: &str) -> Result<ServiceName, TransportError> {
-        ServiceName::new(&format!("rockwave/{}/{leaf}", self.id)).map_err(iox("service name"))
-    }
-
-    /// True once SIGINT or SIGTERM reached this process (iceoryx2's own signal handler).
-    pub fn termination_requested(&self) -> bool {
-        self.node.wait(Duration::ZERO).is_err()
-    }
-
-    /// Opens (or creates) a publish–subscribe service with the settings every party uses.
-    /// (A macro because iceoryx2 implements `open_or_create` separately for `T` and `[T]`.)
-    /// Node → coupler: [`Hello`], re-sent until the setup arrives.
-    pub fn hello(&self) -> Result<PubSub<Hello, ()>, TransportError> {
-        pubsub!(self, Hello, (), "hello", 8)
-    }
-    /// Coupler → nodes: the bincode-encoded [`crate::protocol::Setup`].
-    pub fn setup(&self) -> Result<PubSub<[u8], SetupHeader>, TransportError> {
-        pubsub!(self, [u8], SetupHeader, "setup", 2)
-    }
-    /// Coupler → nodes: one [`Command`] per step.
-    pub fn command(&self) -> Result<PubSub<Command, ()>, TransportError> {
-        pubsub!(self, Command, (), "command", 4)
-    }
-    /// Nodes → coupler: one [`Status`] per command.
-    pub fn status(&self) -> Result<PubSub<Status, ()>, TransportError> {
-        pubsub!(self, Status, (), "status", 8)
-    }
-    /// Solid → fluid: pose and velocity of each moving block.
-    pub fn geometry_blocks(&self) -> Result<PubSub<[BlockState], GeometryHeader>, TransportError> {
-        pubsub!(self, [BlockState], GeometryHeader, "geometry/blocks", 4)
-    }
-    /// Solid → fluid: world-frame corners of the moving blocks.
-    pub fn geometry_vertices(&self) -> Result<PubSub<[[f64; 3]], GeometryHeader>, TransportError> {
-        pubsub!(self, [[f64; 3]], GeometryHeader, "geometry/vertices", 4)
-    }
-    /// Fluid → solid: force and torque on each moving block.
-    pub fn loads(&self) -> Result<PubSub<[BlockLoad], LoadsHeader>, TransportError> {
-        pubsub!(self, [BlockLoad], LoadsHeader, "loads", 4)
-    }
-
-    fn bell(&self, party: Party) -> Result<event::PortFactory<Ipc>, TransportError> {
-        self.node
-            .service_builder(&self.name(&format!("wake/{}", party.leaf()))?)
-            .event()
-            .max_notifiers(4)
-            .max_listeners(2)
-            .open_or_create()
-            .map_err(iox("wake-up event"))
-    }
-
-    /// The bell `party` waits on; only that party creates a listener on it.
-    pub fn listener(&self, party: Party) -> Result<Listener<Ipc>, TransportError> {
-        self.bell(party)?
-            .listener_builder()
-            .create()
-            .map_err(iox("listener"))
-    }
-
-    /// A handle to ring `party`'s bell.
-    pub fn notifier(&self, party: Party) -> Result<Notifier<Ipc>, TransportError> {
-        self.bell(party)?
-            .notifier_builder()
-            .create()
-            .map_err(iox("notifier"))
+impl From<crate::protocol::Role> for Party {
+    fn from(role: crate::protocol::Role) -> Party {
+        match role {
+            crate::protocol::Role::Fluid => Party::Fluid,
+            crate::protocol::Role::Solid => Party::Solid,
+        }
     }
 }
 
@@ -235,17 +287,6 @@ pub enum Wake {
     Rung,
     /// The slice of time passed without a ring.
     Quiet,
-}
-
-/// Blocks on a listener for at most `slice`. Waiting is always in bounded slices so that the
-/// caller can check, between slices, that its peers are alive and no signal arrived.
-/// A signal interrupting the wait is not an error: the caller checks for termination next.
-pub fn wait(listener: &Listener<Ipc>, slice: Duration) -> Result<Wake, TransportError> {
-    match listener.timed_wait(|_| {}, slice) {
-        Ok(n) if n > 0 => Ok(Wake::Rung),
-        Ok(_) | Err(ListenerWaitError::InterruptSignal) => Ok(Wake::Quiet),
-        Err(e) => Err(TransportError::Iceoryx(format!("wait: {e:?}"))),
-    }
 }
 
 /// Is the process `pid` still alive (and not a zombie)?

@@ -1,5 +1,6 @@
 //! The command line every node binary accepts.
 
+use crate::transport::Kind;
 use clap::Parser;
 
 /// Command line shared by every node binary.
@@ -14,6 +15,14 @@ pub(super) struct NodeArgs {
     /// Run id (service prefix) of the coupler to join.
     #[arg(long, required_unless_present = "list_solvers")]
     pub prefix: Option<String>,
+    /// How to reach the coupler: iceoryx2 shared memory (same host), or zenoh over TCP (the
+    /// coupler may be on another host; give its endpoint with --connect).
+    #[arg(long, value_enum, default_value_t = Kind::Iceoryx2)]
+    pub transport: Kind,
+    /// zenoh endpoint of the coupler, e.g. `tcp/192.0.2.10:7447` (what it `--listen`s on).
+    /// Repeat for several.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
     /// Seconds to wait for a coupler to answer the hello.
     #[arg(long, default_value_t = 60.0)]
     pub connect_timeout: f64,

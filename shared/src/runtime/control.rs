@@ -1,15 +1,13 @@
 //! A node's link to the coupler: the handshake (hello until the setup arrives), commands in,
 //! statuses out, and the bounded waits that notice a dead coupler or a signal.
 //!
-//! Waiting is blocking on this node's iceoryx2 listener, in slices: between slices the node
-//! checks that the coupler lives and that no SIGINT/SIGTERM arrived. Nothing spins.
+//! Waiting is blocking on this node's [`Waiter`] (its iceoryx2 listener, or its zenoh wake-up
+//! channel), in slices: between slices the node checks that the coupler lives and that no
+//! SIGINT/SIGTERM arrived. Nothing spins.
 
 use super::args::NodeArgs;
 use crate::protocol::*;
-use crate::transport::{self, Ipc, Party, Pub, Run, Sub, TransportError, Wake};
-use iceoryx2::port::listener::Listener;
-use iceoryx2::port::notifier::Notifier;
-use iceoryx2::sample::Sample;
+use crate::transport::{Bell, Inbox, Outbox, Party, Transport, TransportError, Waiter, Wake, Wire};
 use std::time::{Duration, Instant};
 
 /// How long a node waits in one slice before checking that the coupler lives and no signal
@@ -31,9 +29,9 @@ impl From<TransportError> for Fatal {
     }
 }
 
-/// Wraps an iceoryx2 error, saying what was being done.
-pub(super) fn iox<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> Fatal {
-    move |e| Fatal::Transport(TransportError::Iceoryx(format!("{what}: {e:?}")))
+/// A protocol failure (not the transport's), saying what went wrong.
+pub(super) fn protocol(msg: String) -> Fatal {
+    Fatal::Transport(TransportError::Protocol(msg))
 }
 
 /// The parties a node of `role` is and talks to.
@@ -47,10 +45,10 @@ fn parties(role: Role) -> (Party, Party) {
 /// A node that joined a run and received its setup.
 pub(super) struct Joined<'r, I> {
     pub control: Control<'r>,
-    /// The data subscribers of the node's side, opened before the hello.
+    /// The data inboxes of the node's side, opened before the hello.
     pub inbox: I,
     /// The other node's wake-up bell.
-    pub peer_bell: Notifier<Ipc>,
+    pub peer_bell: Box<dyn Bell>,
     pub setup: Setup,
 }
 
@@ -58,36 +56,20 @@ pub(super) struct Joined<'r, I> {
 /// own through `open_inbox`) before the hello goes out, so that nothing sent to this node is
 /// lost, then says hello until the coupler answers with the setup.
 pub(super) fn join<'r, I>(
-    run: &'r Run,
+    run: &'r dyn Transport,
     role: Role,
     args: &NodeArgs,
-    open_inbox: impl FnOnce(&Run) -> Result<I, Fatal>,
+    open_inbox: impl FnOnce(&dyn Transport) -> Result<I, Fatal>,
 ) -> Result<Joined<'r, I>, Fatal> {
     let (me, peer) = parties(role);
-    let setup_in = run
-        .setup()?
-        .subscriber_builder()
-        .create()
-        .map_err(iox("setup subscriber"))?;
-    let command = run
-        .command()?
-        .subscriber_builder()
-        .create()
-        .map_err(iox("command subscriber"))?;
+    let setup_in = run.setup_in()?;
+    let command = run.command_in()?;
     let inbox = open_inbox(run)?;
-    let listener = run.listener(me)?;
-    let coupler_bell = run.notifier(Party::Coupler)?;
-    let peer_bell = run.notifier(peer)?;
-    let hello_out = run
-        .hello()?
-        .publisher_builder()
-        .create()
-        .map_err(iox("hello publisher"))?;
-    let status = run
-        .status()?
-        .publisher_builder()
-        .create()
-        .map_err(iox("status publisher"))?;
+    let listener = run.waiter(me)?;
+    let coupler_bell = run.bell(Party::Coupler)?;
+    let peer_bell = run.bell(peer)?;
+    let hello_out = run.hello_out()?;
+    let status = run.status_out()?;
 
     let hello = Hello {
         protocol_version: args.fake_protocol_version.unwrap_or(PROTOCOL_VERSION),
@@ -104,30 +86,38 @@ pub(super) fn join<'r, I>(
             return Err(Fatal::Signal);
         }
         if last_hello.is_none_or(|t| t.elapsed() >= HELLO_EVERY) {
-            hello_out.send_copy(hello).map_err(iox("send hello"))?;
-            coupler_bell.notify().map_err(iox("notify coupler"))?;
+            hello_out.send(hello)?;
+            coupler_bell.ring()?;
             last_hello = Some(Instant::now());
         }
-        if let Some(sample) = setup_in.receive().map_err(iox("receive setup"))? {
-            if sample.user_header().protocol_version != PROTOCOL_VERSION {
-                return Err(Fatal::Transport(TransportError::Iceoryx(format!(
-                    "the coupler speaks protocol {}, this node {}",
-                    sample.user_header().protocol_version,
-                    PROTOCOL_VERSION
-                ))));
-            }
-            match Setup::decode(sample.payload()) {
-                Ok(s) => break s,
-                Err(e) => return Err(Fatal::Transport(TransportError::Iceoryx(e))),
-            }
+        let mut got: Option<Result<Setup, String>> = None;
+        setup_in.take(&mut |header, payload| {
+            got = Some(if header.protocol_version != PROTOCOL_VERSION {
+                Err(format!(
+                    "the coupler speaks protocol {}, this node {}. Fix: build both from the same source",
+                    header.protocol_version, PROTOCOL_VERSION
+                ))
+            } else {
+                Setup::decode(payload)
+            });
+        })?;
+        match got {
+            Some(Ok(s)) => break s,
+            Some(Err(e)) => return Err(protocol(e)),
+            None => {}
         }
         if started.elapsed().as_secs_f64() > args.connect_timeout {
-            return Err(Fatal::Transport(TransportError::Iceoryx(format!(
-                "no coupler answered on run id {} within {} s (start `coupler run --attach --run-id {} SCENE`)",
-                run.id, args.connect_timeout, run.id
-            ))));
+            let id = run.id();
+            return Err(protocol(format!(
+                "no coupler answered on run id {id} within {} s (start `coupler run --attach --run-id {id} SCENE`{})",
+                args.connect_timeout,
+                match run.kind() {
+                    crate::transport::Kind::Iceoryx2 => "",
+                    crate::transport::Kind::Zenoh => " with --transport zenoh and --listen",
+                }
+            )));
         }
-        transport::wait(&listener, HELLO_EVERY)?;
+        listener.wait(HELLO_EVERY)?;
     };
     drop(hello_out);
 
@@ -149,17 +139,17 @@ pub(super) fn join<'r, I>(
 
 /// The control ports of a node set up: commands in, statuses out, its own bell.
 pub(super) struct Control<'r> {
-    run: &'r Run,
+    run: &'r dyn Transport,
     role: Role,
-    command: Sub<Command>,
-    status: Pub<Status>,
-    coupler_bell: Notifier<Ipc>,
-    listener: Listener<Ipc>,
+    command: Box<dyn Inbox<Command>>,
+    status: Box<dyn Outbox<Status>>,
+    coupler_bell: Box<dyn Bell>,
+    listener: Box<dyn Waiter>,
     coupler_pid: u32,
 }
 
 impl<'r> Control<'r> {
-    pub fn run(&self) -> &'r Run {
+    pub fn run(&self) -> &'r dyn Transport {
         self.run
     }
 
@@ -186,23 +176,24 @@ impl<'r> Control<'r> {
             compute_seconds,
             cpu_seconds: process_cpu_seconds(),
             message: Text::new(message),
+            _reserved: 0,
         };
-        self.status.send_copy(status).map_err(iox("send status"))?;
-        self.coupler_bell.notify().map_err(iox("notify coupler"))?;
+        self.status.send(status)?;
+        self.coupler_bell.ring()?;
         Ok(())
     }
 
     /// Waits one slice, then checks the coupler and signals.
     fn wait_slice(&self) -> Result<(), Fatal> {
-        if transport::wait(&self.listener, SLICE)? == Wake::Quiet
-            && !transport::process_alive(self.coupler_pid)
+        if self.listener.wait(SLICE)? == Wake::Quiet
+            && !self.run.alive(Party::Coupler, self.coupler_pid)
         {
             return Err(Fatal::CouplerGone);
         }
         if self.run.termination_requested() {
             // A dead coupler's nodes get SIGTERM from the kernel (PR_SET_PDEATHSIG): then this
             // is the coupler gone, and the last node out must tidy up the run.
-            if !transport::process_alive(self.coupler_pid) {
+            if !self.run.alive(Party::Coupler, self.coupler_pid) {
                 return Err(Fatal::CouplerGone);
             }
             return Err(Fatal::Signal);
@@ -213,39 +204,47 @@ impl<'r> Control<'r> {
     /// Blocks until the coupler's next command.
     pub fn next_command(&self) -> Result<Command, Fatal> {
         loop {
-            if let Some(s) = self.command.receive().map_err(iox("receive command"))? {
-                return Ok(*s.payload());
+            if let Some(c) = self.command.receive()? {
+                return Ok(c);
             }
             self.wait_slice()?;
         }
     }
 
-    /// Blocks until a sample tagged `want` arrives on `sub`; older ones are dropped. If the
-    /// peer died meanwhile, the coupler ends the run and terminates this node with SIGTERM,
-    /// which ends the wait within one slice.
-    pub fn receive_tagged<E, H>(
+    /// Blocks until a message tagged `want` arrives in `inbox` and hands it to `read`; older
+    /// ones are dropped. If the peer died meanwhile, the coupler ends the run and terminates
+    /// this node with SIGTERM (or, over zenoh, the peer's token vanishes and the coupler stops
+    /// the run), which ends the wait within one slice.
+    pub fn receive_tagged<H: Wire, T: Wire>(
         &self,
-        sub: &Sub<[E], H>,
+        inbox: &dyn Inbox<H, T>,
         tag: fn(&H) -> u64,
         want: u64,
-    ) -> Result<Sample<Ipc, [E], H>, Fatal>
-    where
-        E: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static,
-        H: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static,
-    {
+        read: &mut dyn FnMut(&H, &[T]),
+    ) -> Result<(), Fatal> {
         loop {
-            while let Some(s) = sub.receive().map_err(iox("receive data"))? {
-                let got = tag(s.user_header());
-                if got == want {
-                    return Ok(s);
-                }
-                if got > want {
-                    return Err(Fatal::Transport(TransportError::Iceoryx(format!(
+            // None: keep looking; Some(None): found; Some(Some(got)): a message from the future.
+            let mut outcome: Option<Option<u64>> = None;
+            while outcome.is_none()
+                && inbox.take(&mut |h, payload| {
+                    let got = tag(h);
+                    if got == want {
+                        read(h, payload);
+                        outcome = Some(None);
+                    } else if got > want {
+                        outcome = Some(Some(got));
+                    }
+                })?
+            {}
+            match outcome {
+                Some(None) => return Ok(()),
+                Some(Some(got)) => {
+                    return Err(protocol(format!(
                         "coupling data out of order: expected message {want}, got {got}"
-                    ))));
+                    )));
                 }
+                None => self.wait_slice()?,
             }
-            self.wait_slice()?;
         }
     }
 }

@@ -2,25 +2,24 @@
 //!
 //! Per step n (when a solid node runs): wait for geometry message G_n (parallel scheme) or
 //! G_{n+1} (serial scheme), hand it to the solver, compute the loads straight into shared
-//! memory and send them tagged for the solid step that consumes them (n, or n + 1), then
+//! memory (or, over zenoh, into a reused buffer) and send them tagged for the solid step that consumes them (n, or n + 1), then
 //! advance. In the serial scheme the loads for solid step 0 are computed at set-up from G_0.
 //! Without a solid node the loads are still computed (on fixed walls only) through the same
 //! path, and nothing is sent.
 
 use super::FluidFactory;
 use super::args::NodeArgs;
-use super::control::{self, Control, Fatal, iox};
+use super::control::{self, Control, Fatal};
 use super::serve::{self, Side, StepFailure};
 use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Resume, Role};
 use crate::scene::Scheme;
 use crate::solver::{FluidSolver, Solver, StepReport};
-use crate::transport::{Ipc, Pub, Run, Sub};
-use iceoryx2::port::notifier::Notifier;
+use crate::transport::{Bell, Inbox, Outbox, Transport};
 use std::time::{Duration, Instant};
 
 /// Joins the run as its fluid node and serves it; returns the exit code.
 pub(super) fn run_node(
-    run: &Run,
+    run: &dyn Transport,
     solvers: &[&str],
     build: FluidFactory,
     args: &NodeArgs,
@@ -51,25 +50,17 @@ pub(super) fn run_node(
     serve::serve(control, &mut fluid, &opts)
 }
 
-/// The geometry subscribers (blocks and their corners), opened before the hello.
+/// The geometry inboxes (blocks and their corners), opened before the hello.
 pub(super) struct GeometryIn {
-    blocks: Sub<[BlockState], GeometryHeader>,
-    vertices: Sub<[[f64; 3]], GeometryHeader>,
+    blocks: Box<dyn Inbox<GeometryHeader, BlockState>>,
+    vertices: Box<dyn Inbox<GeometryHeader, [f64; 3]>>,
 }
 
 impl GeometryIn {
-    fn open(run: &Run) -> Result<GeometryIn, Fatal> {
+    fn open(run: &dyn Transport) -> Result<GeometryIn, Fatal> {
         Ok(GeometryIn {
-            blocks: run
-                .geometry_blocks()?
-                .subscriber_builder()
-                .create()
-                .map_err(iox("geometry subscriber"))?,
-            vertices: run
-                .geometry_vertices()?
-                .subscriber_builder()
-                .create()
-                .map_err(iox("vertex subscriber"))?,
+            blocks: run.blocks_in()?,
+            vertices: run.vertices_in()?,
         })
     }
 }
@@ -83,8 +74,8 @@ enum Solid {
 /// The data ports to and from the solid node.
 struct SolidLink {
     geometry: GeometryIn,
-    loads: Pub<[BlockLoad], LoadsHeader>,
-    bell: Notifier<Ipc>,
+    loads: Box<dyn Outbox<LoadsHeader, BlockLoad>>,
+    bell: Box<dyn Bell>,
 }
 
 struct Fluid {
@@ -107,17 +98,12 @@ struct SentLoads {
 
 impl SolidLink {
     fn open(
-        run: &Run,
+        run: &dyn Transport,
         geometry: GeometryIn,
-        bell: Notifier<Ipc>,
+        bell: Box<dyn Bell>,
         n_moving: usize,
     ) -> Result<SolidLink, Fatal> {
-        let loads = run
-            .loads()?
-            .publisher_builder()
-            .initial_max_slice_len(n_moving.max(1))
-            .create()
-            .map_err(iox("loads publisher"))?;
+        let loads = run.loads_out(n_moving)?;
         Ok(SolidLink {
             geometry,
             loads,
@@ -132,16 +118,27 @@ impl SolidLink {
         solver: &mut dyn FluidSolver,
         tag: u64,
     ) -> Result<Duration, Fatal> {
-        let blocks = control.receive_tagged(&self.geometry.blocks, |h| h.step, tag)?;
-        let vertices = control.receive_tagged(&self.geometry.vertices, |h| h.step, tag)?;
-        let t = Instant::now();
-        // Zero copy: the solver reads straight from shared memory.
-        solver.read_geometry(blocks.payload(), vertices.payload());
-        Ok(t.elapsed())
+        let mut read = Duration::ZERO;
+        let mut inner = Ok(());
+        control.receive_tagged(&*self.geometry.blocks, |h| h.step, tag, &mut |_, blocks| {
+            inner = control.receive_tagged(
+                &*self.geometry.vertices,
+                |h| h.step,
+                tag,
+                &mut |_, vertices| {
+                    let t = Instant::now();
+                    // Zero copy over iceoryx2: the solver reads straight from shared memory.
+                    solver.read_geometry(blocks, vertices);
+                    read = t.elapsed();
+                },
+            );
+        })?;
+        inner?;
+        Ok(read)
     }
 
-    /// Computes the coupling loads straight into a loaned shared-memory slice and sends them;
-    /// keeps a copy in `sent` (a few numbers per moving block).
+    /// Computes the coupling loads straight into the outgoing message (loaned shared memory
+    /// over iceoryx2) and sends them; keeps a copy in `sent` (a few numbers per moving block).
     fn send_loads(
         &self,
         solver: &mut dyn FluidSolver,
@@ -151,14 +148,14 @@ impl SolidLink {
         sent: &mut SentLoads,
     ) -> Result<Duration, Fatal> {
         let t = Instant::now();
-        let mut sample = self.loads.loan_slice(n_moving).map_err(iox("loan loads"))?;
-        *sample.user_header_mut() = LoadsHeader { step: tag, time };
-        solver.write_loads(sample.payload_mut());
-        sent.header = Some((tag, time));
-        sent.loads.clear();
-        sent.loads.extend_from_slice(sample.payload());
-        sample.send().map_err(iox("send loads"))?;
-        self.bell.notify().map_err(iox("notify solid"))?;
+        self.loads.publish(n_moving, &mut |header, loads| {
+            *header = LoadsHeader { step: tag, time };
+            solver.write_loads(loads);
+            sent.header = Some((tag, time));
+            sent.loads.clear();
+            sent.loads.extend_from_slice(loads);
+        })?;
+        self.bell.ring()?;
         Ok(t.elapsed())
     }
 
@@ -167,14 +164,11 @@ impl SolidLink {
         let Some((step, time)) = sent.header else {
             return Ok(());
         };
-        let mut sample = self
-            .loads
-            .loan_slice(sent.loads.len())
-            .map_err(iox("loan loads"))?;
-        *sample.user_header_mut() = LoadsHeader { step, time };
-        sample.payload_mut().copy_from_slice(&sent.loads);
-        sample.send().map_err(iox("send loads"))?;
-        self.bell.notify().map_err(iox("notify solid"))?;
+        self.loads.publish(sent.loads.len(), &mut |header, loads| {
+            *header = LoadsHeader { step, time };
+            loads.copy_from_slice(&sent.loads);
+        })?;
+        self.bell.ring()?;
         Ok(())
     }
 }

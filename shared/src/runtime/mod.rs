@@ -29,7 +29,7 @@ pub use control::{peak_rss_bytes_of, process_cpu_seconds, process_peak_rss_bytes
 
 use crate::protocol::Role;
 use crate::solver::{FluidSolver, SetupContext, SolidSolver, SolverError};
-use crate::transport::{self, Run, RunId};
+use crate::transport::{self, Endpoints, Kind, Party, RunId, Transport};
 use args::NodeArgs;
 use clap::Parser;
 use control::Fatal;
@@ -69,7 +69,7 @@ pub fn solid_main(solvers: &[&str], build: SolidFactory) -> ExitCode {
 fn node_main(
     role: Role,
     solvers: &[&str],
-    serve: impl FnOnce(&Run, &NodeArgs) -> Result<u8, Fatal>,
+    serve: impl FnOnce(&dyn Transport, &NodeArgs) -> Result<u8, Fatal>,
 ) -> ExitCode {
     let args = NodeArgs::parse();
     if args.list_solvers {
@@ -85,12 +85,31 @@ fn node_main(
             return ExitCode::from(exit::TRANSPORT);
         }
     };
-    // A claim on the run, so that of two orphaned nodes the last one out tidies up.
-    let presence = presence::Presence::hold(&id);
-    // The run (this process's iceoryx2 node) is gone again before the exit is handled.
-    let served = Run::join(&id, &who)
-        .map_err(Fatal::from)
-        .and_then(|run| serve(&run, &args));
+    let local = args.transport == Kind::Iceoryx2;
+    // A claim on the run's shared memory, so that of two orphaned nodes the last one out
+    // tidies up (zenoh leaves nothing on the host to tidy).
+    let presence = if local {
+        presence::Presence::hold(&id)
+    } else {
+        None
+    };
+    let endpoints = Endpoints {
+        listen: Vec::new(),
+        connect: args.connect.clone(),
+    };
+    let timeout = std::time::Duration::from_secs_f64(args.connect_timeout.clamp(0.0, 1e6));
+    // The run (this process's iceoryx2 node or zenoh session) is gone again before the exit
+    // is handled.
+    let served = transport::join(
+        args.transport,
+        &id,
+        Party::from(role),
+        &who,
+        &endpoints,
+        timeout,
+    )
+    .map_err(Fatal::from)
+    .and_then(|run| serve(run.as_ref(), &args));
     match served {
         Ok(code) => ExitCode::from(code),
         Err(Fatal::Transport(e)) => {
@@ -104,7 +123,7 @@ fn node_main(
                 || !transport::run_has_live_nodes(&id),
                 |p| p.release_is_last(&id),
             );
-            if last {
+            if last && local {
                 transport::remove_run_files(&id);
             }
             ExitCode::from(exit::TRANSPORT)

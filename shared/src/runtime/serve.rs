@@ -103,7 +103,7 @@ pub(super) fn build<S: ?Sized>(
         Some(_) => {
             let scratch = scratch_dir(&setup.run_dir, role);
             std::fs::create_dir_all(&scratch).map_err(|e| {
-                Fatal::Transport(TransportError::Iceoryx(format!(
+                Fatal::Transport(TransportError::Protocol(format!(
                     "cannot create '{}': {e}",
                     scratch.display()
                 )))
@@ -323,7 +323,7 @@ fn serve_inner(control: &Control, side: &mut dyn Side, opts: &Options) -> Result
                 }
             }
             other => {
-                return Err(Fatal::Transport(TransportError::Iceoryx(format!(
+                return Err(Fatal::Transport(TransportError::Protocol(format!(
                     "unknown command kind {other}"
                 ))));
             }

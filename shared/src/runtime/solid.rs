@@ -19,7 +19,7 @@
 
 use super::SolidFactory;
 use super::args::NodeArgs;
-use super::control::{self, Control, Fatal, iox};
+use super::control::{self, Control, Fatal};
 use super::serve::{self, Side, StepFailure};
 use crate::added_mass::AddedMassMonitor;
 use crate::geometry::Polyhedron;
@@ -27,13 +27,12 @@ use crate::math::Vector;
 use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Resume, Role};
 use crate::scene::{BlockKind, Scene};
 use crate::solver::{SolidSolver, Solver, SolverError, StepReport};
-use crate::transport::{Ipc, Pub, Run, Sub};
-use iceoryx2::port::notifier::Notifier;
+use crate::transport::{Bell, Inbox, Outbox, Transport};
 use std::time::{Duration, Instant};
 
 /// Joins the run as its solid node and serves it; returns the exit code.
 pub(super) fn run_node(
-    run: &Run,
+    run: &dyn Transport,
     solvers: &[&str],
     build: SolidFactory,
     args: &NodeArgs,
@@ -76,14 +75,11 @@ pub(super) fn run_node(
     serve::serve(control, &mut solid, &opts)
 }
 
-type LoadsIn = Sub<[BlockLoad], LoadsHeader>;
+type LoadsIn = Box<dyn Inbox<LoadsHeader, BlockLoad>>;
 
-/// The loads subscriber, opened before the hello.
-fn open_loads_in(run: &Run) -> Result<LoadsIn, Fatal> {
-    run.loads()?
-        .subscriber_builder()
-        .create()
-        .map_err(iox("loads subscriber"))
+/// The loads inbox, opened before the hello.
+fn open_loads_in(run: &dyn Transport) -> Result<LoadsIn, Fatal> {
+    Ok(run.loads_in()?)
 }
 
 /// The added-mass watch over the scene's moving blocks (kinematic ones cannot be moved by
@@ -114,9 +110,9 @@ enum Fluid {
 /// The data ports to and from the fluid node, and the watch on what arrives.
 struct FluidLink {
     loads: LoadsIn,
-    blocks: Pub<[BlockState], GeometryHeader>,
-    vertices: Pub<[[f64; 3]], GeometryHeader>,
-    bell: Notifier<Ipc>,
+    blocks: Box<dyn Outbox<GeometryHeader, BlockState>>,
+    vertices: Box<dyn Outbox<GeometryHeader, [f64; 3]>>,
+    bell: Box<dyn Bell>,
     /// The watch on the loads for the added-mass instability (when the scene has water).
     added_mass: Option<AddedMassMonitor>,
 }
@@ -155,25 +151,15 @@ fn advance_substeps(
 
 impl FluidLink {
     fn open(
-        run: &Run,
+        run: &dyn Transport,
         loads: LoadsIn,
-        bell: Notifier<Ipc>,
+        bell: Box<dyn Bell>,
         n_moving: usize,
         vertex_count: usize,
         added_mass: Option<AddedMassMonitor>,
     ) -> Result<FluidLink, Fatal> {
-        let blocks = run
-            .geometry_blocks()?
-            .publisher_builder()
-            .initial_max_slice_len(n_moving.max(1))
-            .create()
-            .map_err(iox("geometry publisher"))?;
-        let vertices = run
-            .geometry_vertices()?
-            .publisher_builder()
-            .initial_max_slice_len(vertex_count.max(1))
-            .create()
-            .map_err(iox("vertex publisher"))?;
+        let blocks = run.blocks_out(n_moving)?;
+        let vertices = run.vertices_out(vertex_count)?;
         Ok(FluidLink {
             loads,
             blocks,
@@ -191,17 +177,20 @@ impl FluidLink {
         solver: &mut dyn SolidSolver,
         tag: u64,
     ) -> Result<(Duration, Option<String>), Fatal> {
-        let sample = control.receive_tagged(&self.loads, |h| h.step, tag)?;
-        let t = Instant::now();
-        solver.read_loads(sample.payload());
-        let added_mass = self
-            .added_mass
-            .as_mut()
-            .and_then(|m| m.observe(sample.payload()));
-        Ok((t.elapsed(), added_mass))
+        let mut read = Duration::ZERO;
+        let mut added_mass = None;
+        let watch = &mut self.added_mass;
+        control.receive_tagged(&*self.loads, |h| h.step, tag, &mut |_, loads| {
+            let t = Instant::now();
+            solver.read_loads(loads);
+            added_mass = watch.as_mut().and_then(|m| m.observe(loads));
+            read = t.elapsed();
+        })?;
+        Ok((read, added_mass))
     }
 
-    /// Writes the solver's geometry straight into loaned shared memory and sends it.
+    /// Writes the solver's geometry straight into the outgoing messages (loaned shared memory
+    /// over iceoryx2) and sends them.
     fn send_geometry(
         &self,
         solver: &dyn SolidSolver,
@@ -217,17 +206,18 @@ impl FluidLink {
             vertex_count: nv as u32,
             _reserved: 0,
         };
-        let mut blocks = self
-            .blocks
-            .loan_slice(n_moving)
-            .map_err(iox("loan geometry"))?;
-        let mut vertices = self.vertices.loan_slice(nv).map_err(iox("loan vertices"))?;
-        *blocks.user_header_mut() = header;
-        *vertices.user_header_mut() = header;
-        solver.write_geometry(blocks.payload_mut(), vertices.payload_mut());
-        vertices.send().map_err(iox("send vertices"))?;
-        blocks.send().map_err(iox("send geometry"))?;
-        self.bell.notify().map_err(iox("notify fluid"))?;
+        // The solver writes both parts in one call: the blocks' message is filled (and sent)
+        // inside the vertices' one, which is sent when the closure returns.
+        let mut inner = Ok(());
+        self.vertices.publish(nv, &mut |vh, vertices| {
+            *vh = header;
+            inner = self.blocks.publish(n_moving, &mut |bh, blocks| {
+                *bh = header;
+                solver.write_geometry(blocks, vertices);
+            });
+        })?;
+        inner?;
+        self.bell.ring()?;
         Ok(t.elapsed())
     }
 }

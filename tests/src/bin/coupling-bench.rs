@@ -9,6 +9,10 @@
 //!    while the fluid node waits for it; the fluid node's CPU time over the run should be
 //!    near zero.
 //!
+//! 4. The same coupled steps over zenoh (`--transport zenoh`, TCP on loopback; with
+//!    `--fluid-wrap "ip netns exec NS" --zenoh-listen tcp/ADDR:PORT` the fluid node runs in a
+//!    network namespace and the coupler listens on the address the namespace reaches).
+//!
 //! Run: `cargo run --release -p tests --bin coupling-bench` (after `cargo build --release`).
 
 use iceoryx2::prelude::*;
@@ -38,8 +42,20 @@ fn main() {
     let (median, p99) = raw_round_trip(steps);
     println!("\n| measurement | median [µs] | p99 [µs] |\n|---|---:|---:|");
     println!("| iceoryx2 raw round trip (publish + event, both ways) | {median:.1} | {p99:.1} |");
+    let opt = |name: &str| {
+        args.iter()
+            .position(|a| a == name)
+            .and_then(|i| args.get(i + 1))
+            .cloned()
+    };
+    let wrap = opt("--fluid-wrap").unwrap_or_default();
+    let listen = opt("--zenoh-listen");
+    let mut zenoh = vec!["--transport".to_string(), "zenoh".to_string()];
+    if let Some(l) = &listen {
+        zenoh.extend(["--listen".to_string(), l.clone()]);
+    }
     for blocks in [3usize, 1000] {
-        let s = coupled_run(&bin_dir, blocks, steps, "ballistic");
+        let s = coupled_run(&bin_dir, blocks, steps, "ballistic", &[], "");
         println!(
             "| coupled step, {blocks} blocks ({} vertices), toy nodes | {:.1} | {:.1} |",
             blocks * 8,
@@ -47,8 +63,22 @@ fn main() {
             s["stats"]["step_wall_p99_us"].as_f64().unwrap()
         );
     }
+    for blocks in [3usize, 1000] {
+        let s = coupled_run(&bin_dir, blocks, steps, "ballistic", &zenoh, &wrap);
+        let where_ = if wrap.is_empty() {
+            "loopback".to_string()
+        } else {
+            format!("fluid node under `{wrap}`")
+        };
+        println!(
+            "| coupled step over zenoh ({where_}), {blocks} blocks ({} vertices), toy nodes | {:.1} | {:.1} |",
+            blocks * 8,
+            s["stats"]["step_wall_median_us"].as_f64().unwrap(),
+            s["stats"]["step_wall_p99_us"].as_f64().unwrap()
+        );
+    }
     let nap_steps = (steps / 5).max(1000);
-    let s = coupled_run(&bin_dir, 3, nap_steps, "ballistic-slow");
+    let s = coupled_run(&bin_dir, 3, nap_steps, "ballistic-slow", &[], "");
     let st = &s["stats"];
     let wall = st["wall_seconds"].as_f64().unwrap();
     println!("\nwaiting cost: solid naps 1 ms per step for {nap_steps} steps ({wall:.2} s wall)");
@@ -162,12 +192,19 @@ fn raw_round_trip(n: usize) -> (f64, f64) {
 }
 
 /// A scene of `blocks` free cubes on a grid, run for `steps` steps of 1 ms with the toy nodes.
-fn coupled_run(bin: &Path, blocks: usize, steps: usize, solid: &str) -> serde_json::Value {
+fn coupled_run(
+    bin: &Path,
+    blocks: usize,
+    steps: usize,
+    solid: &str,
+    extra: &[String],
+    fluid_wrap: &str,
+) -> serde_json::Value {
     let dir = std::env::temp_dir().join(format!("rockwave-bench-{}", RunId::fresh()));
     std::fs::create_dir_all(&dir).unwrap();
     let side = (blocks as f64).sqrt().ceil() as usize;
     let mut scene = format!(
-        "name = \"bench_{blocks}\"\n[time]\nend = {}\ndt_max = 1e-3\n[domain]\nmin = [-1.0, -1.0, -1e6]\nmax = [{m}, {m}, 10.0]\n\
+        "name = \"bench_{blocks}\"\n[time]\nend = {}\ndt_max = 1e-3\n[domain]\nmin = [-1.0, -1.0, -10.0]\nmax = [{m}, {m}, 10.0]\n\
          [output]\ninterval = 1e6\nvtk = false\n[fluid]\ndx = 0.5\n[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, -3.0], max = [{m}, {m}, 0.0] }}\n",
         steps as f64 * 1e-3,
         m = 2.0 * side as f64 + 1.0
@@ -188,7 +225,7 @@ fn coupled_run(bin: &Path, blocks: usize, steps: usize, solid: &str) -> serde_js
         .arg(&scene_path)
         .args(["--quiet", "--fluid-cmd"])
         .arg(format!(
-            "{} --solver hover",
+            "{fluid_wrap} {} --solver hover",
             bin.join("toy-fluid-node").display()
         ))
         .arg("--solid-cmd")
@@ -198,6 +235,7 @@ fn coupled_run(bin: &Path, blocks: usize, steps: usize, solid: &str) -> serde_js
         ))
         .arg("--out")
         .arg(&out)
+        .args(extra)
         .status()
         .unwrap();
     assert!(status.success(), "coupled benchmark run failed");
