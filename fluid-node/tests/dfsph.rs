@@ -9,6 +9,8 @@ use fluid_node::validation::*;
 use shared::scene::{Scene, Scheme};
 use shared::solver::{SetupContext, Solver};
 
+/// Still water with `pressure_tolerance = 5` (the setting for pressure studies; the case sets
+/// it, `validation::DFSPH_PRESSURE_STUDY`): the probes' means are hydrostatic within 5 % of ρ0 g H.
 #[test]
 fn dfsph_still_water_is_hydrostatic() {
     let (depth, dx) = (0.1, 0.1 / 8.0);
@@ -181,12 +183,14 @@ fn dfsph_warns_when_the_density_solve_does_not_converge() {
 /// `[fluid.dfsph]` values are checked by field, with a fix.
 #[test]
 fn dfsph_parameters_are_checked() {
-    let good = still_water_scene("dfsph", 0.1, 0.025, 0.1, None);
+    let mut good = still_water_scene("dfsph", 0.1, 0.025, 0.1, None);
+    // The still-water case sets its own [fluid.dfsph]; this test writes the table itself.
+    good.fluid.as_mut().unwrap().solvers.remove("dfsph");
     let text = toml::to_string(&good).unwrap();
     let checked = |extra: &str| scene_errors(&format!("{text}\n[fluid.dfsph]\n{extra}\n"));
     assert_eq!(
         checked(
-            "cfl = 0.4\ndensity_tolerance = 0.05\ndivergence_tolerance = 0.1\nmax_iterations = 100\nviscosity = 0.01"
+            "cfl = 0.4\ndensity_tolerance = 0.05\ndivergence_tolerance = 0.1\nmax_iterations = 100\nviscosity = 0.01\npressure_tolerance = 5.0\ndeficient_fraction = 0.6"
         ),
         ""
     );
@@ -198,6 +202,8 @@ fn dfsph_parameters_are_checked() {
         ("max_iterations = 0", "max_iterations"),
         ("viscosity = -1.0", "viscosity"),
         ("smoothing_ratio = 0.1", "smoothing_ratio"),
+        ("pressure_tolerance = 0.0", "pressure_tolerance"),
+        ("deficient_fraction = 1.5", "deficient_fraction"),
     ] {
         let e = checked(bad);
         assert!(

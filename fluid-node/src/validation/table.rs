@@ -67,10 +67,14 @@ pub fn validate_solver(
     };
     let depth = 0.1;
     let dx = depth / plan.still_per_depth as f64;
+    let still_label = match solver {
+        "dfsph" => format!("{label} ({DFSPH_PRESSURE_STUDY})"),
+        _ => label.clone(),
+    };
     match still_water(solver, depth, dx, plan.still_end, walls) {
         Ok(s) => {
             log(&format!(
-                "still water {label}: {} particles, {} steps, error {:.3}",
+                "still water {still_label}: {} particles, {} steps, error {:.3}",
                 s.particles, s.steps, s.max_error
             ));
             let (d, p, r) = s
@@ -89,7 +93,7 @@ pub fn validate_solver(
                     "still water, H = {depth} m, dx = H/{}",
                     plan.still_per_depth
                 ),
-                solver: label.clone(),
+                solver: still_label.clone(),
                 quantity: format!(
                     "pressure at depth {:.2}·H (worst of 0.25, 0.5, 0.75) [Pa]",
                     d
@@ -108,7 +112,7 @@ pub fn validate_solver(
                     "still water, H = {depth} m, dx = H/{}",
                     plan.still_per_depth
                 ),
-                solver: label.clone(),
+                solver: still_label.clone(),
                 quantity: "free surface η (gauge) [m]".into(),
                 reference: format!("{:.4}", s.depth),
                 measured: format!("{:.4}", s.surface),
@@ -119,7 +123,7 @@ pub fn validate_solver(
                     .map(Into::into),
             });
         }
-        Err(e) => rows.push(failed_row("still water", &label, &e)),
+        Err(e) => rows.push(failed_row("still water", &still_label, &e)),
     }
     for n2 in [2u32, 1] {
         let mut runs = Vec::new();
