@@ -38,6 +38,9 @@ pub struct Scene {
     /// `[[block]]` entries: walls, slopes, pistons and rock blocks, all convex polyhedra.
     #[serde(default, rename = "block")]
     pub blocks: Vec<BlockSpec>,
+    /// `[[terrain]]` entries: fixed ground read from mesh or elevation-model files.
+    #[serde(default, rename = "terrain", skip_serializing_if = "Vec::is_empty")]
+    pub terrain: Vec<super::terrain::TerrainSpec>,
     /// `[[gauge]]` entries: free-surface elevation recorded at (x, y).
     #[serde(default, rename = "gauge")]
     pub gauges: Vec<GaugeSpec>,

@@ -730,6 +730,9 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
         }
     }
 
+    c.errors
+        .extend(super::terrain::validate(&s.terrain, &s.domain));
+
     let mut gauge_names = std::collections::HashSet::new();
     for (i, g) in s.gauges.iter().enumerate() {
         c.key("gauge", |c| {
