@@ -6,6 +6,7 @@
 //! - [`elastic`]: the strain state and matrices of a deformable block (co-rotational);
 //! - [`rotation`]: exact rotation updates (no growth of rotating blocks);
 //! - [`broad_phase`], [`narrow_phase`], [`contact`]: finding vertex–face and edge–edge contacts;
+//! - [`terrain_contact`]: blocks against the fixed `[[terrain]]` mesh (BVH queries);
 //! - [`penalty`], [`friction`]: normal and shear springs, Mohr–Coulomb with cohesion;
 //! - [`world`]: the block system shared by the integrators;
 //! - [`explicit`] (paper Eqs. 5–8) and [`implicit`] (Shi's Newmark β = ½, γ = 1, paper Eq. 4);
@@ -33,6 +34,7 @@ pub mod output;
 pub mod penalty;
 pub mod rotation;
 pub mod stability;
+pub mod terrain_contact;
 pub mod verification;
 pub mod world;
 
