@@ -59,13 +59,21 @@ fn main() -> ExitCode {
             match loaded {
                 Ok(s) => {
                     println!(
-                        "scene '{}' is valid: {} blocks ({} moving), water: {}, gauges: {}",
+                        "scene '{}' is valid: {} blocks ({} moving), {} terrain(s), water: {}, gauges: {}",
                         s.name,
                         s.blocks.len(),
                         s.moving_blocks().len(),
+                        s.terrain.len(),
                         if s.has_fluid() { "yes" } else { "no" },
                         s.gauges.len()
                     );
+                    match shared::terrain::Terrain::load_all(&s) {
+                        Ok(terrain) => terrain.iter().for_each(|t| println!("{}", t.summary())),
+                        Err(e) => {
+                            eprintln!("coupler: error: {e}");
+                            return ExitCode::from(1);
+                        }
+                    }
                     if let Some(e) = coupler::sizes::estimate(&s) {
                         println!("estimate: {}", e.describe());
                     }
