@@ -29,12 +29,15 @@ pub fn sample(
     hi: &Vector,
 ) -> Vec<Vector> {
     let mut keys: Vec<[i64; 3]> = Vec::new();
+    // Candidates: the lattice points in coarse cells (one depth wide, over [lo, hi]) that a
+    // triangle's box, grown by the depth, touches, marked in a bitmap (a million small
+    // triangles mark the same few cells many times over) and visited in index order.
+    let coarse = depth.max(dx);
+    let dims: [usize; 3] = std::array::from_fn(|k| ((hi[k] - lo[k]) / coarse).ceil() as usize + 1);
+    let cell =
+        |x: Real, k: usize| (((x - lo[k]) / coarse).floor().max(0.0) as usize).min(dims[k] - 1);
     for t in terrains {
-        // Candidates: the lattice points in coarse cells (one depth wide) that a triangle's
-        // box, grown by the depth, touches. Sorting the cell keys visits each cell once.
-        let coarse = depth.max(dx);
-        let cell = |x: Real, k: usize| ((x - anchor[k]) / coarse).floor() as i64;
-        let mut cells: Vec<[i64; 3]> = Vec::new();
+        let mut marked = vec![false; dims[0] * dims[1] * dims[2]];
         for tri in t.mesh.triangles() {
             let (mut a, mut b) = (tri.a.coords, tri.a.coords);
             for p in [tri.b, tri.c] {
@@ -48,19 +51,29 @@ pub fn sample(
             for z in cell(a.z, 2)..=cell(b.z, 2) {
                 for y in cell(a.y, 1)..=cell(b.y, 1) {
                     for x in cell(a.x, 0)..=cell(b.x, 0) {
-                        cells.push([x, y, z]);
+                        marked[x + dims[0] * (y + dims[1] * z)] = true;
                     }
                 }
             }
         }
-        cells.sort_unstable();
-        cells.dedup();
+        let cells: Vec<[usize; 3]> = (0..marked.len())
+            .filter(|&i| marked[i])
+            .map(|i| {
+                [
+                    i % dims[0],
+                    (i / dims[0]) % dims[1],
+                    i / (dims[0] * dims[1]),
+                ]
+            })
+            .collect();
         let per = (coarse / dx).ceil() as i64 + 1;
         let found: Vec<[i64; 3]> = cells
             .par_iter()
             .flat_map_iter(|c| {
-                let first: [i64; 3] =
-                    std::array::from_fn(|k| (c[k] as Real * coarse / dx).floor() as i64);
+                // The lattice indices from the cell's lower corner on, one spare layer.
+                let first: [i64; 3] = std::array::from_fn(|k| {
+                    ((lo[k] + c[k] as Real * coarse - anchor[k]) / dx).floor() as i64
+                });
                 let mut out = Vec::new();
                 for kz in first[2]..first[2] + per {
                     for ky in first[1]..first[1] + per {
@@ -136,14 +149,19 @@ impl TerrainPenalty {
     }
 
     /// Eq. 22 force on a particle at `x` moving at `v`: zero beyond the margin. A particle that
-    /// has crossed the surface is pushed back out along the surface normal.
+    /// has crossed the surface (by less than the margin) is pushed back out along the surface
+    /// normal; one deeper in the ground is left to the boundary particles' pressure.
     #[inline]
     pub fn force(&self, x: &Vector, v: &Vector) -> Vector {
         let mut f = Vector::zeros();
-        // Reach past the margin into the ground, so a particle that got through is pushed back.
-        let reach = 4.0 * self.margin;
+        let x = Point::from(*x);
         for t in self.terrains.iter() {
-            if let Some(s) = t.nearest(&Point::from(*x), reach)
+            // Most candidates are farther than the margin: a box test in the BVH says so
+            // without the nearest-point search.
+            if !t.may_be_within(&x, self.margin) {
+                continue;
+            }
+            if let Some(s) = t.nearest(&x, self.margin)
                 && s.distance < self.margin
             {
                 let d = self.margin - s.distance;
@@ -187,32 +205,42 @@ impl TerrainPenalty {
 /// within the margin plus half the cell diagonal (plus the grid's stale reach) of the surface.
 fn near_cells(terrains: &[Terrain], grid: &CellGrid, margin: Real) -> Vec<u32> {
     let reach = margin + 0.5 * 3f64.sqrt() * grid.cell_size() + grid.stale_reach();
-    let mut cells = Vec::new();
+    let mut marked = vec![false; grid.cell_count()];
+    let mut near = vec![false; grid.cell_count()];
     for t in terrains {
-        let mut boxed = Vec::new();
+        marked.iter_mut().for_each(|m| *m = false);
         for tri in t.mesh.triangles() {
             let (mut a, mut b) = (tri.a.coords, tri.a.coords);
             for p in [tri.b, tri.c] {
                 a = a.inf(&p.coords);
                 b = b.sup(&p.coords);
             }
-            grid.box_all_cells(&a.add_scalar(-reach), &b.add_scalar(reach), |c, centre| {
-                boxed.push((c as u32, *centre))
+            grid.box_all_cells(&a.add_scalar(-reach), &b.add_scalar(reach), |c, _| {
+                marked[c] = true
             });
         }
-        boxed.sort_unstable_by_key(|&(c, _)| c);
-        boxed.dedup_by_key(|&mut (c, _)| c);
-        cells.extend(
-            boxed
-                .par_iter()
-                .filter(|(_, centre)| t.nearest(&Point::from(*centre), reach).is_some())
-                .map(|&(c, _)| c)
-                .collect::<Vec<_>>(),
+        let (lo, hi) = t.bounds();
+        let mut centres = Vec::new();
+        grid.box_all_cells(
+            &lo.coords.add_scalar(-reach),
+            &hi.coords.add_scalar(reach),
+            |c, centre| {
+                if marked[c] {
+                    centres.push((c, *centre));
+                }
+            },
         );
+        let hits: Vec<usize> = centres
+            .par_iter()
+            .filter(|(_, centre)| t.nearest(&Point::from(*centre), reach).is_some())
+            .map(|&(c, _)| c)
+            .collect();
+        hits.into_iter().for_each(|c| near[c] = true);
     }
-    cells.sort_unstable();
-    cells.dedup();
-    cells
+    (0..near.len())
+        .filter(|&c| near[c])
+        .map(|c| c as u32)
+        .collect()
 }
 
 #[cfg(test)]

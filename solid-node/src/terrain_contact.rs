@@ -11,8 +11,9 @@
 //!   point by parry's BVH projection (O(log n) in the triangle count), its outward normal and
 //!   signed distance from the pseudo-normals (exact at the mesh's edges and corners);
 //! - a terrain vertex against a block face (`VertexOfB`): the terrain vertices of the triangles
-//!   the BVH finds under the block's box, tested against the block's face planes. Only vertices
-//!   where the surface bends away (peaks and ridges, [`TerrainBody::peak`]) are used: a vertex
+//!   under the block's box, tested against the block's face planes. Only vertices where the
+//!   surface bends away (peaks and ridges, [`TerrainBody::peaks`], found in a BVH of their
+//!   own) are used: a vertex
 //!   of a flat or hollow patch is never the feature that touches, and counting it would add a
 //!   spring each time a block slid over one.
 //!
@@ -23,6 +24,8 @@ use crate::block::Block;
 use crate::contact::{self, Contact, ContactKey, Feature};
 use crate::friction::Joint;
 use crate::narrow_phase::NarrowParams;
+use parry3d_f64::bounding_volume::Aabb;
+use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
 use shared::math::{Point, Real, Vector};
 use shared::scene::{BlockKind, BlockSpec, ShapeSpec};
 use shared::solver::SolverError;
@@ -38,9 +41,12 @@ const PEAK_SINE: Real = 1e-3;
 /// A terrain with what its contacts need beyond the mesh.
 pub struct TerrainBody {
     pub terrain: Terrain,
-    /// For each mesh vertex: some neighbour lies below its tangent plane (the surface bends
-    /// away from a body resting on it there).
-    pub peak: Vec<bool>,
+    /// The mesh vertices where some neighbour lies below the tangent plane (the surface bends
+    /// away from a body resting on it there), ascending.
+    pub peaks: Vec<u32>,
+    /// A BVH over the peaks (leaf k is `peaks[k]`): the peaks under a block are found in
+    /// O(log n + found), however many flat or hollow vertices the terrain has.
+    peak_bvh: Bvh,
 }
 
 impl TerrainBody {
@@ -68,7 +74,17 @@ impl TerrainBody {
                 }
             }
         }
-        Self { terrain, peak }
+        let peaks: Vec<u32> = (0..v.len() as u32).filter(|&w| peak[w as usize]).collect();
+        let leaves: Vec<Aabb> = peaks
+            .iter()
+            .map(|&w| Aabb::new(v[w as usize], v[w as usize]))
+            .collect();
+        let peak_bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+        Self {
+            terrain,
+            peaks,
+            peak_bvh,
+        }
     }
 
     /// The fixed block standing for the terrain in the block list: its bounding box (a flat
@@ -115,10 +131,14 @@ pub fn collide(
 ) {
     let m = params.margin;
     let t = &body.terrain;
-    // Block vertices: how far a vertex may be sunk and still be found (deeper is a block
-    // through the ground, which the springs could not push back anyway).
-    let reach = ba.size();
+    // Block vertices: how far a vertex may be sunk and still be found (a quarter of the
+    // block: deeper is a block through the ground, which the springs could not push back
+    // anyway). The BVH box test skips the vertices clear of the ground at once.
+    let reach = (0.25 * ba.size()).max(m);
     for (vi, v) in ba.world_vertices.iter().enumerate() {
+        if !t.may_be_within(v, reach) {
+            continue;
+        }
         let Some(s) = t.nearest(v, reach) else {
             continue;
         };
@@ -156,42 +176,80 @@ pub fn collide(
     let grow = Vector::repeat(m);
     let lo = Point::from(ba.aabb_min.coords - grow);
     let hi = Point::from(ba.aabb_max.coords + grow);
-    let idx = t.mesh.indices();
-    let mut verts: Vec<u32> = t
-        .triangles_in(&lo, &hi)
-        .flat_map(|tri| idx[tri as usize])
-        .filter(|&w| body.peak[w as usize])
-        .collect();
-    verts.sort_unstable();
-    verts.dedup();
+    let aabb = Aabb::new(lo, hi);
     let vertices = t.mesh.vertices();
-    for w in verts {
-        let p = vertices[w as usize];
-        if (0..3).any(|k| p[k] < lo[k] || p[k] > hi[k]) {
-            continue;
+    // The peaks in the block's box, in ascending vertex order (the contacts' key order): a
+    // short sort of the few found, in a per-thread buffer (no allocation once warm).
+    PEAKS.with_borrow_mut(|found| {
+        found.clear();
+        found.extend(
+            body.peak_bvh
+                .intersect_aabb(&aabb)
+                .map(|k| body.peaks[k as usize]),
+        );
+        found.sort_unstable();
+        for &w in found.iter() {
+            peak_contact(
+                a,
+                ba,
+                b,
+                w,
+                vertices[w as usize],
+                &lo,
+                &hi,
+                joint,
+                m,
+                old,
+                out,
+            );
         }
-        let (d, f) = ba.plane_distance(&p);
-        if d > m {
-            continue;
-        }
-        let key = ContactKey {
-            a,
-            b,
-            feature: Feature::VertexOfB,
-            i: w,
-            j: 0,
-        };
-        // The terrain vertex is the vertex owner (p), the block the face owner (q).
-        let mut c = Contact::new(key, b, a);
-        c.face = f as u32;
-        c.point = p;
-        c.normal = ba.world_normals[f];
-        c.gap = d;
-        c.tan_phi = joint.tan_phi;
-        c.cohesion = joint.cohesion;
-        if let Some(o) = contact::find(old, &key) {
-            c.inherit(o);
-        }
-        out.push(c);
+    });
+}
+
+thread_local! {
+    static PEAKS: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Terrain peak `w` at `p` against the faces of block `a`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn peak_contact(
+    a: u32,
+    ba: &Block,
+    b: u32,
+    w: u32,
+    p: Point,
+    lo: &Point,
+    hi: &Point,
+    joint: Joint,
+    m: Real,
+    old: &[Contact],
+    out: &mut Vec<Contact>,
+) {
+    if (0..3).any(|k| p[k] < lo[k] || p[k] > hi[k]) {
+        return;
     }
+    let (d, f) = ba.plane_distance(&p);
+    if d > m {
+        return;
+    }
+    let key = ContactKey {
+        a,
+        b,
+        feature: Feature::VertexOfB,
+        i: w,
+        j: 0,
+    };
+    // The terrain vertex is the vertex owner (p), the block the face owner (q).
+    let mut c = Contact::new(key, b, a);
+    c.face = f as u32;
+    c.point = p;
+    c.normal = ba.world_normals[f];
+    c.gap = d;
+    c.tan_phi = joint.tan_phi;
+    c.cohesion = joint.cohesion;
+    if let Some(o) = contact::find(old, &key) {
+        c.inherit(o);
+    }
+    out.push(c);
 }

@@ -1,0 +1,201 @@
+//! `coupler terrain-bench`: what a terrain of many triangles costs per step against the same
+//! scene with a box floor, for each node alone (in-process, as `fluid-bench`/`solid-bench`).
+//!
+//! - fluid: still water 0.5 m deep in a 2 m × 1 m tank (dx = 0.03 m) whose floor is a fixed box,
+//!   or a flat DEM of about N triangles at the same height;
+//! - solid: a 5 × 5 grid of free 0.2 m cubes resting on a fixed box floor, or on the same flat
+//!   DEM.
+//!
+//! The terrain is flat so both variants are the same physics: only the triangle count differs.
+//! Printed per variant: the set-up time (reading and checking the terrain, sampling its
+//! boundary particles) and the mean wall time of a step after warm-up.
+
+use clap::Args;
+use shared::scene::Scene;
+use shared::terrain::dem::Grid;
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(Debug, Args)]
+pub struct TerrainBenchArgs {
+    /// Terrain sizes to time, in triangles (about: the DEM is a whole number of cells).
+    #[arg(long, value_delimiter = ',', default_value = "100000,1000000")]
+    pub triangles: Vec<usize>,
+    /// Timed fluid steps per variant.
+    #[arg(long, default_value_t = 40)]
+    pub fluid_steps: usize,
+    /// Timed solid steps per variant.
+    #[arg(long, default_value_t = 2000)]
+    pub solid_steps: usize,
+}
+
+const TANK: (f64, f64) = (2.0, 1.0);
+
+/// A flat DEM at z = 0 over the tank and 0.1 m past it, of about `triangles` triangles.
+fn flat_dem(dir: &Path, triangles: usize) -> std::path::PathBuf {
+    let (lx, ly) = (TANK.0 + 0.2, TANK.1 + 0.2);
+    // 2 (nx − 1)(ny − 1) = N with square cells.
+    let cell = (2.0 * lx * ly / triangles as f64).sqrt();
+    let n = |l: f64| (l / cell).round() as usize + 1;
+    let g = Grid::from_fn(n(lx), n(ly), -0.1, -0.1, cell, |_, _| 0.0);
+    let file = dir.join(format!("flat_{triangles}.asc"));
+    std::fs::write(&file, g.to_asc()).expect("write the DEM");
+    file
+}
+
+fn box_toml(name: &str, min: [f64; 3], max: [f64; 3]) -> String {
+    format!(
+        "[[block]]\nname = \"{name}\"\nkind = \"fixed\"\nshape = {{ type = \"box\", min = {min:?}, max = {max:?} }}\n\n"
+    )
+}
+
+fn floor(terrain: Option<&Path>) -> String {
+    let t = 0.1;
+    match terrain {
+        None => box_toml("floor", [-t, -t, -t], [TANK.0 + t, TANK.1 + t, 0.0]),
+        Some(f) => format!(
+            "[[terrain]]\nname = \"flat\"\nfile = {:?}\n\n",
+            f.display().to_string()
+        ),
+    }
+}
+
+fn fluid_scene(terrain: Option<&Path>) -> Scene {
+    let (l, w, h, t) = (TANK.0, TANK.1, 1.0, 0.1);
+    let walls = [
+        box_toml("left", [-t, -t, -t], [0.0, w + t, h]),
+        box_toml("right", [l, -t, -t], [l + t, w + t, h]),
+        box_toml("south", [-t, -t, -t], [l + t, 0.0, h]),
+        box_toml("north", [-t, w, -t], [l + t, w + t, h]),
+    ]
+    .concat();
+    let text = format!(
+        "name = \"terrain_bench\"\n[time]\nend = 1.0\n[domain]\nmin = [0.0, 0.0, -0.05]\nmax = [{l}, {w}, {h}]\n\
+         [output]\ninterval = 1.0\nvtk = false\n[fluid]\ndx = 0.03\n[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [{l}, {w}, 0.51] }}\n\n{}{walls}",
+        floor(terrain)
+    );
+    Scene::parse(&text, "terrain bench (generated)").expect("bench scene is valid")
+}
+
+fn solid_scene(terrain: Option<&Path>) -> Scene {
+    let mut blocks = String::new();
+    for i in 0..5 {
+        for j in 0..5 {
+            let (x, y) = (0.2 + 0.35 * i as f64, 0.1 + 0.2 * j as f64 - 0.05);
+            blocks += &format!(
+                "[[block]]\nname = \"b{i}{j}\"\nshape = {{ type = \"box\", min = [{x}, {y}, 0.0], max = [{}, {}, 0.1] }}\n\n",
+                x + 0.1,
+                y + 0.1
+            );
+        }
+    }
+    let text = format!(
+        "name = \"terrain_bench_solid\"\n[time]\nend = 10.0\n[domain]\nmin = [0.0, 0.0, -0.5]\nmax = [2.0, 1.0, 1.0]\n\
+         [output]\ninterval = 10.0\nvtk = false\n[solid.contact]\ndamping_ratio = 0.2\n\n{}{blocks}",
+        floor(terrain)
+    );
+    Scene::parse(&text, "terrain bench (generated)").expect("bench scene is valid")
+}
+
+/// (set-up seconds, mean step milliseconds, particles or contacts) of the fluid node.
+fn time_fluid(scene: &Scene, steps: usize) -> Result<(f64, f64, usize), String> {
+    let dir =
+        fluid_node::validation::TempRunDir::new("terrain-bench").map_err(|e| e.to_string())?;
+    let t0 = Instant::now();
+    let mut s =
+        fluid_node::validation::build("wcsph", scene, dir.path()).map_err(|e| e.to_string())?;
+    let setup = t0.elapsed().as_secs_f64();
+    let step = |s: &mut dyn fluid_node::sph::SphSolver| -> Result<(), String> {
+        s.write_loads(&mut []);
+        let dt = s.dt_proposal().min(scene.time.dt_max);
+        s.advance(dt).map(|_| ()).map_err(|e| e.to_string())
+    };
+    for _ in 0..5 {
+        step(s.as_mut())?;
+    }
+    let t1 = Instant::now();
+    for _ in 0..steps {
+        step(s.as_mut())?;
+    }
+    let ms = 1e3 * t1.elapsed().as_secs_f64() / steps as f64;
+    Ok((setup, ms, s.system().boundary.counts().0))
+}
+
+fn time_solid(scene: &Scene, steps: usize) -> Result<(f64, f64, usize), String> {
+    let t0 = Instant::now();
+    let mut h =
+        solid_node::verification::Harness::new(scene, "explicit").map_err(|e| e.to_string())?;
+    let setup = t0.elapsed().as_secs_f64();
+    let rule = h.rule;
+    for _ in 0..50 {
+        h.step(&rule, f64::INFINITY).map_err(|e| e.to_string())?;
+    }
+    let t1 = Instant::now();
+    for _ in 0..steps {
+        h.step(&rule, f64::INFINITY).map_err(|e| e.to_string())?;
+    }
+    let ms = 1e3 * t1.elapsed().as_secs_f64() / steps as f64;
+    Ok((setup, ms, h.world().contacts.len()))
+}
+
+/// Runs the bench and prints a markdown table; the exit code.
+pub fn run(args: TerrainBenchArgs) -> u8 {
+    let dir = std::env::temp_dir().join(format!("rockwave-terrain-bench-{}", std::process::id()));
+    if let Err(e) = std::fs::create_dir_all(&dir) {
+        eprintln!("coupler: error: {e}");
+        return 1;
+    }
+    let mut rows = vec![
+        "| node | floor | triangles | set-up [s] | step [ms] | boundary particles / contacts |"
+            .to_string(),
+        "|---|---|---|---|---|---|".to_string(),
+    ];
+    let mut variants: Vec<(String, Option<std::path::PathBuf>, usize)> =
+        vec![("box".into(), None, 12)];
+    for &n in &args.triangles {
+        let file = flat_dem(&dir, n);
+        let t = shared::terrain::Terrain::load(
+            &toml::from_str(&format!("file = {:?}", file.display().to_string())).expect("spec"),
+            &shared::scene::DomainSpec {
+                min: [0.0, 0.0, -0.5],
+                max: [2.0, 1.0, 1.0],
+            },
+        )
+        .map(|t| t.triangles())
+        .unwrap_or(0);
+        variants.push(("terrain (flat DEM)".into(), Some(file), t));
+    }
+    let mut failed = false;
+    for (node, timer) in [
+        (
+            "fluid",
+            &(|s: &Scene, n| time_fluid(s, n))
+                as &dyn Fn(&Scene, usize) -> Result<(f64, f64, usize), String>,
+        ),
+        ("solid", &(|s: &Scene, n| time_solid(s, n))),
+    ] {
+        for (floor, file, triangles) in &variants {
+            let (scene, steps) = if node == "fluid" {
+                (fluid_scene(file.as_deref()), args.fluid_steps)
+            } else {
+                (solid_scene(file.as_deref()), args.solid_steps)
+            };
+            match timer(&scene, steps) {
+                Ok((setup, ms, count)) => {
+                    let row = format!(
+                        "| {node} | {floor} | {triangles} | {setup:.2} | {ms:.3} | {count} |"
+                    );
+                    eprintln!("{row}");
+                    rows.push(row);
+                }
+                Err(e) => {
+                    eprintln!("coupler: error: {node} on {floor} ({triangles} triangles): {e}");
+                    failed = true;
+                }
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    println!("{}", rows.join("\n"));
+    u8::from(failed)
+}
