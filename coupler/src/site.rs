@@ -1,10 +1,10 @@
 //! `coupler make-site`: the synthetic reservoir of `scenes/fjord.toml`, written as an ESRI ASCII
 //! grid (`.asc`) by a formula in this file, so the example needs no download.
 //!
-//! A 400 m × 240 m reservoir: a flat-floored valley along x (floor at z = −40 m, 40 m wide,
-//! centred at y = 120 m) between a 35° south flank (the slide's) and a 25° north flank (the
-//! far shore), closed at both ends by 30° slopes; a gentle 2 m undulation along the floor. The
-//! still water is at z = 0.
+//! A 400 m × 260 m reservoir: a flat-floored valley along x (floor at z = −40 m, 40 m wide,
+//! centred at y = 120 m) between a 35° south flank (the slide's, up to z = 30 m at y = 0) and a
+//! 25° north flank (the far shore, up to z = 16 m at y = 260 m), closed at both ends by 30°
+//! slopes rising from 100 m inside each end (to z = 17.7 m). The still water is at z = 0.
 
 use clap::Args;
 use shared::terrain::dem::Grid;
@@ -12,7 +12,7 @@ use std::path::PathBuf;
 
 /// Extent of the site [m] (x, y) and its lowest point.
 pub const LENGTH: f64 = 400.0;
-pub const WIDTH: f64 = 240.0;
+pub const WIDTH: f64 = 260.0;
 pub const FLOOR: f64 = -40.0;
 /// Slope of the south (slide) flank and of the far shore [deg].
 pub const SOUTH_SLOPE: f64 = 35.0;
@@ -30,11 +30,10 @@ pub fn elevation(x: f64, y: f64) -> f64 {
     } else {
         0.0
     };
-    // The ends: 30° slopes rising from 60 m inside each end.
+    // The ends: 30° slopes rising from 100 m inside each end.
     let end =
-        ((x - 0.5 * LENGTH).abs() - (0.5 * LENGTH - 60.0)).max(0.0) * 30f64.to_radians().tan();
-    let floor = FLOOR + 2.0 * (2.0 * std::f64::consts::PI * x / 200.0).sin();
-    floor + across.max(end)
+        ((x - 0.5 * LENGTH).abs() - (0.5 * LENGTH - 100.0)).max(0.0) * 30f64.to_radians().tan();
+    FLOOR + across.max(end)
 }
 
 /// The site on a grid of spacing `cell`, its cell centres from (0, 0) to (LENGTH, WIDTH).
@@ -85,6 +84,40 @@ pub fn run(args: SiteArgs) -> u8 {
         Err(e) => {
             eprintln!("coupler: error: cannot write {}: {e}", args.out.display());
             1
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The committed grid is what this file makes (regenerate it with `coupler make-site`).
+    #[test]
+    fn the_scene_grid_is_the_generated_one() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/fjord/fjord.asc");
+        let committed = std::fs::read_to_string(&path).expect("scenes/fjord/fjord.asc");
+        assert!(
+            committed == grid(SCENE_CELL).to_asc(),
+            "scenes/fjord/fjord.asc is stale: run `coupler make-site`"
+        );
+    }
+
+    #[test]
+    fn flanks_and_ends_hold_the_water() {
+        assert_eq!(elevation(200.0, 120.0), FLOOR);
+        assert!((elevation(200.0, 0.0) - (FLOOR + 100.0 * 35f64.to_radians().tan())).abs() < 1e-9);
+        // Every edge of the site is above the still water (z = 0).
+        for k in 0..=40 {
+            let (x, y) = (LENGTH * k as f64 / 40.0, WIDTH * k as f64 / 40.0);
+            for (px, py) in [(x, 0.0), (x, WIDTH), (0.0, y), (LENGTH, y)] {
+                assert!(
+                    elevation(px, py) > 5.0,
+                    "({px}, {py}): {}",
+                    elevation(px, py)
+                );
+            }
         }
     }
 }
