@@ -344,6 +344,8 @@ fn gauge_summaries(path: &Path, scene: &Scene) -> BTreeMap<String, GaugeSummary>
             .filter(|(t, v): &(f64, f64)| t.is_finite() && v.is_finite())
             .collect()
     };
+    // The terrain is part of the bed (read again: it is fixed, and the run has checked it).
+    let terrain = shared::terrain::Terrain::load_all(scene).unwrap_or_default();
     for (col, name) in header.iter().enumerate().skip(1) {
         if name.ends_with("_spray") {
             continue;
@@ -358,7 +360,11 @@ fn gauge_summaries(path: &Path, scene: &Scene) -> BTreeMap<String, GaugeSummary>
             .unwrap_or_default();
         out.insert(
             name.clone(),
-            summarise_gauge(&column(col), &spray, scene.bed_elevation(g.x, g.y)),
+            summarise_gauge(
+                &column(col),
+                &spray,
+                shared::terrain::bed_elevation(scene, &terrain, g.x, g.y),
+            ),
         );
     }
     out

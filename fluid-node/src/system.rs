@@ -255,12 +255,7 @@ impl FluidSystem {
         let beds: Vec<Real> = scene
             .gauges
             .iter()
-            .map(|g| {
-                init.terrain
-                    .iter()
-                    .filter_map(|t| t.top_at(g.x, g.y))
-                    .fold(scene.bed_elevation(g.x, g.y), Real::max)
-            })
+            .map(|g| shared::terrain::bed_elevation(scene, &init.terrain, g.x, g.y))
             .collect();
         let terrain = TerrainPenalty::new(init.terrain.clone(), ks, kd, fixed_margin);
         let recorder = Recorder::new(

@@ -279,6 +279,15 @@ impl Terrain {
     }
 }
 
+/// The bed under (x, y): the highest of the scene's fixed blocks and terrain surfaces on the
+/// vertical through it, or the domain floor ([`Scene::bed_elevation`] with the terrain).
+pub fn bed_elevation(scene: &Scene, terrain: &[Terrain], x: Real, y: Real) -> Real {
+    terrain
+        .iter()
+        .filter_map(|t| t.top_at(x, y))
+        .fold(scene.bed_elevation(x, y), Real::max)
+}
+
 /// A [`TerrainError`] of `terrain[index]` as a scene field error.
 pub fn to_field_error(index: usize, e: TerrainError) -> FieldError {
     field_error(index, e.field, e.value, &e.problem, &e.fix)
