@@ -8,7 +8,9 @@
 //!
 //! The terrain is flat so both variants are the same physics: only the triangle count differs.
 //! Printed per variant: the set-up time (reading and checking the terrain, sampling its
-//! boundary particles) and the mean wall time of a step after warm-up.
+//! boundary particles) and the mean wall time of a step after warm-up, in rounds (each variant
+//! timed in turn, round after round, so a change of the machine's load hits all alike): the
+//! best and the median round.
 
 use clap::Args;
 use shared::scene::Scene;
@@ -21,12 +23,15 @@ pub struct TerrainBenchArgs {
     /// Terrain sizes to time, in triangles (about: the DEM is a whole number of cells).
     #[arg(long, value_delimiter = ',', default_value = "100000,1000000")]
     pub triangles: Vec<usize>,
-    /// Timed fluid steps per variant.
-    #[arg(long, default_value_t = 40)]
+    /// Timed fluid steps per variant and round.
+    #[arg(long, default_value_t = 20)]
     pub fluid_steps: usize,
-    /// Timed solid steps per variant.
+    /// Timed solid steps per variant and round.
     #[arg(long, default_value_t = 2000)]
     pub solid_steps: usize,
+    /// Rounds: each variant is timed once per round, in turn.
+    #[arg(long, default_value_t = 5)]
+    pub rounds: usize,
 }
 
 const TANK: (f64, f64) = (2.0, 1.0);
@@ -97,105 +102,152 @@ fn solid_scene(terrain: Option<&Path>) -> Scene {
     Scene::parse(&text, "terrain bench (generated)").expect("bench scene is valid")
 }
 
-/// (set-up seconds, mean step milliseconds, particles or contacts) of the fluid node.
-fn time_fluid(scene: &Scene, steps: usize) -> Result<(f64, f64, usize), String> {
-    let dir =
-        fluid_node::validation::TempRunDir::new("terrain-bench").map_err(|e| e.to_string())?;
-    let t0 = Instant::now();
-    let mut s =
-        fluid_node::validation::build("wcsph", scene, dir.path()).map_err(|e| e.to_string())?;
-    let setup = t0.elapsed().as_secs_f64();
-    let step = |s: &mut dyn fluid_node::sph::SphSolver| -> Result<(), String> {
-        s.write_loads(&mut []);
-        let dt = s.dt_proposal().min(scene.time.dt_max);
-        s.advance(dt).map(|_| ()).map_err(|e| e.to_string())
-    };
-    for _ in 0..5 {
-        step(s.as_mut())?;
-    }
-    let t1 = Instant::now();
-    for _ in 0..steps {
-        step(s.as_mut())?;
-    }
-    let ms = 1e3 * t1.elapsed().as_secs_f64() / steps as f64;
-    Ok((setup, ms, s.system().boundary.counts().0))
+/// One variant being timed: a solver built for it, and its times.
+struct Timed<S> {
+    label: String,
+    triangles: usize,
+    setup: f64,
+    solver: S,
+    /// Mean step time of each round [ms].
+    rounds: Vec<f64>,
 }
 
-fn time_solid(scene: &Scene, steps: usize) -> Result<(f64, f64, usize), String> {
-    let t0 = Instant::now();
-    let mut h =
-        solid_node::verification::Harness::new(scene, "explicit").map_err(|e| e.to_string())?;
-    let setup = t0.elapsed().as_secs_f64();
-    let rule = h.rule;
-    for _ in 0..50 {
-        h.step(&rule, f64::INFINITY).map_err(|e| e.to_string())?;
-    }
-    let t1 = Instant::now();
+fn fluid_step(s: &mut dyn fluid_node::sph::SphSolver, dt_max: f64) -> Result<(), String> {
+    s.write_loads(&mut []);
+    let dt = s.dt_proposal().min(dt_max);
+    s.advance(dt).map(|_| ()).map_err(|e| e.to_string())
+}
+
+/// The mean of `steps` steps of `step`, in ms.
+fn time_steps(steps: usize, mut step: impl FnMut() -> Result<(), String>) -> Result<f64, String> {
+    let t = Instant::now();
     for _ in 0..steps {
-        h.step(&rule, f64::INFINITY).map_err(|e| e.to_string())?;
+        step()?;
     }
-    let ms = 1e3 * t1.elapsed().as_secs_f64() / steps as f64;
-    Ok((setup, ms, h.world().contacts.len()))
+    Ok(1e3 * t.elapsed().as_secs_f64() / steps as f64)
+}
+
+fn row<S>(node: &str, v: &Timed<S>, count: usize) -> String {
+    let mut r = v.rounds.clone();
+    r.sort_by(f64::total_cmp);
+    format!(
+        "| {node} | {} | {} | {:.2} | {:.3} | {:.3} | {count} |",
+        v.label,
+        v.triangles,
+        v.setup,
+        r[0],
+        r[r.len() / 2]
+    )
 }
 
 /// Runs the bench and prints a markdown table; the exit code.
 pub fn run(args: TerrainBenchArgs) -> u8 {
-    let dir = std::env::temp_dir().join(format!("rockwave-terrain-bench-{}", std::process::id()));
-    if let Err(e) = std::fs::create_dir_all(&dir) {
-        eprintln!("coupler: error: {e}");
-        return 1;
-    }
-    let mut rows = vec![
-        "| node | floor | triangles | set-up [s] | step [ms] | boundary particles / contacts |"
-            .to_string(),
-        "|---|---|---|---|---|---|".to_string(),
-    ];
-    let mut variants: Vec<(String, Option<std::path::PathBuf>, usize)> =
-        vec![("box".into(), None, 12)];
-    for &n in &args.triangles {
-        let file = flat_dem(&dir, n);
-        let t = shared::terrain::Terrain::load(
-            &toml::from_str(&format!("file = {:?}", file.display().to_string())).expect("spec"),
-            &shared::scene::DomainSpec {
-                min: [0.0, 0.0, -0.5],
-                max: [2.0, 1.0, 1.0],
-            },
-        )
-        .map(|t| t.triangles())
-        .unwrap_or(0);
-        variants.push(("terrain (flat DEM)".into(), Some(file), t));
-    }
-    let mut failed = false;
-    for (node, timer) in [
-        (
-            "fluid",
-            &(|s: &Scene, n| time_fluid(s, n))
-                as &dyn Fn(&Scene, usize) -> Result<(f64, f64, usize), String>,
-        ),
-        ("solid", &(|s: &Scene, n| time_solid(s, n))),
-    ] {
-        for (floor, file, triangles) in &variants {
-            let (scene, steps) = if node == "fluid" {
-                (fluid_scene(file.as_deref()), args.fluid_steps)
-            } else {
-                (solid_scene(file.as_deref()), args.solid_steps)
-            };
-            match timer(&scene, steps) {
-                Ok((setup, ms, count)) => {
-                    let row = format!(
-                        "| {node} | {floor} | {triangles} | {setup:.2} | {ms:.3} | {count} |"
-                    );
-                    eprintln!("{row}");
-                    rows.push(row);
-                }
-                Err(e) => {
-                    eprintln!("coupler: error: {node} on {floor} ({triangles} triangles): {e}");
-                    failed = true;
-                }
-            }
+    match bench(&args) {
+        Ok(rows) => {
+            println!("{}", rows.join("\n"));
+            0
+        }
+        Err(e) => {
+            eprintln!("coupler: error: {e}");
+            1
         }
     }
+}
+
+fn bench(args: &TerrainBenchArgs) -> Result<Vec<String>, String> {
+    let dir = std::env::temp_dir().join(format!("rockwave-terrain-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let mut variants: Vec<(String, Option<std::path::PathBuf>)> = vec![("box".into(), None)];
+    for &n in &args.triangles {
+        variants.push(("terrain (flat DEM)".into(), Some(flat_dem(&dir, n))));
+    }
+    let mut rows = vec![
+        "| node | floor | triangles | set-up [s] | step, best round [ms] | step, median round [ms] | boundary particles / contacts |".to_string(),
+        "|---|---|---|---|---|---|---|".to_string(),
+    ];
+    // Fluid: every variant built, then timed in turn, round after round, so a change of the
+    // machine's load hits them all alike; the best and the median round are reported.
+    let run_dirs: Vec<fluid_node::validation::TempRunDir> = variants
+        .iter()
+        .map(|_| {
+            fluid_node::validation::TempRunDir::new("terrain-bench").map_err(|e| e.to_string())
+        })
+        .collect::<Result<_, _>>()?;
+    let mut fluid = Vec::new();
+    for ((label, file), d) in variants.iter().zip(&run_dirs) {
+        let scene = fluid_scene(file.as_deref());
+        let t0 = Instant::now();
+        let mut solver =
+            fluid_node::validation::build("wcsph", &scene, d.path()).map_err(|e| e.to_string())?;
+        let setup = t0.elapsed().as_secs_f64();
+        for _ in 0..5 {
+            fluid_step(solver.as_mut(), scene.time.dt_max)?;
+        }
+        fluid.push(Timed {
+            label: label.clone(),
+            triangles: triangles(&scene),
+            setup,
+            solver,
+            rounds: Vec::new(),
+        });
+    }
+    for _ in 0..args.rounds {
+        for v in fluid.iter_mut() {
+            let s = &mut v.solver;
+            v.rounds.push(time_steps(args.fluid_steps, || {
+                fluid_step(s.as_mut(), 1e-3)
+            })?);
+        }
+    }
+    for v in &fluid {
+        let r = row("fluid", v, v.solver.system().boundary.counts().0);
+        eprintln!("{r}");
+        rows.push(r);
+    }
+    drop(fluid);
+    let mut solid = Vec::new();
+    for (label, file) in &variants {
+        let scene = solid_scene(file.as_deref());
+        let t0 = Instant::now();
+        let mut h = solid_node::verification::Harness::new(&scene, "explicit")
+            .map_err(|e| e.to_string())?;
+        let setup = t0.elapsed().as_secs_f64();
+        let rule = h.rule;
+        for _ in 0..50 {
+            h.step(&rule, f64::INFINITY).map_err(|e| e.to_string())?;
+        }
+        solid.push(Timed {
+            label: label.clone(),
+            triangles: triangles(&scene),
+            setup,
+            solver: h,
+            rounds: Vec::new(),
+        });
+    }
+    for _ in 0..args.rounds {
+        for v in solid.iter_mut() {
+            let h = &mut v.solver;
+            let rule = h.rule;
+            v.rounds.push(time_steps(args.solid_steps, || {
+                h.step(&rule, f64::INFINITY)
+                    .map(|_| ())
+                    .map_err(|e| e.to_string())
+            })?);
+        }
+    }
+    for v in &solid {
+        let r = row("solid", v, v.solver.world().contacts.len());
+        eprintln!("{r}");
+        rows.push(r);
+    }
     let _ = std::fs::remove_dir_all(&dir);
-    println!("{}", rows.join("\n"));
-    u8::from(failed)
+    Ok(rows)
+}
+
+/// Triangles of the scene's terrain (12 for the box floor).
+fn triangles(scene: &Scene) -> usize {
+    shared::terrain::Terrain::load_all(scene)
+        .ok()
+        .and_then(|t| t.first().map(|t| t.triangles()))
+        .unwrap_or(12)
 }

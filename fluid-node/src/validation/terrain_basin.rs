@@ -141,3 +141,85 @@ pub fn terrain_basin(
         boundary,
     })
 }
+
+/// The terrain-basin rows of `fluid-validate`: pressure (the still-water tolerance), surface
+/// (±1 dx) and particles under the bed (none), at the plan's still-water resolution.
+pub fn validate_terrain_basin(solver: &str, plan: &Plan, mut log: impl FnMut(&str)) -> Vec<Row> {
+    let depth = 0.1;
+    let dx = depth / plan.still_per_depth as f64;
+    let case = format!(
+        "still water over a DEM trough ([[terrain]]), H = {depth} m, dx = H/{}",
+        plan.still_per_depth
+    );
+    let row = |quantity: &str,
+               reference: String,
+               measured: String,
+               error: String,
+               tolerance: &str,
+               pass: bool| Row {
+        case: case.clone(),
+        solver: solver.into(),
+        quantity: quantity.into(),
+        reference,
+        measured,
+        error,
+        tolerance: tolerance.into(),
+        pass,
+        known_limitation: None,
+    };
+    match terrain_basin(solver, depth, dx, plan.still_end) {
+        Err(e) => vec![row(
+            "completes",
+            "completes".into(),
+            format!("failed: {e}"),
+            "–".into(),
+            "exact",
+            false,
+        )],
+        Ok(r) => {
+            let s = &r.still;
+            log(&format!(
+                "terrain basin {solver}: {} particles, {} terrain/wall particles, {} steps, error {:.3}, deepest {:.2e} m",
+                s.particles, r.boundary, s.steps, s.max_error, r.deepest
+            ));
+            let (d, p, q) = s
+                .probes
+                .iter()
+                .copied()
+                .fold((0.0f64, 0.0f64, 0.0f64), |acc, x| {
+                    if (x.1 - x.2).abs() > (acc.1 - acc.2).abs() {
+                        x
+                    } else {
+                        acc
+                    }
+                });
+            let surf = (s.surface - s.depth) / dx;
+            vec![
+                row(
+                    &format!("pressure at depth {d:.2}·H (worst of 0.25, 0.5, 0.75) [Pa]"),
+                    format!("{q:.1} (ρ0 g (η − z))"),
+                    format!("{p:.1}"),
+                    format!("{:.1} % of ρ0 g H", 100.0 * s.max_error),
+                    &format!("{:.0} %", 100.0 * HYDROSTATIC_TOLERANCE),
+                    s.max_error <= HYDROSTATIC_TOLERANCE,
+                ),
+                row(
+                    "free surface η (gauge) [m]",
+                    format!("{:.4}", s.depth),
+                    format!("{:.4}", s.surface),
+                    format!("{surf:+.2} dx"),
+                    "±1 dx",
+                    surf.abs() <= 1.0,
+                ),
+                row(
+                    "particles under the terrain at the end",
+                    "0".into(),
+                    format!("{}", r.crossed),
+                    format!("{}", r.crossed),
+                    "0",
+                    r.crossed == 0,
+                ),
+            ]
+        }
+    }
+}

@@ -190,7 +190,10 @@ pub(super) fn validate(terrains: &[TerrainSpec], domain: &DomainSpec) -> Vec<Fie
             );
         }
         if let Some(c) = &t.crop {
-            if (0..3).any(|k| !(c.max[k] > c.min[k]) || !c.min[k].is_finite()) {
+            if (0..3).any(|k| {
+                c.max[k].partial_cmp(&c.min[k]) != Some(std::cmp::Ordering::Greater)
+                    || !c.min[k].is_finite()
+            }) {
                 fail(
                     i,
                     "crop",

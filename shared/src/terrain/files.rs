@@ -43,7 +43,6 @@ pub fn read_obj(path: &Path) -> Result<RawMesh, String> {
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let (models, _materials) = tobj::load_obj(path, &options)
         .map_err(|e| format!("'{}' is not a readable OBJ file: {e}", path.display()))?;
