@@ -141,12 +141,27 @@ pub(crate) fn field_error(
 }
 
 /// The checks of the `[[terrain]]` tables that need no file.
-pub(super) fn validate(terrains: &[TerrainSpec], domain: &DomainSpec) -> Vec<FieldError> {
+/// `blocks` are the scene's block names: a terrain is a block to the solid node (its
+/// contacts, its messages), so the names must differ.
+pub(super) fn validate(
+    terrains: &[TerrainSpec],
+    domain: &DomainSpec,
+    blocks: &[&str],
+) -> Vec<FieldError> {
     let mut out = Vec::new();
     let mut fail = |i: usize, field: &str, value: String, problem: &str, fix: &str| {
         out.push(field_error(i, field, value, problem, fix))
     };
     for (i, t) in terrains.iter().enumerate() {
+        if blocks.contains(&t.name.as_str()) || terrains[..i].iter().any(|o| o.name == t.name) {
+            fail(
+                i,
+                "name",
+                format!("{:?}", t.name),
+                "is used by a block or an earlier terrain",
+                "give every terrain a name of its own, e.g. name = \"valley\"",
+            );
+        }
         if t.name.trim().is_empty()
             || t.name
                 .chars()

@@ -265,7 +265,12 @@ fn scene_paths_are_relative_to_the_scene_file() {
     let errs = check_scene(&bad);
     assert_eq!(errs.len(), 1);
     assert_eq!(errs[0].path, "terrain[0].offset");
-    // Schema checks need no file.
+    // Schema checks need no file; a terrain's name is not a block's.
+    let clash = format!(
+        "{text}[[block]]\nname = \"terrain\"\nkind = \"fixed\"\nshape = {{ type = \"box\", min = [0, 0, 0], max = [1, 1, 0.1] }}\n"
+    );
+    let e = Scene::parse(&clash, "t").unwrap_err();
+    assert!(e.to_string().contains("terrain[0].name"), "{e}");
     let e = Scene::parse(&text.replace("site/box.obj", "site/box.dxf"), "t").unwrap_err();
     assert!(e.to_string().contains("terrain[0].file"), "{e}");
     let e = Scene::parse(
