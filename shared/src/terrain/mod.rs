@@ -266,17 +266,6 @@ impl Terrain {
             .cast_local_ray(&ray, start - lo.z + 1.0, false)
             .map(|t| start - t)
     }
-
-    /// Triangles whose bounding box meets the box [lo, hi] (BVH query).
-    pub fn triangles_in(&self, lo: &Point, hi: &Point) -> impl Iterator<Item = u32> + '_ {
-        let aabb = parry3d_f64::bounding_volume::Aabb::new(*lo, *hi);
-        // The iterator borrows the box: collect the (few) hits.
-        self.mesh
-            .bvh()
-            .intersect_aabb(&aabb)
-            .collect::<Vec<_>>()
-            .into_iter()
-    }
 }
 
 /// The bed under (x, y): the highest of the scene's fixed blocks and terrain surfaces on the
