@@ -43,6 +43,11 @@ pub struct RunArgs {
     /// Simulated end time [s] (overrides the scene's time.end).
     #[arg(long)]
     pub end: Option<f64>,
+    /// Largest coupling step [s] (overrides the scene's time.dt_max): lets an incompressible
+    /// fluid (dfsph) take its own longer step, e.g. `--fluid-solver dfsph --solid-substeps 8
+    /// --dt-max 0.002`.
+    #[arg(long)]
+    pub dt_max: Option<f64>,
     /// Run directory (default: runs/<scene>-<run id>). Must not exist or be empty.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -214,6 +219,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     if let Some(end) = args.end {
         scene.time.end = end;
     }
+    if let Some(dt) = args.dt_max {
+        scene.time.dt_max = dt;
+    }
     if let Some(n) = args.solid_substeps {
         scene.coupling.solid_substeps = n;
     }
@@ -225,6 +233,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             "scene '{origin}' after command-line overrides:\n{}",
             list.join("\n")
         ));
+    }
+    for line in crate::slides::describe(&scene) {
+        eprintln!("coupler: {line}");
     }
     if let Some(e) = crate::sizes::estimate(&scene) {
         eprintln!("coupler: estimate: {}", e.describe());

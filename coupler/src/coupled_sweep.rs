@@ -46,11 +46,17 @@ pub struct Config {
     pub penalty_stiffness: Option<f64>,
     /// Simulated time [s].
     pub end: f64,
+    /// Multi-rate coupling: the solid's steps per coupling step at most (1: single-rate).
+    pub solid_substeps: u32,
 }
 
 impl Config {
     pub fn label(&self) -> String {
-        format!("{}+{}/{}", self.fluid, self.solid, self.scheme)
+        let rate = match self.solid_substeps {
+            1 => String::new(),
+            n => format!(" ×{n} substeps"),
+        };
+        format!("{}+{}/{}{rate}", self.fluid, self.solid, self.scheme)
     }
 }
 
@@ -111,6 +117,8 @@ pub fn floating(exe: Option<&Path>, scratch: &Scratch, config: &Config) -> Float
         config.end.to_string(),
         "--dt-factor".into(),
         config.dt_factor.to_string(),
+        "--solid-substeps".into(),
+        config.solid_substeps.to_string(),
         "--run-id".into(),
         id.to_string(),
     ];

@@ -18,6 +18,7 @@ pub mod scenes;
 pub mod session;
 pub mod site;
 pub mod sizes;
+pub mod slides;
 pub mod solid_sweep;
 pub mod speed_accuracy;
 pub mod stability;

@@ -21,6 +21,10 @@ enum Cmd {
     Check {
         /// Scene file; default: the embedded default scene.
         scene: Option<std::path::PathBuf>,
+        /// Write the blocks cut from the scene's `[[slide]]`s to this VTK file (.vtp) to
+        /// inspect them before the run.
+        #[arg(long, value_name = "FILE")]
+        slides_vtk: Option<std::path::PathBuf>,
     },
     /// Remove shared memory left behind by runs whose processes were all killed: every dead
     /// run with a generated id (rw…), and the runs named here (ids given with --run-id).
@@ -60,7 +64,7 @@ fn main() -> ExitCode {
         Cmd::Stability(args) => ExitCode::from(coupler::stability::run(args)),
         Cmd::MakeSite(args) => ExitCode::from(coupler::site::run(args)),
         Cmd::TerrainBench(args) => ExitCode::from(coupler::terrain_bench::run(args)),
-        Cmd::Check { scene } => {
+        Cmd::Check { scene, slides_vtk } => {
             let loaded = coupler::scenes::load_as_written(scene.as_deref());
             match loaded {
                 Ok(s) => {
@@ -78,6 +82,18 @@ fn main() -> ExitCode {
                         Err(e) => {
                             eprintln!("coupler: error: {e}");
                             return ExitCode::from(1);
+                        }
+                    }
+                    for line in coupler::slides::describe(&s) {
+                        println!("{line}");
+                    }
+                    if let Some(path) = &slides_vtk {
+                        match coupler::slides::write_vtk(&s, path) {
+                            Ok(n) => println!("wrote {n} slide block(s) to {}", path.display()),
+                            Err(e) => {
+                                eprintln!("coupler: error: {e}");
+                                return ExitCode::from(1);
+                            }
                         }
                     }
                     if let Some(e) = coupler::sizes::estimate(&s) {

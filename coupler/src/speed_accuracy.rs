@@ -314,6 +314,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
                         density: None,
                         penalty_stiffness: None,
                         end: plan.coupled_end,
+                        solid_substeps: 1,
                     });
                 }
             }
@@ -329,6 +330,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
             density: None,
             penalty_stiffness: None,
             end: plan.coupled_end,
+            solid_substeps: 1,
         });
     }
     for config in &configs {

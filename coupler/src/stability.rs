@@ -99,6 +99,31 @@ const QUICK: Plan = Plan {
 /// Fixed step of the stiffness map [s].
 pub const STIFFNESS_DT: f64 = 1e-3;
 
+/// Solid steps per coupling step of the multi-rate rows (`[coupling] solid_substeps`): the
+/// explicit DDA sub-cycles inside each coupling step with the water's loads held.
+const SUBSTEPS: u32 = 8;
+
+/// The coupled floating-block rows of the dt map: (fluid, scheme, solid substeps). WCSPH under
+/// both schemes, single-rate and sub-cycled (its own step binds, so sub-cycling changes
+/// nothing: the row says so); DFSPH single-rate and sub-cycled, where the fluid's longer step
+/// sets the coupling step and the solid sub-cycles.
+const COUPLED_DT_ROWS: [(&str, Scheme, u32); 5] = [
+    ("wcsph", Scheme::Parallel, 1),
+    ("wcsph", Scheme::Serial, 1),
+    ("wcsph", Scheme::Parallel, SUBSTEPS),
+    ("dfsph", Scheme::Parallel, 1),
+    ("dfsph", Scheme::Parallel, SUBSTEPS),
+];
+
+/// The density map's DFSPH rows, (fluid, solid, scheme, substeps), beside WCSPH's with every
+/// solid solver and scheme: an incompressible fluid answers a block's acceleration within the
+/// same step at any dt, so the added-mass limit of explicit coupling is a density ratio that
+/// no smaller step moves (Causin, Gerbeau & Nobile 2005).
+const DFSPH_DENSITY_ROWS: [(&str, &str, Scheme, u32); 2] = [
+    ("dfsph", "explicit", Scheme::Parallel, 1),
+    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS),
+];
+
 /// Runs `coupler stability`; returns the exit code.
 pub fn run(args: StabilityArgs) -> u8 {
     match run_inner(&args) {
@@ -261,10 +286,10 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
             trials.push(t);
         }
     }
-    for scheme in [Scheme::Parallel, Scheme::Serial] {
+    for (fluid, scheme, solid_substeps) in COUPLED_DT_ROWS {
         for &f in plan.coupled_dt_factors {
             let config = Config {
-                fluid: "wcsph".into(),
+                fluid: fluid.into(),
                 solid: "explicit".into(),
                 scheme,
                 dx: 0.02,
@@ -272,6 +297,7 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
                 density: None,
                 penalty_stiffness: None,
                 end: plan.coupled_end,
+                solid_substeps,
             };
             let t = coupled_trial(
                 scratch,
@@ -316,23 +342,25 @@ fn density_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String>
         "block-to-water density ratio under each coupling scheme (floating-block tank, real processes)"
     );
     let mut trials = Vec::new();
-    for solid in solid_node::REGISTRY.names() {
-        for scheme in [Scheme::Parallel, Scheme::Serial] {
-            for &ratio in plan.density {
-                let config = Config {
-                    fluid: "wcsph".into(),
-                    solid: solid.into(),
-                    scheme,
-                    dx: 0.02,
-                    dt_factor: 1.0,
-                    density: Some(1000.0 * ratio),
-                    penalty_stiffness: None,
-                    end: plan.coupled_end,
-                };
-                let t = coupled_trial(scratch, &config.label(), ratio, &config);
-                report(&t);
-                trials.push(t);
-            }
+    let wcsph = solid_node::REGISTRY.names().into_iter().flat_map(|solid| {
+        [Scheme::Parallel, Scheme::Serial].map(|scheme| ("wcsph", solid, scheme, 1))
+    });
+    for (fluid, solid, scheme, solid_substeps) in wcsph.chain(DFSPH_DENSITY_ROWS) {
+        for &ratio in plan.density {
+            let config = Config {
+                fluid: fluid.into(),
+                solid: solid.into(),
+                scheme,
+                dx: 0.02,
+                dt_factor: 1.0,
+                density: Some(1000.0 * ratio),
+                penalty_stiffness: None,
+                end: plan.coupled_end,
+                solid_substeps,
+            };
+            let t = coupled_trial(scratch, &config.label(), ratio, &config);
+            report(&t);
+            trials.push(t);
         }
     }
     summarise(&trials);

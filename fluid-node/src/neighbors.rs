@@ -314,6 +314,53 @@ impl NeighborLists {
     pub fn pairs(&self) -> usize {
         self.chunks.iter().map(|c| c.index.len()).sum()
     }
+
+    /// Fills `values` with one value per listed pair, in list order: `f(i, neighbours, out)`
+    /// writes particle i's values into `out` (as long as its list). In parallel over the chunks,
+    /// into buffers that keep their capacity.
+    pub fn fill_pairs<T: Copy + Default + Send>(
+        &self,
+        values: &mut PairValues<T>,
+        f: impl Fn(usize, &[u32], &mut [T]) + Sync,
+    ) {
+        values
+            .chunks
+            .resize_with(self.chunks.len(), Default::default);
+        values
+            .chunks
+            .par_iter_mut()
+            .zip(self.chunks.par_iter())
+            .enumerate()
+            .for_each(|(c, (out, ch))| {
+                out.resize(ch.index.len(), T::default());
+                for k in 0..ch.start.len().saturating_sub(1) {
+                    let (lo, hi) = (ch.start[k] as usize, ch.start[k + 1] as usize);
+                    f(c * CHUNK + k, &ch.index[lo..hi], &mut out[lo..hi]);
+                }
+            });
+    }
+
+    /// The neighbours of particle `i` with their values in `values` (filled by
+    /// [`NeighborLists::fill_pairs`] from these lists).
+    #[inline]
+    pub fn with_values<'a, T>(
+        &'a self,
+        values: &'a PairValues<T>,
+        i: usize,
+    ) -> (&'a [u32], &'a [T]) {
+        let (c, k) = (i / CHUNK, i % CHUNK);
+        let ch = &self.chunks[c];
+        let (lo, hi) = (ch.start[k] as usize, ch.start[k + 1] as usize);
+        (&ch.index[lo..hi], &values.chunks[c][lo..hi])
+    }
+}
+
+/// One value per listed pair of a [`NeighborLists`], stored like the lists (per chunk), so a
+/// pass over a particle's neighbours streams its values beside their indices. DFSPH keeps the
+/// kernel gradients of a step here: its solves make a dozen passes over the same pairs.
+#[derive(Debug, Default, Clone)]
+pub struct PairValues<T> {
+    chunks: Vec<Vec<T>>,
 }
 
 /// The lists of `from` (particles `lo..` of the listing set) into one chunk. Compiled also for

@@ -5,6 +5,7 @@
 //! - [`math`]: the scalar and vector types used everywhere.
 //! - [`scene`]: the scene schema (TOML), its validation and the embedded default scene.
 //! - [`geometry`]: convex polyhedra built from scene shapes (faces, edges, mass properties).
+//! - [`cutting`]: Shi's block cutting of a convex region by joint planes (`[[slide]]`).
 //! - [`protocol`]: the versioned wire types exchanged over shared memory each step.
 //! - [`strain`]: the constant strain of a deformable (12-DOF) DDA block.
 //! - [`terrain`]: fixed terrain from mesh and DEM files (`[[terrain]]`), with BVH queries.
@@ -16,6 +17,7 @@
 
 pub mod added_mass;
 pub mod checkpoint;
+pub mod cutting;
 pub mod geometry;
 pub mod math;
 pub mod protocol;

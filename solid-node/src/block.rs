@@ -39,6 +39,8 @@ pub struct Block {
     pub inv_sqrt_inertia: Matrix,
     pub friction_angle: Option<Real>,
     pub cohesion: Option<Real>,
+    /// The `[[slide]]` (index) the block was cut from, if any.
+    pub slide: Option<usize>,
     pub motion: Option<MotionSpec>,
     /// Centroid at t = 0.
     pub origin: Point,
@@ -142,6 +144,7 @@ impl Block {
             inv_sqrt_inertia,
             friction_angle: spec.friction_angle,
             cohesion: spec.cohesion,
+            slide: spec.slide.map(|m| m.slide),
             motion: spec.motion.clone(),
             origin,
             position: origin,
@@ -462,6 +465,7 @@ mod tests {
             friction_angle: None,
             cohesion: None,
             elastic: None,
+            slide: None,
         }
     }
 

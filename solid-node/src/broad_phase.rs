@@ -87,6 +87,7 @@ mod tests {
             friction_angle: None,
             cohesion: None,
             elastic: None,
+            slide: None,
         };
         Block::from_spec(0, &spec).unwrap()
     }

@@ -63,8 +63,16 @@ pub struct Contact {
     pub area: Real,
     /// tan φ of the pair.
     pub tan_phi: Real,
-    /// Cohesion of the pair [Pa].
+    /// Cohesion of the pair [Pa] (0 once a slide joint's bond is broken).
     pub cohesion: Real,
+    /// Tensile strength [Pa] of a bonded slide joint; 0 otherwise.
+    pub tensile: Real,
+    /// Bonded across a slide's joint ([`crate::joints`]): carries tension up to
+    /// `tensile · bond_area` and shear up to the Mohr–Coulomb limit with cohesion; broken for
+    /// good once either is exceeded.
+    pub bonded: bool,
+    /// This contact's share of the joint's area [m²], fixed when the bond is made.
+    pub bond_area: Real,
     /// Shear spring elongation [m], tangential, world frame; zero when open.
     pub shear: Vector,
     pub state: ContactState,
@@ -88,6 +96,9 @@ impl Contact {
             area: 0.0,
             tan_phi: 0.0,
             cohesion: 0.0,
+            tensile: 0.0,
+            bonded: false,
+            bond_area: 0.0,
             shear: Vector::zeros(),
             state: ContactState::Open,
             normal_force: 0.0,
@@ -99,6 +110,8 @@ impl Contact {
     /// shear spring turned into the new tangent plane with its length kept (the contact
     /// frame rotates with the blocks; the spring must not shrink because of it).
     pub fn inherit(&mut self, old: &Contact) {
+        self.bonded = old.bonded;
+        self.bond_area = old.bond_area;
         self.state = old.state;
         self.normal_force = old.normal_force;
         self.force = old.force;
@@ -114,6 +127,34 @@ impl Contact {
         } else {
             Vector::zeros()
         };
+    }
+}
+
+impl Contact {
+    /// Applies the pair's joint once the history is inherited: a contact found in the first
+    /// detection (`at_start`) across a bonded joint is bonded; a bonded contact carries the
+    /// joint's tension and its share of the joint's area; a broken (or never bonded) contact
+    /// of a bonded pair keeps the residual friction only.
+    #[inline]
+    pub fn apply_joint(&mut self, joint: &crate::friction::Joint, fresh: bool, at_start: bool) {
+        if fresh && at_start {
+            self.bonded = joint.bonded;
+        }
+        if self.bonded {
+            self.tensile = joint.tensile;
+            self.area = self.bond_area;
+        } else if joint.bonded {
+            self.cohesion = 0.0;
+            self.tensile = 0.0;
+        }
+    }
+
+    /// Breaks a bond for good: residual friction only from now on.
+    #[inline]
+    pub fn break_bond(&mut self) {
+        self.bonded = false;
+        self.cohesion = 0.0;
+        self.tensile = 0.0;
     }
 }
 

@@ -20,6 +20,9 @@ pub struct DdaSolver {
     csv: KinematicsCsv,
     vtk: bool,
     vtk_format: shared::scene::VtkFormat,
+    /// How the slides settled under gravity before t = 0 ([`crate::settle`]); `None` without
+    /// bonded joints.
+    pub settled: Option<crate::settle::Settled>,
 }
 
 impl DdaSolver {
@@ -28,8 +31,38 @@ impl DdaSolver {
         mut integrator: Box<dyn Integrator>,
     ) -> Result<DdaSolver, SolverError> {
         let mut world = World::new(ctx.scene)?;
+        if world.joints.any() && integrator.name() != crate::verification::EXPLICIT {
+            return Err(SolverError::Failed(format!(
+                "the scene has [[slide]]s, whose bonded joints (tension cut-off, breaking to \
+                 residual friction) only the '{}' solver models; fix: run with --solid-solver {} \
+                 (or [solid] solver = \"{}\")",
+                crate::verification::EXPLICIT,
+                crate::verification::EXPLICIT,
+                crate::verification::EXPLICIT
+            )));
+        }
         world.detect(world.penalty.margin);
         integrator.init(&mut world);
+        let settled = if world.joints.bond_count() > 0 {
+            let s = crate::settle::settle(&mut world, integrator.as_mut())?;
+            eprintln!(
+                "solid-node: {} bonded joint(s); the slides settled under gravity in {} static step(s), largest settlement {:.3e} m{}",
+                world.joints.bond_count(),
+                s.steps,
+                s.max_settlement,
+                if s.converged {
+                    String::new()
+                } else {
+                    format!(
+                        " — NOT in equilibrium after {} steps: the run starts from there",
+                        crate::settle::MAX_STEPS
+                    )
+                }
+            );
+            Some(s)
+        } else {
+            None
+        };
         let energy = EnergyMonitor::new(&world);
         let mut csv = KinematicsCsv::create(
             ctx.run_dir,
@@ -45,6 +78,7 @@ impl DdaSolver {
             csv,
             vtk: ctx.scene.output.vtk,
             vtk_format: ctx.scene.output.vtk_format,
+            settled,
         })
     }
 

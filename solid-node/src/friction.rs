@@ -9,11 +9,17 @@ use crate::contact::ContactState;
 use shared::math::{Real, Vector};
 use shared::scene::ContactSpec;
 
-/// Friction angle and cohesion of one pair of blocks.
+/// Friction angle and cohesion of one pair of blocks, and for two blocks cut from one slide
+/// across a joint plane, that joint's tensile strength and bond ([`crate::joints`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Joint {
     pub tan_phi: Real,
     pub cohesion: Real,
+    /// Tensile strength [Pa] of the intact joint (0 but for a bonded slide joint).
+    pub tensile: Real,
+    /// The pair is bonded across a slide's joint: its contacts found at the start are bonded,
+    /// and once broken they keep residual friction only (no cohesion, no tension).
+    pub bonded: bool,
 }
 
 impl Joint {
@@ -33,6 +39,8 @@ impl Joint {
         Joint {
             tan_phi: phi.to_radians().tan(),
             cohesion: smaller(cohesion, spec.cohesion),
+            tensile: 0.0,
+            bonded: false,
         }
     }
 

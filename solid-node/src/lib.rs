@@ -8,6 +8,8 @@
 //! - [`broad_phase`], [`narrow_phase`], [`contact`]: finding vertex–face and edge–edge contacts;
 //! - [`terrain_contact`]: blocks against the fixed `[[terrain]]` mesh (BVH queries);
 //! - [`penalty`], [`friction`]: normal and shear springs, Mohr–Coulomb with cohesion;
+//! - [`joints`]: the bonded joints between blocks cut from one `[[slide]]` (tension cut-off,
+//!   residual friction once broken); [`settle`]: their gravity loading before t = 0;
 //! - [`world`]: the block system shared by the integrators;
 //! - [`explicit`] (paper Eqs. 5–8) and [`implicit`] (Shi's Newmark β = ½, γ = 1, paper Eq. 4);
 //! - [`stability`], [`energy`]: the explicit limit 2/ω_max and the detection of instability;
@@ -28,11 +30,13 @@ pub mod explicit;
 pub mod friction;
 pub mod implicit;
 pub mod integrator;
+pub mod joints;
 pub mod linear_system;
 pub mod narrow_phase;
 pub mod output;
 pub mod penalty;
 pub mod rotation;
+pub mod settle;
 pub mod stability;
 pub mod terrain_contact;
 pub mod verification;

@@ -19,6 +19,8 @@ use shared::math::{Point, Real, Vector};
 pub struct NarrowParams {
     /// Feature pairs closer than this [m] are contacts (open when the gap is positive).
     pub margin: Real,
+    /// The first detection of the run: contacts found now across a slide's joint are bonded.
+    pub at_start: bool,
 }
 
 /// Faces whose normal is within this angle of the contact normal share their area with the
@@ -85,6 +87,10 @@ fn vertex_face(
             j: 0,
         };
         let prev = contact::find(old, &key);
+        if prev.is_none() {
+            f = entrance_face(pb, vi, qb, d, f, params.margin);
+            d = qb.world_normals[f].dot(&v.coords) - qb.world_offsets[f];
+        }
         // DDA's reference face: keep the face of the previous step while the vertex is about
         // as close to it as to the nearest one, so the normal does not flip between the two
         // faces at an edge when the vertex sits near it.
@@ -120,8 +126,39 @@ fn vertex_face(
         if let Some(o) = prev {
             c.inherit(o);
         }
+        c.apply_joint(&joint, prev.is_none(), params.at_start);
         out.push(c);
     }
+}
+
+/// The face of `qb` a new vertex–face contact of vertex `vi` of `pb` takes. The nearest face
+/// `f` (distance `d`) is ambiguous when the vertex sits at an edge or corner of `qb` (within
+/// `margin` of several faces), as every vertex of blocks cut from one rock mass does at the
+/// start, where their corners coincide: then the face that a face of `pb` at the vertex lies
+/// flat against is the contact (Shi's entrance rule for vertex-to-vertex contacts picks the
+/// face the vertex slides along). A wrong pick pins the vertex to a face across its path.
+fn entrance_face(pb: &Block, vi: usize, qb: &Block, d: Real, f: usize, margin: Real) -> usize {
+    let v = &pb.world_vertices[vi];
+    let alignment = |g: usize| {
+        pb.vertex_faces[vi]
+            .iter()
+            .map(|&pf| -pb.world_normals[pf as usize].dot(&qb.world_normals[g]))
+            .fold(Real::NEG_INFINITY, Real::max)
+    };
+    if alignment(f) >= FACE_ALIGNMENT {
+        return f;
+    }
+    let mut best = (f, alignment(f));
+    for g in 0..qb.world_normals.len() {
+        let dg = qb.world_normals[g].dot(&v.coords) - qb.world_offsets[g];
+        if g != f && dg >= d - margin {
+            let a = alignment(g);
+            if a >= FACE_ALIGNMENT && a > best.1 {
+                best = (g, a);
+            }
+        }
+    }
+    best.0
 }
 
 /// Parameter range [t0, t1] ⊂ [0, 1] of segment p0 + t (p1 − p0) inside `blk` inflated by
@@ -208,8 +245,12 @@ fn edge_edge(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<C
                 continue;
             }
             let (s, t) = closest_parameters(&a0, &u, &b0, &w);
-            // End points are vertices: vertex–face contacts carry them.
-            if !(s > 1e-9 && s < 1.0 - 1e-9 && t > 1e-9 && t < 1.0 - 1e-9) {
+            // End points are vertices: vertex–face contacts carry them, also a crossing within
+            // the margin of one (corners that coincide, as in a cut rock mass, would otherwise
+            // cross at every corner with a normal across the joint).
+            let (lu, lw) = (u.norm(), w.norm());
+            let (su, tw) = (m.max(1e-9 * lu), m.max(1e-9 * lw));
+            if !(s * lu > su && (1.0 - s) * lu > su && t * lw > tw && (1.0 - t) * lw > tw) {
                 continue;
             }
             let pa = a0 + u * s;
@@ -259,9 +300,11 @@ fn edge_edge(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<C
             c.gap = gap;
             c.tan_phi = joint.tan_phi;
             c.cohesion = joint.cohesion;
-            if let Some(o) = contact::find(old, &key) {
+            let prev = contact::find(old, &key);
+            if let Some(o) = prev {
                 c.inherit(o);
             }
+            c.apply_joint(&joint, prev.is_none(), params.at_start);
             out.push(c);
         }
     }
@@ -284,6 +327,7 @@ mod tests {
             friction_angle: None,
             cohesion: None,
             elastic: None,
+            slide: None,
         };
         Block::from_spec(0, &spec).unwrap()
     }
@@ -304,6 +348,8 @@ mod tests {
     const JOINT: Joint = Joint {
         tan_phi: 0.5,
         cohesion: 0.0,
+        tensile: 0.0,
+        bonded: false,
     };
 
     fn pair<'a>(ba: &'a Block, bb: &'a Block) -> Pair<'a> {
@@ -315,7 +361,10 @@ mod tests {
             joint: JOINT,
         }
     }
-    const P: NarrowParams = NarrowParams { margin: 1e-3 };
+    const P: NarrowParams = NarrowParams {
+        margin: 1e-3,
+        at_start: false,
+    };
 
     #[test]
     fn resting_cube_has_four_vertex_face_contacts() {

@@ -31,6 +31,9 @@ pub struct PenaltyModel {
     pub margin: Real,
     /// Where `normal` came from, for the log.
     pub origin: String,
+    /// Every contact holds elastically, with no strength limit: no slip, bonded joints in
+    /// tension too (while the slides settle under gravity before t = 0, [`crate::settle`]).
+    pub bonds_hold: bool,
 }
 
 impl PenaltyModel {
@@ -74,6 +77,7 @@ impl PenaltyModel {
             damping_ratio: spec.damping_ratio,
             margin: MARGIN_FRACTION * smallest,
             origin,
+            bonds_hold: false,
         }
     }
 
@@ -107,7 +111,14 @@ impl PenaltyModel {
     /// difference scheme, paper Eqs. 5–8): the shear spring is stretched by the relative
     /// material displacement of the contact point over the last step, then clamped to the
     /// Mohr–Coulomb envelope. Sets `state`, `shear`, `normal_force` and `force` (on `p`).
+    ///
+    /// A bonded slide joint ([`crate::joints`]) also carries tension, up to `T · A`, and
+    /// breaks for good when the tension or the shear passes its limit; the step it breaks,
+    /// the shear is clamped to the residual envelope `N tan φ`.
     pub fn update_explicit(&self, c: &mut Contact, p: &Block, q: &Block) {
+        if c.bonded {
+            return self.update_bonded(c, p, q);
+        }
         if c.gap >= 0.0 {
             c.state = ContactState::Open;
             c.shear = Vector::zeros();
@@ -122,7 +133,11 @@ impl PenaltyModel {
         let fn_ = (self.normal * -c.gap - self.dashpot(self.normal, m) * vn).max(0.0);
         let du = p.point_step_displacement(&c.point) - q.point_step_displacement(&c.point);
         c.shear += du - n * du.dot(&n);
-        let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, fn_);
+        let limit = if self.bonds_hold {
+            Real::INFINITY
+        } else {
+            Joint::shear_limit(c.tan_phi, c.cohesion, c.area, fn_)
+        };
         c.state = friction::classify_and_clamp(&mut c.shear, self.shear, limit);
         let mut ft = -self.shear * c.shear;
         if c.state == ContactState::Locked {
@@ -134,6 +149,59 @@ impl PenaltyModel {
             }
         }
         c.normal_force = fn_;
+        c.force = n * fn_ + ft;
+    }
+
+    /// [`Self::update_explicit`] for a bonded contact: Mohr–Coulomb with a tension cut-off.
+    fn update_bonded(&self, c: &mut Contact, p: &Block, q: &Block) {
+        let n = c.normal;
+        let m = Self::reduced_mass(p, q);
+        let v = p.point_velocity(&c.point) - q.point_velocity(&c.point);
+        let vn = v.dot(&n);
+        // Compression positive; a bonded joint pulls back when opened.
+        let fn_ = self.normal * -c.gap - self.dashpot(self.normal, m) * vn;
+        if self.bonds_hold {
+            let du = p.point_step_displacement(&c.point) - q.point_step_displacement(&c.point);
+            c.shear += du - n * du.dot(&n);
+            c.state = ContactState::Locked;
+            c.normal_force = fn_.max(0.0);
+            c.force = n * fn_ - self.shear * c.shear - (v - n * vn) * self.dashpot(self.shear, m);
+            return;
+        }
+        if fn_ < -c.tensile * c.area {
+            // Tension cut-off: the joint opens and the bond is gone.
+            c.break_bond();
+            return self.update_explicit(c, p, q);
+        }
+        let du = p.point_step_displacement(&c.point) - q.point_step_displacement(&c.point);
+        c.shear += du - n * du.dot(&n);
+        let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, fn_);
+        c.state = friction::classify_and_clamp(&mut c.shear, self.shear, limit);
+        if c.state == ContactState::Sliding {
+            // Sheared through: residual friction from now on (the spring slips to it).
+            c.break_bond();
+            let residual = Joint::shear_limit(c.tan_phi, 0.0, 0.0, fn_);
+            friction::classify_and_clamp(&mut c.shear, self.shear, residual);
+            c.state = ContactState::Sliding;
+            if fn_ <= 0.0 {
+                // Opened in the same step: nothing left to carry.
+                c.state = ContactState::Open;
+                c.shear = Vector::zeros();
+                c.normal_force = 0.0;
+                c.force = Vector::zeros();
+                return;
+            }
+            c.normal_force = fn_;
+            c.force = n * fn_ - self.shear * c.shear;
+            return;
+        }
+        let vt = v - n * vn;
+        let mut ft = -self.shear * c.shear - vt * self.dashpot(self.shear, m);
+        let f = ft.norm();
+        if f > limit && f > 0.0 {
+            ft *= limit / f;
+        }
+        c.normal_force = fn_.max(0.0);
         c.force = n * fn_ + ft;
     }
 }

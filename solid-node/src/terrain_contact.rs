@@ -111,6 +111,7 @@ impl TerrainBody {
             friction_angle: self.terrain.friction_angle,
             cohesion: self.terrain.cohesion,
             elastic: None,
+            slide: None,
         };
         Block::from_spec(scene_index, &spec)
     }

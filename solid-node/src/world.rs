@@ -5,6 +5,7 @@ use crate::block::Block;
 use crate::broad_phase::BroadPhase;
 use crate::contact::{self, Contact};
 use crate::friction::Joint;
+use crate::joints::SlideJoints;
 use crate::narrow_phase::{self, NarrowParams};
 use crate::penalty::PenaltyModel;
 use crate::terrain_contact::{self, TerrainBody};
@@ -48,6 +49,10 @@ pub struct World {
     /// The scene's `[time].dt_min`: the implicit scheme gives up below it.
     pub dt_min: Real,
     pub broad: BroadPhase,
+    /// The bonded joints between blocks cut from one slide.
+    pub joints: SlideJoints,
+    /// True once the contacts were detected (the first detection makes the slides' bonds).
+    pub detected: bool,
     /// Current contacts, sorted by key.
     pub contacts: Vec<Contact>,
     pub(crate) previous: Vec<Contact>,
@@ -86,6 +91,7 @@ impl World {
         let gravity = Vector::from(scene.gravity);
         let penalty = PenaltyModel::new(&scene.solid.contact, &blocks, &gravity);
         let n = blocks.len();
+        let joints = SlideJoints::new(scene, &blocks);
         Ok(World {
             moving: scene.moving_blocks(),
             free: (0..n).filter(|&i| blocks[i].is_free()).collect(),
@@ -104,6 +110,8 @@ impl World {
             dt_max: scene.time.dt_max,
             dt_min: scene.time.dt_min,
             broad: BroadPhase::default(),
+            joints,
+            detected: false,
             contacts: Vec::new(),
             previous: Vec::new(),
             slots: Vec::new(),
@@ -148,16 +156,20 @@ impl World {
         let blocks = &self.blocks;
         let previous = &self.previous;
         let spec = &self.contact_spec;
-        let params = NarrowParams { margin };
+        let at_start = !self.detected;
+        let params = NarrowParams { margin, at_start };
+        let joints = &self.joints;
         let (terrain, first_terrain) = (&self.terrain, self.first_terrain);
         let work = |(slot, &(a, b)): (&mut Vec<Contact>, &(u32, u32))| {
             slot.clear();
             let (ba, bb) = (&blocks[a as usize], &blocks[b as usize]);
-            let joint = Joint::of_pair(
-                spec,
-                (ba.friction_angle, bb.friction_angle),
-                (ba.cohesion, bb.cohesion),
-            );
+            let joint = joints.joint(a, b, ba, bb).unwrap_or_else(|| {
+                Joint::of_pair(
+                    spec,
+                    (ba.friction_angle, bb.friction_angle),
+                    (ba.cohesion, bb.cohesion),
+                )
+            });
             let old = contact::pair_range(previous, a, b);
             // Terrain blocks come last, so a terrain is always b of its pairs.
             if let Some(body) = (b as usize).checked_sub(first_terrain).map(|k| &terrain[k]) {
@@ -176,6 +188,14 @@ impl World {
                 old,
                 slot,
             );
+            // The bonds are made now: the pair's bonded contacts share the joint's area.
+            if at_start && let Some(bond) = joints.bond(a, b) {
+                let n = slot.iter().filter(|c| c.bonded).count();
+                for c in slot.iter_mut().filter(|c| c.bonded) {
+                    c.bond_area = bond.area / n as Real;
+                    c.area = c.bond_area;
+                }
+            }
         };
         let slots = &mut self.slots[..pairs.len()];
         if pairs.len() >= PARALLEL_MIN {
@@ -191,6 +211,7 @@ impl World {
         for s in slots.iter() {
             self.contacts.extend_from_slice(s);
         }
+        self.detected = true;
     }
 
     /// Explicit penalty forces of all contacts (see [`PenaltyModel::update_explicit`]), summed

@@ -104,3 +104,11 @@ fn newmark_vibration_theory() {
         assert!((decay / a - 1.0).abs() < 0.2 * w, "Ω = {w}: {decay} vs {a}");
     }
 }
+
+#[test]
+fn jointed_slopes_stand_or_fail_by_their_factor_of_safety() {
+    let rows = v::jointed_rows(v::EXPLICIT);
+    println!("{}", v::markdown(&rows));
+    assert_eq!(rows.len(), 6);
+    check(&rows);
+}

@@ -72,29 +72,29 @@ fn mean_draft(dir: &Path, height: f64, t0: f64, t1: f64) -> f64 {
     mean(&surface) - mean(&bottom)
 }
 
-/// Runs the floating block at spacing `dx` for 1 s; the relative draft error over [0.5, 1] s.
-fn floating_draft_error(dx: f64) -> f64 {
+/// Runs the floating block at spacing `dx` for 1 s with the coupler options `extra`; the
+/// signed relative draft error over [0.5, 1] s and the coupling steps taken.
+fn floating_run(dx: f64, extra: &[&str]) -> (f64, u64) {
     let (id, out) = fresh("floating");
     let scene = validation_scene("floating_block.toml");
     let dx_arg = dx.to_string();
-    let o = run(coupler(
-        &id,
-        &out,
-        &[scene.to_str().unwrap(), "--dx", &dx_arg, "--end", "1.0"],
-    ));
+    let mut args = vec![scene.to_str().unwrap(), "--dx", &dx_arg, "--end", "1.0"];
+    args.extend(extra);
+    let o = run(coupler(&id, &out, &args));
     assert!(o.status.success(), "run failed: {}", stderr(&o));
     assert_eq!(summary(&out)["status"], "completed");
     let (h, rho_b, rho_w) = (0.2, 500.0, 1000.0);
     let reference = rho_b / rho_w * h;
     let draft = mean_draft(&out, h, 0.5, 1.0);
-    let error = (draft - reference).abs() / reference;
+    let error = (draft - reference) / reference;
+    let steps = summary(&out)["stats"]["steps"].as_u64().expect("steps");
     eprintln!(
-        "floating block, dx = {dx}: draft {draft:.4} m, reference {reference:.4} m, error {:.2} %",
+        "floating block, dx = {dx} {extra:?}: draft {draft:.4} m, reference {reference:.4} m, error {:.2} %",
         100.0 * error
     );
     assert!(leftovers(&id).is_empty());
     let _ = std::fs::remove_dir_all(&out);
-    error
+    (error, steps)
 }
 
 /// The block floats at (ρ_b/ρ_w)·h within 3 % at dx = 0.02 (about 50 s of the test's wall
@@ -106,7 +106,7 @@ fn floating_draft_error(dx: f64) -> f64 {
 /// thick there), 2.3 % too shallow at 0.02.
 #[test]
 fn floating_block_settles_at_its_draft() {
-    let error = floating_draft_error(0.02);
+    let error = floating_run(0.02, &[]).0.abs();
     assert!(
         error < 0.03,
         "draft error {:.2} % at dx = 0.02 (measured 2.3 %)",
@@ -161,6 +161,48 @@ fn soft_floating_block_takes_the_hydrostatic_strain() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// Multi-rate coupling (`--solid-substeps 8`) where it changes the step: with DFSPH, whose own
+/// step (the scene's 1 ms `dt_max`) is longer than the explicit solid's (~0.3–0.5 ms), the
+/// single-rate run takes the solid's step and the multi-rate run the fluid's, the solid
+/// sub-cycling inside it with the water's loads held. (With WCSPH the fluid's step is the
+/// shorter one, so sub-cycling changes nothing there.) The drafts agree within 1 % of the
+/// reference, and both are within 4 %: DFSPH floats this block 3.5 % high single-rate,
+/// WCSPH 2.2 % (docs/VALIDATION.md, DFSPH).
+#[test]
+fn floating_block_dfsph_gives_the_same_draft_multi_rate() {
+    let dfsph = ["--fluid-solver", "dfsph"];
+    let single = floating_run(0.02, &dfsph);
+    let multi = floating_run(0.02, &[&dfsph[..], &["--solid-substeps", "8"]].concat());
+    eprintln!(
+        "dfsph floating block: single-rate {:+.2} % in {} steps, multi-rate {:+.2} % in {} steps",
+        100.0 * single.0,
+        single.1,
+        100.0 * multi.0,
+        multi.1
+    );
+    assert!(
+        (multi.0 - single.0).abs() < 0.01,
+        "drafts differ by {:.2} % of the reference",
+        100.0 * (multi.0 - single.0).abs()
+    );
+    for (what, (error, _)) in [("single-rate", single), ("multi-rate", multi)] {
+        assert!(
+            error.abs() < 0.04,
+            "{what}: draft error {:.2} %",
+            100.0 * error
+        );
+    }
+    assert!(
+        (multi.1 as f64) < 0.7 * single.1 as f64,
+        "the solid did not sub-cycle: {} coupling steps multi-rate, {} single-rate",
+        multi.1,
+        single.1
+    );
+}
+
+/// The sinking block (ρ_b/ρ_w = 2.5) reaches the floor and stops there. (Not run multi-rate:
+/// WCSPH's step is the shorter one here, so sub-cycling changes nothing; and DFSPH stops this
+/// landing single-rate already, an added-mass instability named by the watch: docs/stability.md.)
 #[test]
 fn sinking_block_comes_to_rest_on_the_bottom() {
     let (id, out) = fresh("sinking");
@@ -206,6 +248,41 @@ fn sinking_block_comes_to_rest_on_the_bottom() {
         .map(|r| r[vz].abs())
         .fold(0.0, f64::max);
     assert!(late_vz < 0.05, "still bouncing: |vz| up to {late_vz} m/s");
+    assert!(leftovers(&id).is_empty());
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Where DFSPH fails under partitioned coupling: the sinking block (ρ_b/ρ_w = 2.5) landing
+/// through incompressible water. The water in the closing gap answers the block's motion within
+/// the same step, at any dt, so its added mass outweighs the block and the one-step-lagged
+/// loads oscillate and grow (Causin, Gerbeau & Nobile 2005). The run stops with the cause
+/// named, exit code 2, and what it wrote kept; WCSPH's finite sound speed keeps the same
+/// landing stable (the test above).
+#[test]
+fn sinking_block_under_dfsph_stops_with_the_added_mass_instability_named() {
+    let (id, out) = fresh("sinking-dfsph");
+    let scene = validation_scene("sinking_block.toml");
+    let args = [
+        scene.to_str().unwrap(),
+        "--fluid-solver",
+        "dfsph",
+        "--end",
+        "0.4",
+    ];
+    let o = run(coupler(&id, &out, &args));
+    let err = stderr(&o);
+    eprintln!("{err}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("added-mass instability of the partitioned coupling")
+            && err.contains("block 'block'"),
+        "{err}"
+    );
+    assert_eq!(summary(&out)["status"], "unstable");
+    // What was written up to the stop is kept: the block's rows reach the landing.
+    let (bh, rows, _) = csv(&out.join("blocks.csv"));
+    let last = rows.last().expect("rows")[col(&bh, "time")];
+    assert!(last > 0.2, "blocks.csv ends at t = {last} s");
     assert!(leftovers(&id).is_empty());
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -3,11 +3,13 @@
 
 mod motion;
 pub mod schema;
+pub mod slide;
 mod span;
 pub mod terrain;
 mod validate;
 
 pub use schema::*;
+pub use slide::{JointSetSpec, SlideCut, SlideMember, SlideSpec};
 pub use terrain::{CropSpec, NoData, TerrainFormat, TerrainSpec};
 pub use validate::FieldError;
 
@@ -115,6 +117,8 @@ impl Scene {
             scene.terrain.iter_mut().for_each(|t| t.resolve(base));
         }
         let mut errors = span::array_lengths(text);
+        // Slides become blocks first, so that every check below sees the blocks that will run.
+        errors.extend(slide::expand(&mut scene));
         errors.extend(scene.validate());
         for check in checks {
             errors.extend(check(&scene));
@@ -131,7 +135,9 @@ impl Scene {
 
     /// Checks every value; returns all problems found (empty when the scene is usable).
     pub fn validate(&self) -> Vec<FieldError> {
-        validate::validate(self)
+        let mut errors = validate::validate(self);
+        slide::attribute(self, &mut errors);
+        errors
     }
 
     /// True when the scene has water, i.e. a fluid node must run.

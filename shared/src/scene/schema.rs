@@ -36,11 +36,24 @@ pub struct Scene {
     #[serde(default)]
     pub output: OutputSpec,
     /// `[[block]]` entries: walls, slopes, pistons and rock blocks, all convex polyhedra.
-    #[serde(default, rename = "block")]
+    /// After reading, also the blocks cut from `[[slide]]`s (after the written ones, marked
+    /// [`BlockSpec::slide`]); only the written ones are serialised.
+    #[serde(
+        default,
+        rename = "block",
+        serialize_with = "super::slide::serialize_written_blocks"
+    )]
     pub blocks: Vec<BlockSpec>,
     /// `[[terrain]]` entries: fixed ground read from mesh or elevation-model files.
     #[serde(default, rename = "terrain", skip_serializing_if = "Vec::is_empty")]
     pub terrain: Vec<super::terrain::TerrainSpec>,
+    /// `[[slide]]` entries: rock masses cut into free blocks by their joint sets
+    /// ([`super::slide`]).
+    #[serde(default, rename = "slide", skip_serializing_if = "Vec::is_empty")]
+    pub slides: Vec<super::slide::SlideSpec>,
+    /// What cutting each slide gave (filled when the scene is read; never written).
+    #[serde(skip)]
+    pub slide_cuts: Vec<super::slide::SlideCut>,
     /// `[[gauge]]` entries: free-surface elevation recorded at (x, y).
     #[serde(default, rename = "gauge")]
     pub gauges: Vec<GaugeSpec>,
@@ -418,6 +431,9 @@ pub struct BlockSpec {
     /// Absent, the block is rigid (6 DOF): a rock's elastic strain (~10⁻⁶) changes no wave.
     #[serde(default)]
     pub elastic: Option<ElasticSpec>,
+    /// Set on the blocks cut from a `[[slide]]` (never read from or written to a scene file).
+    #[serde(skip)]
+    pub slide: Option<super::slide::SlideMember>,
 }
 
 /// `elastic = { young_modulus = ..., poisson_ratio = ... }` of a deformable block: linear

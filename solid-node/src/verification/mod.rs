@@ -1,8 +1,10 @@
 //! Verification cases with closed-form references (docs/REFERENCES.md §2): free fall, a block on an
 //! incline that sticks or slides (with and without cohesion), slide-or-topple, the restitution
 //! of an undamped penalty bounce for both schemes, the explicit scheme pushed past its limit,
-//! a stack at rest, the embedded default scene's wedge, a spinning block that must not
-//! grow, the incline on a terrain mesh and a block on a terrain bump ([`terrain`]); and the deformable (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints
+//! a stack at rest, the embedded default scene's wedge, and a spinning block that must not
+//! grow; jointed slopes cut from a `[[slide]]` against limit equilibrium (planar and wedge
+//! failure, explicit solver); the incline on a terrain mesh and a block on a terrain bump
+//! ([`terrain`]); and the deformable (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints
 //! them as a table; the tests run the same functions.
 //!
 //! Every case drives the solver through the [`SolidSolver`] interface, as the node runtime
@@ -30,6 +32,7 @@ mod contact;
 pub mod deformable;
 mod harness;
 mod incline;
+mod jointed;
 mod motion;
 mod scenes;
 mod terrain;
@@ -37,6 +40,7 @@ mod terrain;
 pub use contact::*;
 pub use harness::*;
 pub use incline::*;
+pub use jointed::*;
 pub use motion::*;
 pub use scenes::*;
 pub use terrain::*;
@@ -53,6 +57,7 @@ pub fn run_all(quick: bool) -> Vec<Row> {
         rows.extend(restitution_rows(solver));
         if solver == EXPLICIT {
             rows.extend(explicit_limit_rows());
+            rows.extend(jointed_rows(solver));
         }
         rows.push(stack_row(solver, if quick { 3.0 } else { 10.0 }));
         rows.extend(default_wedge_rows(solver));

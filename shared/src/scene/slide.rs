@@ -1,0 +1,661 @@
+//! `[[slide]]`: a rock mass given as a convex region and its joint sets, cut into blocks (Shi's
+//! block cutting, [`crate::cutting`]) when the scene is read.
+//!
+//! The cut blocks are ordinary free convex blocks appended to [`Scene::blocks`], named
+//! `<slide name>/<k>` and marked with [`SlideMember`], so every process that reads the scene
+//! (coupler, fluid node, solid node) sees the same blocks without any of them sending geometry:
+//! the cutting is a deterministic function of the scene text. The scene as written (and as sent
+//! to the nodes, and as hashed for checkpoints) keeps the `[[slide]]` table and leaves the cut
+//! blocks out ([`serialize_written_blocks`]).
+//!
+//! The solid node also reads the joint sets: a contact between two blocks of one slide across
+//! a joint plane takes that set's cohesion, tensile strength and friction, bonded at the start
+//! and with residual friction only once broken (`solid-node/src/joints.rs`).
+
+use super::schema::{BlockKind, BlockSpec, Scene, ShapeSpec};
+use super::validate::{FieldError, Seg};
+use crate::cutting::{self, Cell, PlaneFamily};
+use crate::geometry::{Polyhedron, shape_points};
+use crate::math::{Point, Real, Vector};
+use serde::{Deserialize, Serialize};
+
+/// Default most blocks one slide may be cut into.
+pub const DEFAULT_MAX_BLOCKS: usize = 10_000;
+/// Default smallest block kept, as a fraction of the region's volume.
+pub const DEFAULT_MIN_BLOCK_FRACTION: Real = 1e-6;
+/// Cutting tolerance, as a fraction of the region's size: corners closer to a plane than this
+/// lie on it.
+const TOLERANCE: Real = 1e-9;
+
+/// One `[[slide]]`: a rock mass cut into free blocks by its joint sets.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SlideSpec {
+    /// Short name; the blocks are named `<name>/0`, `<name>/1`, …
+    pub name: String,
+    /// The rock mass before cutting: a convex shape (`box`, `prism` or `convex`).
+    pub region: ShapeSpec,
+    /// Rock density [kg/m³].
+    #[serde(default = "default_rock_density")]
+    pub density: f64,
+    /// Pieces smaller than this [m³] are dropped (slivers at the region's edges); default
+    /// 1e-6 of the region's volume. The count and volume dropped are reported by `coupler check`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_block_volume: Option<f64>,
+    /// Most blocks the cutting may make; more is refused before they are built (default 10 000).
+    #[serde(default = "default_max_blocks")]
+    pub max_blocks: usize,
+    /// Friction angle [deg] of the slide's blocks against other blocks (terrain, walls); the
+    /// joints between its own blocks use their set's. Default: `[solid.contact]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction_angle: Option<f64>,
+    /// Cohesion [Pa] of the slide's blocks against other blocks; default `[solid.contact]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cohesion: Option<f64>,
+    /// `[[slide.joint_set]]`: the families of parallel joints that cut the region.
+    #[serde(default, rename = "joint_set")]
+    pub joint_sets: Vec<JointSetSpec>,
+}
+
+fn default_rock_density() -> f64 {
+    2500.0
+}
+fn default_max_blocks() -> usize {
+    DEFAULT_MAX_BLOCKS
+}
+
+/// One `[[slide.joint_set]]`: parallel joint planes and their strength.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct JointSetSpec {
+    /// Dip [deg] in [0, 90]: the planes' angle below horizontal.
+    pub dip: f64,
+    /// Dip direction [deg] in [0, 360): azimuth of the steepest descent, clockwise from north
+    /// (+y) — east (+x) is 90°.
+    pub dip_direction: f64,
+    /// Distance between neighbouring planes [m], along their normal.
+    pub spacing: f64,
+    /// A point one plane of the set passes through [m]; default the origin.
+    #[serde(default)]
+    pub offset: [f64; 3],
+    /// Friction angle φ of the joints [deg]; also the residual friction once a joint breaks.
+    #[serde(default = "default_joint_friction")]
+    pub friction_angle: f64,
+    /// Cohesion c [Pa] of the intact joint.
+    #[serde(default)]
+    pub cohesion: f64,
+    /// Tensile strength T [Pa] of the intact joint.
+    #[serde(default)]
+    pub tensile_strength: f64,
+}
+
+fn default_joint_friction() -> f64 {
+    30.0
+}
+
+impl JointSetSpec {
+    /// Upward unit normal of the set's planes: (sin δ sin α, sin δ cos α, cos δ) for dip δ and
+    /// dip direction α (x east, y north, z up).
+    pub fn normal(&self) -> Vector {
+        let (d, a) = (self.dip.to_radians(), self.dip_direction.to_radians());
+        Vector::new(d.sin() * a.sin(), d.sin() * a.cos(), d.cos())
+    }
+
+    /// The family of planes n·x = n·offset + k·spacing.
+    pub fn family(&self) -> PlaneFamily {
+        let n = self.normal();
+        PlaneFamily {
+            normal: n,
+            base: n.dot(&Vector::from(self.offset)),
+            spacing: self.spacing,
+        }
+    }
+}
+
+/// Marks a block cut from a slide: which `[[slide]]` (index) it came from. Never written: the
+/// scene text keeps the slide, not its blocks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SlideMember {
+    pub slide: usize,
+}
+
+/// What cutting one slide gave, for `coupler check` and the logs.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SlideCut {
+    /// Index of the first block in [`Scene::blocks`]; the slide's blocks are contiguous.
+    pub first_block: usize,
+    pub blocks: usize,
+    pub region_volume: f64,
+    /// Volume of the kept blocks [m³].
+    pub kept_volume: f64,
+    pub min_volume: f64,
+    pub max_volume: f64,
+    /// Pieces dropped as slivers (below `min_block_volume`, or too flat to be a block).
+    pub slivers: usize,
+    pub sliver_volume: f64,
+    /// The volume limit used [m³].
+    pub min_block_volume: f64,
+    /// Per joint set, how many of its planes cut the region.
+    pub planes_used: Vec<usize>,
+}
+
+impl SlideCut {
+    pub fn mean_volume(&self) -> f64 {
+        if self.blocks == 0 {
+            0.0
+        } else {
+            self.kept_volume / self.blocks as f64
+        }
+    }
+}
+
+impl std::fmt::Display for SlideCut {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} blocks, volume min {:.4e} / mean {:.4e} / max {:.4e} m³, total {:.6e} of the region's {:.6e} m³; \
+             {} sliver(s) below {:.3e} m³ dropped ({:.4e} m³ lost); planes per joint set {:?}",
+            self.blocks,
+            self.min_volume,
+            self.mean_volume(),
+            self.max_volume,
+            self.kept_volume,
+            self.region_volume,
+            self.slivers,
+            self.min_block_volume,
+            self.sliver_volume,
+            self.planes_used
+        )
+    }
+}
+
+/// Serialises only the blocks written in the scene (not the ones cut from slides).
+pub fn serialize_written_blocks<S: serde::Serializer>(
+    blocks: &[BlockSpec],
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeSeq;
+    let written: Vec<&BlockSpec> = blocks.iter().filter(|b| b.slide.is_none()).collect();
+    let mut seq = s.serialize_seq(Some(written.len()))?;
+    for b in written {
+        seq.serialize_element(b)?;
+    }
+    seq.end()
+}
+
+/// An error at `slide[slide].<field>`, where `field` may index, e.g. `joint_set[1].dip`.
+fn fail(
+    slide: usize,
+    field: &str,
+    value: impl std::fmt::Debug,
+    problem: &str,
+    fix: &str,
+) -> FieldError {
+    let mut segments = vec![Seg::Key("slide".into()), Seg::Index(slide)];
+    for part in field.split('.').filter(|p| !p.is_empty()) {
+        match part.split_once('[') {
+            Some((key, rest)) => {
+                segments.push(Seg::Key(key.into()));
+                if let Ok(j) = rest.trim_end_matches(']').parse() {
+                    segments.push(Seg::Index(j));
+                }
+            }
+            None => segments.push(Seg::Key(part.into())),
+        }
+    }
+    FieldError {
+        path: super::span::render_path(&segments),
+        segments,
+        value: format!("{value:?}"),
+        problem: problem.into(),
+        fix: fix.into(),
+        line: None,
+    }
+}
+
+/// Checks the slide's own fields; returns every problem.
+fn check_fields(i: usize, s: &SlideSpec) -> Vec<FieldError> {
+    let mut errors = Vec::new();
+    if s.name.trim().is_empty() || s.name.contains(['/', ',', '"', '\'', ';']) {
+        errors.push(fail(
+            i,
+            "name",
+            &s.name,
+            "must be a non-empty name without '/', ',', quotes or ';' (the blocks are named <name>/<k>)",
+            "e.g. name = \"slope\"",
+        ));
+    }
+    if !(s.density.is_finite() && s.density > 0.0) {
+        errors.push(fail(
+            i,
+            "density",
+            s.density,
+            "must be a positive finite number",
+            "give the rock density in kg/m³, e.g. density = 2600.0",
+        ));
+    }
+    if let Some(v) = s.min_block_volume
+        && !(v.is_finite() && v >= 0.0)
+    {
+        errors.push(fail(
+            i,
+            "min_block_volume",
+            v,
+            "must be >= 0",
+            "give the smallest block kept in m³, or leave it out for 1e-6 of the region",
+        ));
+    }
+    if s.max_blocks == 0 || s.max_blocks > 10_000_000 {
+        errors.push(fail(
+            i,
+            "max_blocks",
+            s.max_blocks,
+            "must be in 1..=10000000",
+            "e.g. max_blocks = 10000",
+        ));
+    }
+    for (field, v) in [
+        ("friction_angle", s.friction_angle),
+        ("cohesion", s.cohesion),
+    ] {
+        if let Some(v) = v {
+            let ok = if field == "cohesion" {
+                v.is_finite() && v >= 0.0
+            } else {
+                (0.0..90.0).contains(&v)
+            };
+            if !ok {
+                errors.push(fail(
+                    i,
+                    field,
+                    v,
+                    "is out of range",
+                    "friction_angle in [0, 90) degrees, cohesion >= 0 Pa, or leave it out",
+                ));
+            }
+        }
+    }
+    if s.joint_sets.is_empty() {
+        errors.push(fail(i, "joint_set", "nothing", "a slide needs at least one joint set", "add [[slide.joint_set]] with dip, dip_direction and spacing (or make the rock one [[block]])"));
+    }
+    for (j, js) in s.joint_sets.iter().enumerate() {
+        let f = |field: &str| format!("joint_set[{j}].{field}");
+        if !(0.0..=90.0).contains(&js.dip) {
+            errors.push(fail(
+                i,
+                &f("dip"),
+                js.dip,
+                "must be in [0, 90] degrees",
+                "give the dip below horizontal, e.g. dip = 35.0",
+            ));
+        }
+        if !(0.0..360.0).contains(&js.dip_direction) {
+            errors.push(fail(i, &f("dip_direction"), js.dip_direction, "must be in [0, 360) degrees", "give the azimuth of the dip, clockwise from north (+y), e.g. dip_direction = 90.0 for east (+x)"));
+        }
+        if !(js.spacing.is_finite() && js.spacing > 0.0) {
+            errors.push(fail(
+                i,
+                &f("spacing"),
+                js.spacing,
+                "must be a positive finite number",
+                "give the distance between joints in metres",
+            ));
+        }
+        if js.offset.iter().any(|x| !x.is_finite()) {
+            errors.push(fail(
+                i,
+                &f("offset"),
+                js.offset,
+                "must be finite",
+                "give a point one joint passes through, e.g. offset = [0, 0, 0]",
+            ));
+        }
+        if !(0.0..90.0).contains(&js.friction_angle) {
+            errors.push(fail(
+                i,
+                &f("friction_angle"),
+                js.friction_angle,
+                "must be in [0, 90) degrees",
+                "e.g. friction_angle = 30.0",
+            ));
+        }
+        for (field, v) in [
+            ("cohesion", js.cohesion),
+            ("tensile_strength", js.tensile_strength),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                errors.push(fail(
+                    i,
+                    &f(field),
+                    v,
+                    "must be >= 0",
+                    "give the joint's strength in Pa, 0 for a clean joint",
+                ));
+            }
+        }
+    }
+    errors
+}
+
+/// Cuts one slide; the blocks and the summary, or the problems.
+pub fn cut_slide(i: usize, s: &SlideSpec) -> Result<(Vec<BlockSpec>, SlideCut), Vec<FieldError>> {
+    let errors = check_fields(i, s);
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+    let region = shape_points(&s.region)
+        .and_then(|p| Polyhedron::from_points(&p).map(|poly| (p, poly)))
+        .map_err(|e| vec![fail(i, "region", "the region", &e.problem, &e.fix)])?;
+    let (points, poly) = region;
+    let lo = points
+        .iter()
+        .fold(Vector::repeat(Real::INFINITY), |m, p| m.inf(&p.coords));
+    let hi = points
+        .iter()
+        .fold(Vector::repeat(Real::NEG_INFINITY), |m, p| m.sup(&p.coords));
+    let tol = TOLERANCE * (hi - lo).norm();
+    let cell = Cell::hull(&points, tol).ok_or_else(|| {
+        vec![fail(
+            i,
+            "region",
+            "the region",
+            "encloses no volume",
+            "give a convex region that spans 3D",
+        )]
+    })?;
+    let families: Vec<PlaneFamily> = s.joint_sets.iter().map(JointSetSpec::family).collect();
+    // Planes per set across the region, and the bound they put on the count (each family of
+    // parallel planes splits a convex cell into at most planes + 1 pieces).
+    let counts: Vec<u64> = families
+        .iter()
+        .map(|f| {
+            let (a, b) = cell.extent(&f.normal);
+            f.count_within(a, b, tol)
+        })
+        .collect();
+    let mut errors = Vec::new();
+    for (j, (&n, js)) in counts.iter().zip(&s.joint_sets).enumerate() {
+        if n == 0 {
+            errors.push(fail(
+                i,
+                &format!("joint_set[{j}]"),
+                format!("dip {} / dip_direction {} / spacing {} m", js.dip, js.dip_direction, js.spacing),
+                "cuts no block: no plane of this set crosses the region",
+                "make the spacing smaller than the region, move its offset into the region, or remove the set",
+            ));
+        }
+    }
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+    let bound: f64 = counts.iter().map(|&n| n as f64 + 1.0).product();
+    let too_many = |reached: String| {
+        vec![fail(
+            i,
+            "joint_set",
+            format!("{counts:?} planes per set"),
+            &format!(
+                "cut the region into {reached} blocks (up to {bound:.3e} from the sets' plane counts), more than max_blocks = {}",
+                s.max_blocks
+            ),
+            "use larger spacings, or raise max_blocks if you mean it (each block is a 6-DOF body in the solid node)",
+        )]
+    };
+    // Refused outright when even a tenth of the bound would pass the limit by far (the bound is
+    // exact for orthogonal sets in a box); otherwise cut, stopping at the limit.
+    if bound > 100.0 * s.max_blocks as f64 {
+        return Err(too_many(format!("about {bound:.3e}")));
+    }
+    let cut = cutting::cut(cell, &families, tol, s.max_blocks)
+        .map_err(|e| too_many(format!("more than {}", e.reached - 1)))?;
+    let region_volume = poly.volume;
+    let min_block_volume = s
+        .min_block_volume
+        .unwrap_or(DEFAULT_MIN_BLOCK_FRACTION * region_volume);
+    let mut summary = SlideCut {
+        region_volume,
+        min_block_volume,
+        planes_used: cut.planes_used.clone(),
+        slivers: cut.degenerate,
+        min_volume: Real::INFINITY,
+        ..Default::default()
+    };
+    let mut blocks = Vec::with_capacity(cut.cells.len());
+    for c in &cut.cells {
+        let corners: Vec<Point> = c.corners.clone();
+        match Polyhedron::from_points(&corners) {
+            Ok(p) if p.volume >= min_block_volume => {
+                summary.kept_volume += p.volume;
+                summary.min_volume = summary.min_volume.min(p.volume);
+                summary.max_volume = summary.max_volume.max(p.volume);
+                blocks.push(BlockSpec {
+                    name: format!("{}/{}", s.name, blocks.len()),
+                    kind: BlockKind::Free,
+                    shape: ShapeSpec::Convex {
+                        vertices: corners.iter().map(|p| [p.x, p.y, p.z]).collect(),
+                    },
+                    density: s.density,
+                    velocity: [0.0; 3],
+                    angular_velocity: [0.0; 3],
+                    motion: None,
+                    friction_angle: s.friction_angle,
+                    cohesion: s.cohesion,
+                    elastic: None,
+                    slide: Some(SlideMember { slide: i }),
+                });
+            }
+            Ok(p) => {
+                summary.slivers += 1;
+                summary.sliver_volume += p.volume;
+            }
+            Err(_) => summary.slivers += 1,
+        }
+    }
+    summary.blocks = blocks.len();
+    if blocks.is_empty() {
+        summary.min_volume = 0.0;
+        return Err(vec![fail(
+            i,
+            "min_block_volume",
+            min_block_volume,
+            &format!(
+                "drops every one of the {} pieces the joint sets cut",
+                cut.cells.len()
+            ),
+            "lower min_block_volume or use larger spacings",
+        )]);
+    }
+    Ok((blocks, summary))
+}
+
+/// Points the problems of a cut block (`block[k]`, which the scene file does not hold) at the
+/// slide it was cut from, naming the block and what to change.
+pub(super) fn attribute(scene: &Scene, errors: &mut [FieldError]) {
+    for e in errors.iter_mut() {
+        let (Some(Seg::Key(k)), Some(Seg::Index(i))) = (e.segments.first(), e.segments.get(1))
+        else {
+            continue;
+        };
+        let Some(b) = scene.blocks.get(*i).filter(|_| k == "block") else {
+            continue;
+        };
+        let Some(m) = b.slide else { continue };
+        e.segments = vec![Seg::Key("slide".into()), Seg::Index(m.slide)];
+        e.path = super::span::render_path(&e.segments);
+        e.problem = format!("cut block '{}': {}", b.name, e.problem);
+        e.fix = format!(
+            "{} — the block was cut from this slide: raise min_block_volume to drop such blocks, or change the joint sets' spacing",
+            e.fix
+        );
+    }
+}
+
+/// Cuts every slide of `scene` and appends the blocks (done once, by [`Scene::parse_checked`]).
+/// Returns the problems; the summaries go to [`Scene::slide_cuts`].
+pub(super) fn expand(scene: &mut Scene) -> Vec<FieldError> {
+    if scene.blocks.iter().any(|b| b.slide.is_some()) {
+        return Vec::new(); // already expanded
+    }
+    let mut errors = Vec::new();
+    let mut cuts = Vec::new();
+    let mut names = std::collections::HashSet::new();
+    for (i, s) in scene.slides.iter().enumerate() {
+        if !names.insert(s.name.as_str()) {
+            errors.push(fail(
+                i,
+                "name",
+                &s.name,
+                "is used by an earlier slide",
+                "give every slide a unique name",
+            ));
+        }
+        match cut_slide(i, s) {
+            Ok((blocks, mut summary)) => {
+                summary.first_block = scene.blocks.len();
+                scene.blocks.extend(blocks);
+                cuts.push(summary);
+            }
+            Err(e) => errors.extend(e),
+        }
+    }
+    scene.slide_cuts = cuts;
+    errors
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scene with one slide: a box region cut by three orthogonal sets.
+    fn scene(region: &str, spacing: f64, offset: f64, extra: &str) -> String {
+        let mut s = format!(
+            "name = \"cut\"\n[time]\nend = 0.1\n[domain]\nmin = [-10, -10, -10]\nmax = [10, 10, 10]\n\
+             [[slide]]\nname = \"rock\"\nregion = {region}\n{extra}\n"
+        );
+        for (dip, dir) in [(90.0, 90.0), (90.0, 0.0), (0.0, 0.0)] {
+            s += &format!(
+                "[[slide.joint_set]]\ndip = {dip}\ndip_direction = {dir}\nspacing = {spacing}\n\
+                 offset = [{offset}, {offset}, {offset}]\n"
+            );
+        }
+        s
+    }
+
+    const UNIT_BOX: &str = "{ type = \"box\", min = [0, 0, 0], max = [1, 1, 1] }";
+
+    #[test]
+    fn three_orthogonal_sets_cut_a_box_into_cubes() {
+        let s = Scene::parse(&scene(UNIT_BOX, 0.25, 0.0, ""), "t").unwrap();
+        let cut = &s.slide_cuts[0];
+        assert_eq!(cut.blocks, 64);
+        assert_eq!(s.blocks.len(), 64);
+        assert_eq!(cut.planes_used, vec![3, 3, 3]);
+        assert_eq!(cut.slivers, 0);
+        assert!((cut.kept_volume - 1.0).abs() < 1e-12, "{cut}");
+        assert!((cut.min_volume - 1.0 / 64.0).abs() < 1e-12, "{cut}");
+        assert!((cut.max_volume - 1.0 / 64.0).abs() < 1e-12, "{cut}");
+        assert_eq!(s.blocks[17].name, "rock/17");
+        assert!(
+            s.blocks
+                .iter()
+                .all(|b| b.slide == Some(SlideMember { slide: 0 }))
+        );
+    }
+
+    #[test]
+    fn slivers_are_dropped_and_accounted() {
+        // Planes at 0.1, 0.35, 0.6, 0.85 on each axis: widths 0.1, 0.25, 0.25, 0.25, 0.15.
+        // Below 0.002 m³: the 0.1³ corner and the three 0.1·0.1·0.15 blocks.
+        let text = scene(UNIT_BOX, 0.25, 0.1, "min_block_volume = 0.002");
+        let s = Scene::parse(&text, "t").unwrap();
+        let cut = &s.slide_cuts[0];
+        assert_eq!(cut.blocks + cut.slivers, 125, "{cut}");
+        assert_eq!(cut.slivers, 4, "{cut}");
+        assert!((cut.sliver_volume - 0.0055).abs() < 1e-12, "{cut}");
+        assert!(
+            (cut.kept_volume + cut.sliver_volume - 1.0).abs() < 1e-12,
+            "{cut}"
+        );
+    }
+
+    #[test]
+    fn a_tilted_set_cuts_a_convex_region_with_its_volume_kept() {
+        // A triangular prism (a slope) cut by a dipping set and a vertical one.
+        let text = "name = \"cut\"\n[time]\nend = 0.1\n[domain]\nmin = [-10, -10, -10]\nmax = [10, 10, 10]\n\
+            [[slide]]\nname = \"slope\"\n\
+            region = { type = \"prism\", axis = \"y\", profile = [[0, 0], [4, 0], [4, 3]], extent = [0, 2] }\n\
+            [[slide.joint_set]]\ndip = 35\ndip_direction = 270\nspacing = 0.7\n\
+            [[slide.joint_set]]\ndip = 80\ndip_direction = 20\nspacing = 0.9\noffset = [0.3, 0, 0]\n";
+        let s = Scene::parse(text, "t").unwrap();
+        let cut = &s.slide_cuts[0];
+        assert!(cut.blocks > 10, "{cut}");
+        assert!(
+            (cut.kept_volume + cut.sliver_volume - 12.0).abs() < 1e-9,
+            "{cut}"
+        );
+        // Every block is a valid convex block of the scene.
+        for b in &s.blocks {
+            assert!(Polyhedron::from_shape(&b.shape).is_ok(), "{}", b.name);
+        }
+    }
+
+    #[test]
+    fn the_written_scene_keeps_the_slide_not_its_blocks() {
+        let s = Scene::parse(&scene(UNIT_BOX, 0.5, 0.0, ""), "t").unwrap();
+        let text = toml::to_string(&s).unwrap();
+        assert!(!text.contains("rock/0"), "{text}");
+        let again = Scene::parse(&text, "again").unwrap();
+        assert_eq!(again.blocks, s.blocks);
+        assert_eq!(again.slide_cuts, s.slide_cuts);
+    }
+
+    #[test]
+    fn a_set_that_cuts_nothing_is_named() {
+        let text = scene(UNIT_BOX, 0.25, 0.0, "")
+            .replacen("spacing = 0.25", "spacing = 5.0", 1)
+            .replacen("offset = [0, 0, 0]", "offset = [2.5, 0, 0]", 1);
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(
+            msg.contains("slide[0].joint_set[0]") && msg.contains("cuts no block"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn a_million_blocks_are_refused_with_the_count() {
+        let region = "{ type = \"box\", min = [0, 0, 0], max = [10, 10, 10] }";
+        let text = scene(region, 0.1, 0.0, "");
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(
+            msg.contains("1.000e6") && msg.contains("max_blocks = 10000"),
+            "{msg}"
+        );
+        // Just above the limit: cut until the limit, then refused.
+        let text = scene(UNIT_BOX, 0.25, 0.0, "max_blocks = 60");
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(msg.contains("more than 60"), "{msg}");
+    }
+
+    #[test]
+    fn a_cut_block_too_small_for_the_water_names_its_slide() {
+        // dx = 1 m: moving blocks under dx/4 = 0.25 m across are refused, and the corner
+        // block cut at offset 0.1 is 0.1 m across.
+        let text =
+            scene(UNIT_BOX, 0.25, 0.1, "").replace("[[slide]]", "[fluid]\ndx = 1.0\n[[slide]]");
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(
+            msg.contains("slide[0]")
+                && msg.contains("cut block 'rock/0'")
+                && msg.contains("min_block_volume")
+                && !msg.contains("block[0]"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn bad_joint_fields_are_named() {
+        let text = scene(UNIT_BOX, 0.25, 0.0, "").replacen("dip = 90", "dip = 120", 1);
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(msg.contains("slide[0].joint_set[0].dip"), "{msg}");
+    }
+}
