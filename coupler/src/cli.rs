@@ -92,7 +92,7 @@ pub struct RunArgs {
     /// Continue the run in RUN_DIR from its last complete checkpoint, with the scene, solvers
     /// and scheme it was started with; its CSV files are cut back and its later frames removed
     /// first, so the finished run is identical to an uninterrupted one.
-    #[arg(long, value_name = "RUN_DIR", conflicts_with_all = ["scene", "out", "dx", "target_error", "end", "solid_substeps"])]
+    #[arg(long, value_name = "RUN_DIR", conflicts_with_all = ["scene", "out", "dx", "target_error", "end", "dt_max", "solid_substeps"])]
     pub resume: Option<PathBuf>,
     /// Restart a node that dies or hangs up to N times: every node goes back to the last
     /// checkpoint (t = 0 without one) and the run continues; a node that fails again at the

@@ -3,13 +3,15 @@
 //! Three stability maps (`chart::stability_map`), each CSV + SVG + PNG:
 //!
 //! - `stability_dt_factor`: every step × 0.1 … 10 of what the method proposes: explicit DDA
-//!   and Shi's implicit DDA on a block resting on undamped springs, Müller SPH and WCSPH on the
-//!   dam break, and the coupled floating block under both schemes;
+//!   and Shi's implicit DDA on a block resting on undamped springs, every SPH scheme on the
+//!   dam break, and the coupled floating block: WCSPH under both schemes and sub-cycled, DFSPH
+//!   single-rate and sub-cycled;
 //! - `stability_stiffness`: the contact spring over decades at a fixed dt = 1 ms (explicit DDA
 //!   must fail once ω·dt = dt·sqrt(4k/m) passes 2, i.e. k > m/dt²; the implicit scheme must not);
 //! - `stability_density`: block-to-water density ratio 0.001 … 3 under each coupling scheme and
-//!   solid solver (the asked range 0.3 … 3, and below it down to where the added-mass
-//!   instability of one-step-lagged loads appears: `shared::added_mass`).
+//!   solid solver with WCSPH, and with DFSPH single-rate and sub-cycled (the asked range
+//!   0.3 … 3, and below it down to where the added-mass instability of one-step-lagged loads
+//!   appears: `shared::added_mass`).
 //!
 //! It also measures the numerical damping of Shi's scheme (restitution of an undamped bounce
 //! against exp(−πΩ/4)), written to `stability_implicit_damping.csv`.

@@ -166,6 +166,11 @@ fn bad_overrides_are_named() {
         .unwrap();
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--step-timeout"));
+    // --dt-max goes through the scene's own check of time.dt_max.
+    let o = coupler().args(["run", "--dt-max=-1"]).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("dt_max"), "{err}");
     let o = coupler()
         .args(["run", "--scheme", "sideways"])
         .output()
@@ -197,6 +202,13 @@ fn bad_overrides_are_named() {
         .unwrap();
     assert_ne!(o.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--dx"));
+    let o = coupler()
+        .args(["run", "--dt-max", "0.002", "--resume"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_ne!(o.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--dt-max"));
     let o = coupler()
         .args(["run", "--resume"])
         .arg(&dir)
