@@ -38,6 +38,10 @@ enum Cmd {
     /// Push each method past its limits (dt factor, contact stiffness, density ratio) and draw
     /// stability maps naming how each failure was detected.
     Stability(coupler::stability::StabilityArgs),
+    /// Write the synthetic reservoir of scenes/fjord.toml as an ESRI ASCII grid (.asc).
+    MakeSite(coupler::site::SiteArgs),
+    /// Time a terrain of many triangles against a box floor, per node (in-process).
+    TerrainBench(coupler::terrain_bench::TerrainBenchArgs),
     /// Write POV-Ray scene files for every frame of a run directory (and render them).
     Povray {
         /// A run directory written by `coupler run`.
@@ -58,18 +62,28 @@ fn main() -> ExitCode {
         Cmd::Run(args) => ExitCode::from(coupler::cli::run(*args)),
         Cmd::Chart(args) => ExitCode::from(coupler::speed_accuracy::run(args)),
         Cmd::Stability(args) => ExitCode::from(coupler::stability::run(args)),
+        Cmd::MakeSite(args) => ExitCode::from(coupler::site::run(args)),
+        Cmd::TerrainBench(args) => ExitCode::from(coupler::terrain_bench::run(args)),
         Cmd::Check { scene, slides_vtk } => {
             let loaded = coupler::scenes::load_as_written(scene.as_deref());
             match loaded {
                 Ok(s) => {
                     println!(
-                        "scene '{}' is valid: {} blocks ({} moving), water: {}, gauges: {}",
+                        "scene '{}' is valid: {} blocks ({} moving), {} terrain(s), water: {}, gauges: {}",
                         s.name,
                         s.blocks.len(),
                         s.moving_blocks().len(),
+                        s.terrain.len(),
                         if s.has_fluid() { "yes" } else { "no" },
                         s.gauges.len()
                     );
+                    match shared::terrain::Terrain::load_all(&s) {
+                        Ok(terrain) => terrain.iter().for_each(|t| println!("{}", t.summary())),
+                        Err(e) => {
+                            eprintln!("coupler: error: {e}");
+                            return ExitCode::from(1);
+                        }
+                    }
                     for line in coupler::slides::describe(&s) {
                         println!("{line}");
                     }

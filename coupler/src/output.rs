@@ -3,6 +3,7 @@
 //! - `scene.toml`: the scene as run (after command-line overrides);
 //! - `particles_NNNNN.vtp`, `blocks_NNNNN.vtp` (written by the nodes) and `particles.pvd`,
 //!   `blocks.pvd` (written here) so ParaView opens a whole run at once;
+//! - `terrain.vtp` (written here, once): the `[[terrain]]` surfaces as placed;
 //! - `gauges.csv`, `probes.csv`, `fluid.json` (particle counts) (fluid node), `blocks.csv` (solid
 //!   node);
 //! - `summary.json`: how the run went, and the numbers a user looks for first (every field:
@@ -60,6 +61,10 @@ impl RunDir {
             blocks: Vec::new(),
             static_blocks: false,
         };
+        if scene.output.vtk && !scene.terrain.is_empty() {
+            // The terrain never moves: one file for ParaView, beside the frames.
+            dir.write_terrain(scene)?;
+        }
         if !scene.has_moving_blocks() && scene.output.vtk && !scene.blocks.is_empty() {
             // No solid node runs: the fixed blocks never move, one file serves every frame.
             dir.write_static_blocks(scene)
@@ -117,6 +122,33 @@ impl RunDir {
             }
         }
         Ok(())
+    }
+
+    /// `terrain.vtp`: every `[[terrain]]` surface as placed in the scene (its triangles), with
+    /// the terrain's index as cell data.
+    fn write_terrain(&self, scene: &Scene) -> Result<(), String> {
+        let terrain = shared::terrain::Terrain::load_all(scene)?;
+        let corners: Vec<Vec<[f64; 3]>> = terrain
+            .iter()
+            .map(|t| t.mesh.vertices().iter().map(|v| [v.x, v.y, v.z]).collect())
+            .collect();
+        let faces: Vec<Vec<Vec<u32>>> = terrain
+            .iter()
+            .map(|t| t.mesh.indices().iter().map(|f| f.to_vec()).collect())
+            .collect();
+        let refs: Vec<PolyhedronRef> = corners
+            .iter()
+            .zip(&faces)
+            .map(|(v, f)| (v.as_slice(), f.as_slice()))
+            .collect();
+        let ids: Vec<f64> = (0..terrain.len()).map(|i| i as f64).collect();
+        shared::vtk::write_polyhedra(
+            &self.path.join("terrain.vtp"),
+            &refs,
+            &[("terrain", &ids)],
+            scene.output.vtk_format,
+        )
+        .map_err(|e| format!("cannot write terrain.vtp: {e}"))
     }
 
     fn write_static_blocks(&self, scene: &Scene) -> io::Result<()> {
@@ -344,6 +376,8 @@ fn gauge_summaries(path: &Path, scene: &Scene) -> BTreeMap<String, GaugeSummary>
             .filter(|(t, v): &(f64, f64)| t.is_finite() && v.is_finite())
             .collect()
     };
+    // The terrain is part of the bed (read again: it is fixed, and the run has checked it).
+    let terrain = shared::terrain::Terrain::load_all(scene).unwrap_or_default();
     for (col, name) in header.iter().enumerate().skip(1) {
         if name.ends_with("_spray") {
             continue;
@@ -358,7 +392,11 @@ fn gauge_summaries(path: &Path, scene: &Scene) -> BTreeMap<String, GaugeSummary>
             .unwrap_or_default();
         out.insert(
             name.clone(),
-            summarise_gauge(&column(col), &spray, scene.bed_elevation(g.x, g.y)),
+            summarise_gauge(
+                &column(col),
+                &spray,
+                shared::terrain::bed_elevation(scene, &terrain, g.x, g.y),
+            ),
         );
     }
     out

@@ -1,6 +1,7 @@
 //! Reading a scene as the coupler does: the schema and its validation (`shared::scene`), plus
 //! each solver registry's check of the solver tables (`[fluid.<name>]`, `[solid.<name>]`), so a
-//! bad solver parameter is named with its field and line before any node starts, and the size
+//! bad solver parameter is named with its field and line before any node starts, the terrain
+//! files' checks (`shared::terrain::check_scene`), and the size
 //! check (`crate::sizes`): a scene that cannot fit in this machine's memory is refused.
 
 use shared::scene::{DEFAULT_SCENE, DEFAULT_SCENE_ORIGIN, FieldError, Scene, SceneError};
@@ -10,6 +11,9 @@ use std::path::Path;
 pub fn solver_checks(scene: &Scene) -> Vec<FieldError> {
     let mut all = fluid_node::check_scene(scene);
     all.extend(solid_node::check_scene(scene));
+    // The terrain files: read, placed and checked (topology, normals, no-data, domain) here,
+    // so a bad file is named before any node starts.
+    all.extend(shared::terrain::check_scene(scene));
     all
 }
 

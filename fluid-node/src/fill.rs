@@ -68,6 +68,16 @@ pub fn off_lattice(volume: &Polyhedron, dx: Real) -> Option<String> {
 
 /// Fills the water volumes of `fluid` with particles, leaving out every block of `blocks`.
 pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, String> {
+    fill_water_with(fluid, blocks, &|_| false)
+}
+
+/// [`fill_water`], also leaving dry the lattice points where `dry` holds (inside the terrain or
+/// within dx/2 of it: `crate::terrain::near_or_inside`).
+pub fn fill_water_with(
+    fluid: &FluidSpec,
+    blocks: &[Polyhedron],
+    dry: &dyn Fn(&Vector) -> bool,
+) -> Result<Fill, String> {
     let dx = fluid.dx;
     let volumes: Vec<Polyhedron> = fluid
         .water
@@ -109,7 +119,7 @@ pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, Stri
                 let Some(vol) = volumes.iter().position(|v| near_or_inside(v, &p, tol)) else {
                     continue;
                 };
-                if blocks.iter().any(|b| near_or_inside(b, &p, 0.5 * dx - tol)) {
+                if blocks.iter().any(|b| near_or_inside(b, &p, 0.5 * dx - tol)) || dry(&p) {
                     continue;
                 }
                 positions.push(p);

@@ -14,7 +14,8 @@
 //! (smoothing kernels), [`particles`] (struct-of-arrays state), [`neighbors`] (cell grid,
 //! counting sort), [`fill`] (water volumes on a lattice), [`boundary`] (the blocks' boundary
 //! particles, [`walls`] on fixed blocks and [`bodies`] on moving ones), [`penalty`] (paper Eq. 22
-//! both ways), [`dt`] (stable step), [`gauges`] (wave gauges and pressure probes) and
+//! both ways), [`terrain`] (the `[[terrain]]` ground: boundary
+//! particles under its surface and Eq. 22 against its triangles), [`dt`] (stable step), [`gauges`] (wave gauges and pressure probes) and
 //! [`system`]. [`validation`] holds the cases run by `fluid-validate` and by the tests.
 
 pub mod bodies;
@@ -32,6 +33,7 @@ pub mod penalty;
 pub mod scheme;
 pub mod sph;
 pub mod system;
+pub mod terrain;
 pub mod validation;
 pub mod walls;
 pub mod wcsph;

@@ -5,12 +5,13 @@
 
 use crate::bodies::BodyParticles;
 use crate::boundary::Boundary;
-use crate::fill::{Fill, fill_water};
+use crate::fill::{Fill, fill_water_with};
 use crate::gauges::{FluidView, Recorder};
 use crate::kernel::Kernel;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
 use crate::penalty::{Obstacle, Penalty, resting_state};
+use crate::terrain::TerrainPenalty;
 use crate::walls::WallParticles;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
@@ -18,7 +19,9 @@ use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::scene::{BlockKind, FluidSpec, Scene, VtkFormat, Walls};
 use shared::solver::{SetupContext, SolverError};
+use shared::terrain::Terrain;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// The scene's water, filled, and its blocks as polyhedra.
 pub struct Initial {
@@ -29,6 +32,9 @@ pub struct Initial {
     /// Depth H of the deepest water [m]: the scale of the default sound speed c = 10·sqrt(2 g H).
     pub depth: Real,
     pub gravity: Vector,
+    /// The scene's `[[terrain]]`, read from its files (fixed: rebuilt from the scene on a
+    /// resume, the same to the bit).
+    pub terrain: Arc<[Terrain]>,
 }
 
 impl Initial {
@@ -45,7 +51,13 @@ impl Initial {
                     .map_err(|e| SolverError::Failed(format!("block '{}': {e}", b.name)))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let fill = fill_water(&fluid, &blocks).map_err(SolverError::Failed)?;
+        let terrain: Arc<[Terrain]> = Terrain::load_all(scene)
+            .map_err(SolverError::Failed)?
+            .into();
+        // Lattice points inside the ground or closer than dx/2 to it stay dry, as for blocks.
+        let clearance = 0.5 * fluid.dx * (1.0 - 1e-6);
+        let dry = |p: &Vector| crate::terrain::near_or_inside(&terrain, p, clearance);
+        let fill = fill_water_with(&fluid, &blocks, &dry).map_err(SolverError::Failed)?;
         if fill.positions.is_empty() {
             return Err(SolverError::Failed(format!(
                 "the water volumes hold no particle at dx = {} m (all inside blocks or thinner than dx)",
@@ -59,6 +71,7 @@ impl Initial {
             blocks,
             depth,
             gravity: Vector::from(scene.gravity),
+            terrain,
         })
     }
 
@@ -84,6 +97,8 @@ pub struct FluidSystem {
     /// every sort, moving part after every sort and every new pose).
     pub boundary: Boundary,
     pub penalty: Penalty,
+    /// Eq. 22 against the terrain's triangles (the backstop of its boundary particles).
+    pub terrain: TerrainPenalty,
     recorder: Recorder,
     pub dx: Real,
     pub mass: Real,
@@ -206,7 +221,7 @@ impl FluidSystem {
                     .map(|(_, p)| p.clone())
                     .collect();
                 let reach = Vector::repeat(cell);
-                let pts = WallParticles::sample(
+                let mut pts = WallParticles::sample(
                     &fixed,
                     &init.fill.anchor,
                     dx,
@@ -214,15 +229,35 @@ impl FluidSystem {
                     &(lo - reach),
                     &(hi + reach),
                 );
+                // The terrain's, on the same lattice, each lattice point once.
+                let anchor = init.fill.anchor;
+                let taken: std::collections::BTreeSet<[i64; 3]> = pts
+                    .iter()
+                    .map(|p| crate::terrain::lattice_key(p, &anchor, dx))
+                    .collect();
+                pts.extend(
+                    crate::terrain::sample(
+                        &init.terrain,
+                        &anchor,
+                        dx,
+                        cell,
+                        &(lo - reach),
+                        &(hi + reach),
+                    )
+                    .into_iter()
+                    .filter(|p| !taken.contains(&crate::terrain::lattice_key(p, &anchor, dx))),
+                );
                 Some(WallParticles::new(pts, grid.clone()))
             }
         };
 
+        // The bed under a gauge: the highest fixed block or terrain surface under it.
         let beds: Vec<Real> = scene
             .gauges
             .iter()
-            .map(|g| scene.bed_elevation(g.x, g.y))
+            .map(|g| shared::terrain::bed_elevation(scene, &init.terrain, g.x, g.y))
             .collect();
+        let terrain = TerrainPenalty::new(init.terrain.clone(), ks, kd, fixed_margin);
         let recorder = Recorder::new(
             ctx.run_dir,
             &scene.gauges,
@@ -237,6 +272,7 @@ impl FluidSystem {
             fluid_lists: NeighborLists::default(),
             boundary: Boundary::new(fixed, bodies),
             penalty,
+            terrain,
             recorder,
             dx,
             mass,
@@ -346,6 +382,7 @@ impl FluidSystem {
         self.prepare_bodies();
         self.penalty
             .apply(&mut self.particles, &self.grid, Some(loads));
+        self.terrain.apply(&mut self.particles, &self.grid);
         self.boundary.add_loads(loads);
         self.penalty_fresh = true;
     }
@@ -356,6 +393,7 @@ impl FluidSystem {
         self.prepare_bodies();
         if !self.penalty_fresh {
             self.penalty.apply(&mut self.particles, &self.grid, None);
+            self.terrain.apply(&mut self.particles, &self.grid);
             self.penalty_fresh = true;
         }
     }

@@ -103,3 +103,13 @@ fn every_solver_continues_exactly_from_its_checkpoint() {
     );
     continues_exactly("wcsph", &scene, "wcsph with Verlet");
 }
+
+/// Water over a `[[terrain]]`: the terrain's boundary particles and Eq. 22 are rebuilt from the
+/// scene's file by the fresh solver (they are not in the checkpoint), and the run continues to
+/// the bit.
+#[test]
+fn water_over_a_terrain_continues_exactly_from_its_checkpoint() {
+    let files = TempRunDir::new("ckpt-terrain-files").unwrap();
+    let scene = terrain_basin_scene("wcsph", 0.1, 0.1 / 8.0, 0.004, files.path());
+    continues_exactly("wcsph", &scene, "wcsph over a terrain");
+}

@@ -8,6 +8,7 @@
 //! - [`cutting`]: Shi's block cutting of a convex region by joint planes (`[[slide]]`).
 //! - [`protocol`]: the versioned wire types exchanged over shared memory each step.
 //! - [`strain`]: the constant strain of a deformable (12-DOF) DDA block.
+//! - [`terrain`]: fixed terrain from mesh and DEM files (`[[terrain]]`), with BVH queries.
 //! - [`registry`]: the solvers a node crate offers, and each solver's own parameter table.
 //! - [`step`]: the rule that grants the shared timestep (one pure function).
 //! - [`solver`]: the coupling interface a solver implements (preCICE style: read, write, advance).
@@ -27,5 +28,6 @@ pub mod scene;
 pub mod solver;
 pub mod step;
 pub mod strain;
+pub mod terrain;
 pub mod transport;
 pub mod vtk;

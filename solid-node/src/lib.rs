@@ -6,6 +6,7 @@
 //! - [`elastic`]: the strain state and matrices of a deformable block (co-rotational);
 //! - [`rotation`]: exact rotation updates (no growth of rotating blocks);
 //! - [`broad_phase`], [`narrow_phase`], [`contact`]: finding vertex–face and edge–edge contacts;
+//! - [`terrain_contact`]: blocks against the fixed `[[terrain]]` mesh (BVH queries);
 //! - [`penalty`], [`friction`]: normal and shear springs, Mohr–Coulomb with cohesion;
 //! - [`joints`]: the bonded joints between blocks cut from one `[[slide]]` (tension cut-off,
 //!   residual friction once broken); [`settle`]: their gravity loading before t = 0;
@@ -37,6 +38,7 @@ pub mod penalty;
 pub mod rotation;
 pub mod settle;
 pub mod stability;
+pub mod terrain_contact;
 pub mod verification;
 pub mod world;
 

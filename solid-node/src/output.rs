@@ -133,13 +133,14 @@ pub fn write_blocks_vtp(
     path: &Path,
     format: shared::scene::VtkFormat,
 ) -> std::io::Result<()> {
-    let verts: Vec<Vec<[f64; 3]>> = world
-        .blocks
+    // The scene's blocks; a terrain's block is only its bounding box (its surface is the
+    // scene's file, not a block frame's).
+    let scene_blocks = &world.blocks[..world.first_terrain];
+    let verts: Vec<Vec<[f64; 3]>> = scene_blocks
         .iter()
         .map(|b| b.world_vertices.iter().map(|p| [p.x, p.y, p.z]).collect())
         .collect();
-    let faces: Vec<Vec<Vec<u32>>> = world
-        .blocks
+    let faces: Vec<Vec<Vec<u32>>> = scene_blocks
         .iter()
         .map(|b| b.shape.faces.iter().map(|f| f.vertices.clone()).collect())
         .collect();
@@ -148,8 +149,7 @@ pub fn write_blocks_vtp(
         .zip(&faces)
         .map(|(v, f)| (v.as_slice(), f.as_slice()))
         .collect();
-    let kind: Vec<f64> = world
-        .blocks
+    let kind: Vec<f64> = scene_blocks
         .iter()
         .map(|b| match b.kind {
             shared::scene::BlockKind::Fixed => 0.0,
@@ -157,16 +157,18 @@ pub fn write_blocks_vtp(
             shared::scene::BlockKind::Free => 2.0,
         })
         .collect();
-    let speed: Vec<f64> = world.blocks.iter().map(|b| b.velocity.norm()).collect();
-    let contact: Vec<f64> = world.contact_force.iter().map(|f| f.norm()).collect();
+    let speed: Vec<f64> = scene_blocks.iter().map(|b| b.velocity.norm()).collect();
+    let contact: Vec<f64> = world.contact_force[..world.first_terrain]
+        .iter()
+        .map(|f| f.norm())
+        .collect();
     let mut arrays: Vec<(&str, &[f64])> = vec![
         ("kind", &kind),
         ("speed", &speed),
         ("contact_force", &contact),
     ];
     let per_block = |f: &dyn Fn(&crate::elastic::Elastic) -> f64| -> Vec<f64> {
-        world
-            .blocks
+        scene_blocks
             .iter()
             .map(|b| b.elastic.as_ref().map_or(0.0, |e| f(e)))
             .collect()

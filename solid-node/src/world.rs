@@ -8,11 +8,14 @@ use crate::friction::Joint;
 use crate::joints::SlideJoints;
 use crate::narrow_phase::{self, NarrowParams};
 use crate::penalty::PenaltyModel;
+use crate::terrain_contact::{self, TerrainBody};
 use rayon::prelude::*;
 use shared::math::{Point, Real, Vector};
 use shared::scene::{ContactSpec, Scene};
 use shared::solver::SolverError;
 use shared::strain::Strain;
+use shared::terrain::Terrain;
+use std::sync::Arc;
 
 /// Below this many pairs (or contacts) the narrow phase runs on one thread: rayon's fork costs
 /// more than the work.
@@ -20,8 +23,13 @@ const PARALLEL_MIN: usize = 64;
 
 /// Blocks, their contacts and the loads on them.
 pub struct World {
-    /// All blocks in scene order (fixed ones too: they are contact partners).
+    /// All blocks in scene order (fixed ones too: they are contact partners), then one fixed
+    /// block per terrain (from `first_terrain` on).
     pub blocks: Vec<Block>,
+    /// Index of the first terrain block: the scene's own blocks are `blocks[..first_terrain]`.
+    pub first_terrain: usize,
+    /// The scene's `[[terrain]]`, in order: block `first_terrain + k` is terrain k.
+    pub terrain: Arc<Vec<TerrainBody>>,
     /// Indices of the kinematic and free blocks, in `Scene::moving_blocks` order.
     pub moving: Vec<usize>,
     /// Indices of the free blocks.
@@ -63,12 +71,23 @@ pub struct World {
 
 impl World {
     pub fn new(scene: &Scene) -> Result<World, SolverError> {
-        let blocks = scene
+        let mut blocks = scene
             .blocks
             .iter()
             .enumerate()
             .map(|(i, spec)| Block::from_spec(i, spec))
             .collect::<Result<Vec<_>, _>>()?;
+        // The terrain: one fixed block each, after the scene's blocks (read again from the
+        // scene's files on a resume: it never changes, so it is not checkpointed).
+        let terrain: Vec<TerrainBody> = Terrain::load_all(scene)
+            .map_err(SolverError::Failed)?
+            .into_iter()
+            .map(TerrainBody::new)
+            .collect();
+        let first_terrain = blocks.len();
+        for (k, t) in terrain.iter().enumerate() {
+            blocks.push(t.block(first_terrain + k)?);
+        }
         let gravity = Vector::from(scene.gravity);
         let penalty = PenaltyModel::new(&scene.solid.contact, &blocks, &gravity);
         let n = blocks.len();
@@ -80,6 +99,8 @@ impl World {
                 .filter(|&i| blocks[i].is_free() && blocks[i].is_deformable())
                 .collect(),
             blocks,
+            first_terrain,
+            terrain: Arc::new(terrain),
             gravity,
             penalty,
             contact_spec: scene.solid.contact.clone(),
@@ -138,6 +159,7 @@ impl World {
         let at_start = !self.detected;
         let params = NarrowParams { margin, at_start };
         let joints = &self.joints;
+        let (terrain, first_terrain) = (&self.terrain, self.first_terrain);
         let work = |(slot, &(a, b)): (&mut Vec<Contact>, &(u32, u32))| {
             slot.clear();
             let (ba, bb) = (&blocks[a as usize], &blocks[b as usize]);
@@ -149,6 +171,11 @@ impl World {
                 )
             });
             let old = contact::pair_range(previous, a, b);
+            // Terrain blocks come last, so a terrain is always b of its pairs.
+            if let Some(body) = (b as usize).checked_sub(first_terrain).map(|k| &terrain[k]) {
+                terrain_contact::collide(a, ba, b, body, joint, params, old, slot);
+                return;
+            }
             narrow_phase::collide(
                 &narrow_phase::Pair {
                     a,

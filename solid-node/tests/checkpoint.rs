@@ -112,3 +112,22 @@ fn both_schemes_continue_exactly_from_their_checkpoint() {
         continues_exactly(solver, &soft, &format!("{solver}-deformable"));
     }
 }
+
+/// With the slope a `[[terrain]]` mesh: the terrain is not in the checkpoint (it never
+/// changes) but read again from the scene's file by the fresh solver, and the run continues
+/// to the bit.
+#[test]
+fn a_block_on_a_terrain_continues_exactly_from_its_checkpoint() {
+    let inc = Incline {
+        alpha: 30.0,
+        phi: 20.0,
+        cohesion: 0.0,
+        b: 0.4,
+        h: 0.2,
+    };
+    let files = Dir::new("terrain-files");
+    let scene = solid_node::verification::incline_on_terrain_scene(&inc, 0.5, &files.0);
+    for solver in solid_node::REGISTRY.names() {
+        continues_exactly(solver, &scene, &format!("{solver}-terrain"));
+    }
+}

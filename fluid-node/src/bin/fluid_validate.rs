@@ -5,7 +5,9 @@
 //! ordinary row passes and every known limitation (`validation::known_limitation`) fails.
 
 use fluid_node::REGISTRY;
-use fluid_node::validation::{Plan, markdown, validate_impact, validate_solver};
+use fluid_node::validation::{
+    Plan, markdown, validate_impact, validate_solver, validate_terrain_basin,
+};
 use shared::scene::Walls;
 use std::process::ExitCode;
 
@@ -41,6 +43,10 @@ fn main() -> ExitCode {
             eprintln!("  {l}")
         }));
     }
+    // Still water over a terrain read from a file (a DEM trough): the default solver.
+    rows.extend(validate_terrain_basin("wcsph", &plan, |l| {
+        eprintln!("  {l}")
+    }));
     // The impact pressures of Lobovský et al. (2014): the default solver.
     rows.extend(validate_impact("wcsph", &plan, |l| eprintln!("  {l}")));
     let table = markdown(&rows);

@@ -8,6 +8,9 @@
 //! - Impact pressure (Lobovský et al. 2014): the peak and the impulse of the surge on the
 //!   downstream wall, at pressure probes with an averaging window.
 //!
+//! - Still water over a terrain (`[[terrain]]`, a DEM trough): the same hydrostatic check, and
+//!   no particle under the terrain's surface.
+//!
 //! All are thin 3D slabs (a few particle layers between free-slip side walls), i.e. 2D flows
 //! at a 3D code's cost of a 2D problem.
 
@@ -24,11 +27,13 @@ mod dam_break;
 mod impact;
 mod still_water;
 mod table;
+mod terrain_basin;
 
 pub use dam_break::*;
 pub use impact::*;
 pub use still_water::*;
 pub use table::*;
+pub use terrain_basin::*;
 
 /// A scratch run directory, removed on drop.
 pub struct TempRunDir(PathBuf);

@@ -5,10 +5,12 @@ mod motion;
 pub mod schema;
 pub mod slide;
 mod span;
+pub mod terrain;
 mod validate;
 
 pub use schema::*;
 pub use slide::{JointSetSpec, SlideCut, SlideMember, SlideSpec};
+pub use terrain::{CropSpec, NoData, TerrainFormat, TerrainSpec};
 pub use validate::FieldError;
 
 use std::path::Path;
@@ -73,7 +75,8 @@ impl Scene {
             path: path.display().to_string(),
             source,
         })?;
-        Scene::parse_checked(&text, &path.display().to_string(), checks)
+        let base = path.parent().unwrap_or(Path::new("."));
+        Scene::parse_in(&text, &path.display().to_string(), Some(base), checks)
     }
 
     /// The embedded default scene.
@@ -94,10 +97,25 @@ impl Scene {
         origin: &str,
         checks: &[&SceneCheck],
     ) -> Result<Scene, SceneError> {
+        Scene::parse_in(text, origin, None, checks)
+    }
+
+    /// [`Self::parse_checked`] of a scene file in directory `base`: the files it names
+    /// (`terrain[i].file`) are relative to it, and made absolute so that the scene as run
+    /// (the nodes' copy, the run directory's `scene.toml`) still finds them.
+    pub fn parse_in(
+        text: &str,
+        origin: &str,
+        base: Option<&Path>,
+        checks: &[&SceneCheck],
+    ) -> Result<Scene, SceneError> {
         let mut scene: Scene = toml::from_str(text).map_err(|e| SceneError::Syntax {
             origin: origin.into(),
             message: syntax_message(text, &e),
         })?;
+        if let Some(base) = base {
+            scene.terrain.iter_mut().for_each(|t| t.resolve(base));
+        }
         let mut errors = span::array_lengths(text);
         // Slides become blocks first, so that every check below sees the blocks that will run.
         errors.extend(slide::expand(&mut scene));

@@ -44,6 +44,9 @@ pub struct Scene {
         serialize_with = "super::slide::serialize_written_blocks"
     )]
     pub blocks: Vec<BlockSpec>,
+    /// `[[terrain]]` entries: fixed ground read from mesh or elevation-model files.
+    #[serde(default, rename = "terrain", skip_serializing_if = "Vec::is_empty")]
+    pub terrain: Vec<super::terrain::TerrainSpec>,
     /// `[[slide]]` entries: rock masses cut into free blocks by their joint sets
     /// ([`super::slide`]).
     #[serde(default, rename = "slide", skip_serializing_if = "Vec::is_empty")]

@@ -730,6 +730,13 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
         }
     }
 
+    let block_names: Vec<&str> = s.blocks.iter().map(|b| b.name.as_str()).collect();
+    c.errors.extend(super::terrain::validate(
+        &s.terrain,
+        &s.domain,
+        &block_names,
+    ));
+
     let mut gauge_names = std::collections::HashSet::new();
     for (i, g) in s.gauges.iter().enumerate() {
         c.key("gauge", |c| {

@@ -3,7 +3,8 @@
 //! of an undamped penalty bounce for both schemes, the explicit scheme pushed past its limit,
 //! a stack at rest, the embedded default scene's wedge, and a spinning block that must not
 //! grow; jointed slopes cut from a `[[slide]]` against limit equilibrium (planar and wedge
-//! failure, explicit solver); and the deformable (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints
+//! failure, explicit solver); the incline on a terrain mesh and a block on a terrain bump
+//! ([`terrain`]); and the deformable (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints
 //! them as a table; the tests run the same functions.
 //!
 //! Every case drives the solver through the [`SolidSolver`] interface, as the node runtime
@@ -34,6 +35,7 @@ mod incline;
 mod jointed;
 mod motion;
 mod scenes;
+mod terrain;
 
 pub use contact::*;
 pub use harness::*;
@@ -41,6 +43,7 @@ pub use incline::*;
 pub use jointed::*;
 pub use motion::*;
 pub use scenes::*;
+pub use terrain::*;
 
 /// All cases for both solvers (`quick` shortens the stack run to 3 s).
 pub fn run_all(quick: bool) -> Vec<Row> {
@@ -58,6 +61,8 @@ pub fn run_all(quick: bool) -> Vec<Row> {
         }
         rows.push(stack_row(solver, if quick { 3.0 } else { 10.0 }));
         rows.extend(default_wedge_rows(solver));
+        rows.extend(incline_on_terrain_rows(solver));
+        rows.extend(bump_rows(solver));
     }
     for &solver in &solvers {
         rows.extend(deformable::rows(solver));

@@ -1,0 +1,246 @@
+//! `[[terrain]]`: fixed ground read from a file (a surveyed triangle mesh or a DEM grid), the
+//! bathymetry and slopes of a real site. The file is read by [`crate::terrain::Terrain::load`];
+//! this module holds the table as written and the checks that need no file.
+
+use super::schema::DomainSpec;
+use super::validate::{FieldError, Seg};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// One `[[terrain]]` entry: a fixed, possibly non-convex, body read from a file.
+///
+/// The file's coordinates are carried into the scene by x_scene = R·(scale ∘ x_file) + offset,
+/// with R the rotation of `rotation` (degrees about x, then y, then z); `crop` then keeps the
+/// triangles whose centroid is inside the box. The ground is under the surface: a mesh's
+/// triangles are wound counter-clockwise seen from outside (the water side), a DEM's rows run
+/// from north (top line of the file) to south.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TerrainSpec {
+    /// Name used in outputs and messages.
+    #[serde(default = "default_name")]
+    pub name: String,
+    /// The file, relative to the scene file (absolute once the scene is loaded from a file):
+    /// `.stl` (binary or ASCII), `.obj`, `.ply` triangle meshes, or `.asc` (ESRI ASCII grid)
+    /// elevation model.
+    pub file: PathBuf,
+    /// Added after scaling and rotating [m].
+    #[serde(default)]
+    pub offset: [f64; 3],
+    /// Factor per axis applied to the file's coordinates first (e.g. a vertical exaggeration,
+    /// or 0.001 for a mesh in millimetres). Positive.
+    #[serde(default = "unit_scale")]
+    pub scale: [f64; 3],
+    /// Rotation [deg] about x, then y, then z (fixed axes), after scaling.
+    #[serde(default)]
+    pub rotation: [f64; 3],
+    /// Keep only the triangles whose centroid lies in this box (scene coordinates, after the
+    /// transform).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crop: Option<CropSpec>,
+    /// What to do with a DEM's no-data (or NaN) cells: `refuse` (default: the load fails and
+    /// names the cells) or `fill` (each takes the mean of its valid neighbours, repeated
+    /// inwards until none is left).
+    #[serde(default)]
+    pub nodata: NoData,
+    /// Reverse every triangle's winding: for a mesh exported with its normals pointing into
+    /// the ground (the load says so when it finds them).
+    #[serde(default)]
+    pub flip_normals: bool,
+    /// Joint friction angle of block contacts on this terrain [deg]; default
+    /// `[solid.contact].friction_angle` (a pair uses the smaller of the two).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction_angle: Option<f64>,
+    /// Joint cohesion of block contacts on this terrain [Pa]; default `[solid.contact]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cohesion: Option<f64>,
+}
+
+fn default_name() -> String {
+    "terrain".into()
+}
+
+fn unit_scale() -> [f64; 3] {
+    [1.0; 3]
+}
+
+/// `crop = { min = [...], max = [...] }`.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CropSpec {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+/// `nodata`: how a DEM's missing cells are treated.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum NoData {
+    /// The load fails and names the first missing cell and how many there are.
+    #[default]
+    Refuse,
+    /// Missing cells are filled from their neighbours (mean of the valid 4-neighbours,
+    /// repeated until every cell has a value).
+    Fill,
+}
+
+/// The file formats a terrain may be read from, by file extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TerrainFormat {
+    Stl,
+    Obj,
+    Ply,
+    /// ESRI ASCII grid (`.asc`): a digital elevation model.
+    EsriAscii,
+}
+
+impl TerrainFormat {
+    /// The format of `path`, from its extension (case-insensitive).
+    pub fn of(path: &Path) -> Option<TerrainFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "stl" => Some(TerrainFormat::Stl),
+            "obj" => Some(TerrainFormat::Obj),
+            "ply" => Some(TerrainFormat::Ply),
+            "asc" => Some(TerrainFormat::EsriAscii),
+            _ => None,
+        }
+    }
+}
+
+impl TerrainSpec {
+    /// Makes a relative `file` relative to `base` (the scene file's directory), absolute.
+    pub fn resolve(&mut self, base: &Path) {
+        if self.file.is_relative() {
+            let joined = base.join(&self.file);
+            self.file = std::path::absolute(&joined).unwrap_or(joined);
+        }
+    }
+}
+
+/// An error at `terrain[index].field`.
+pub(crate) fn field_error(
+    index: usize,
+    field: &str,
+    value: String,
+    problem: &str,
+    fix: &str,
+) -> FieldError {
+    let mut segments = vec![Seg::Key("terrain".into()), Seg::Index(index)];
+    if !field.is_empty() {
+        segments.push(Seg::Key(field.into()));
+    }
+    FieldError {
+        path: super::span::render_path(&segments),
+        segments,
+        value,
+        problem: problem.into(),
+        fix: fix.into(),
+        line: None,
+    }
+}
+
+/// The checks of the `[[terrain]]` tables that need no file.
+/// `blocks` are the scene's block names: a terrain is a block to the solid node (its
+/// contacts, its messages), so the names must differ.
+pub(super) fn validate(
+    terrains: &[TerrainSpec],
+    domain: &DomainSpec,
+    blocks: &[&str],
+) -> Vec<FieldError> {
+    let mut out = Vec::new();
+    let mut fail = |i: usize, field: &str, value: String, problem: &str, fix: &str| {
+        out.push(field_error(i, field, value, problem, fix))
+    };
+    for (i, t) in terrains.iter().enumerate() {
+        if blocks.contains(&t.name.as_str()) || terrains[..i].iter().any(|o| o.name == t.name) {
+            fail(
+                i,
+                "name",
+                format!("{:?}", t.name),
+                "is used by a block or an earlier terrain",
+                "give every terrain a name of its own, e.g. name = \"valley\"",
+            );
+        }
+        if t.name.trim().is_empty()
+            || t.name
+                .chars()
+                .any(|c| matches!(c, ',' | '"' | '\'' | ';') || c.is_control())
+        {
+            fail(
+                i,
+                "name",
+                format!("{:?}", t.name),
+                "must be a short name without separators or quotes",
+                "use letters, digits, '_', '-' or '.', e.g. name = \"fjord\"",
+            );
+        }
+        if TerrainFormat::of(&t.file).is_none() {
+            fail(
+                i,
+                "file",
+                format!("{:?}", t.file.display().to_string()),
+                "has no known terrain extension",
+                "give a .stl, .obj or .ply triangle mesh or an .asc (ESRI ASCII grid) elevation model",
+            );
+        }
+        for (field, v) in [("offset", t.offset), ("rotation", t.rotation)] {
+            if v.iter().any(|x| !x.is_finite()) {
+                fail(
+                    i,
+                    field,
+                    format!("{v:?}"),
+                    "must be finite",
+                    "give three finite numbers",
+                );
+            }
+        }
+        if t.scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            fail(
+                i,
+                "scale",
+                format!("{:?}", t.scale),
+                "must be three positive finite factors",
+                "give e.g. scale = [1.0, 1.0, 1.0]; mirror a mesh in its own tool, not here",
+            );
+        }
+        if let Some(c) = &t.crop {
+            if (0..3).any(|k| {
+                c.max[k].partial_cmp(&c.min[k]) != Some(std::cmp::Ordering::Greater)
+                    || !c.min[k].is_finite()
+            }) {
+                fail(
+                    i,
+                    "crop",
+                    format!("{c:?}"),
+                    "is empty or not finite (max must be above min on every axis)",
+                    "give crop = { min = [x, y, z], max = [x, y, z] } with max > min",
+                );
+            } else if (0..3).any(|k| c.max[k] < domain.min[k] || c.min[k] > domain.max[k]) {
+                fail(
+                    i,
+                    "crop",
+                    format!("{c:?}"),
+                    "lies wholly outside [domain]: no triangle could be kept",
+                    "give a crop box that overlaps [domain]",
+                );
+            }
+        }
+        for (field, v, fix) in [
+            (
+                "friction_angle",
+                t.friction_angle,
+                "give an angle in degrees in [0, 90), e.g. 30",
+            ),
+            ("cohesion", t.cohesion, "give a cohesion ≥ 0 in Pa"),
+        ] {
+            if let Some(v) = v {
+                let ok = v.is_finite() && v >= 0.0 && (field != "friction_angle" || v < 90.0);
+                if !ok {
+                    fail(i, field, format!("{v}"), "is out of range", fix);
+                }
+            }
+        }
+    }
+    out
+}

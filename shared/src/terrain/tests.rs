@@ -1,0 +1,282 @@
+use super::*;
+use crate::scene::CropSpec;
+use std::path::Path;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rockwave-terrain-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn spec(file: &Path) -> TerrainSpec {
+    toml::from_str(&format!("file = {:?}", file.display().to_string())).unwrap()
+}
+
+fn domain(min: [f64; 3], max: [f64; 3]) -> DomainSpec {
+    DomainSpec { min, max }
+}
+
+/// The eight corners and twelve outward triangles of the box [lo, hi].
+fn box_mesh(lo: [f64; 3], hi: [f64; 3]) -> RawMesh {
+    let mut vertices = Vec::new();
+    for k in 0..8 {
+        vertices.push([
+            if k & 1 == 0 { lo[0] } else { hi[0] },
+            if k & 2 == 0 { lo[1] } else { hi[1] },
+            if k & 4 == 0 { lo[2] } else { hi[2] },
+        ]);
+    }
+    let quads = [
+        [0, 2, 3, 1], // z = lo, normal −z
+        [4, 5, 7, 6], // z = hi, +z
+        [0, 1, 5, 4], // y = lo, −y
+        [2, 6, 7, 3], // y = hi, +y
+        [0, 4, 6, 2], // x = lo, −x
+        [1, 3, 7, 5], // x = hi, +x
+    ];
+    let triangles = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    RawMesh {
+        vertices,
+        triangles,
+    }
+}
+
+fn write_stl(path: &Path, m: &RawMesh, ascii: bool) {
+    if ascii {
+        let mut s = String::from("solid t\n");
+        for t in &m.triangles {
+            s += " facet normal 0 0 0\n  outer loop\n";
+            for &i in t {
+                let v = m.vertices[i as usize];
+                s += &format!("   vertex {} {} {}\n", v[0], v[1], v[2]);
+            }
+            s += "  endloop\n endfacet\n";
+        }
+        s += "endsolid t\n";
+        std::fs::write(path, s).unwrap();
+    } else {
+        let tris: Vec<stl_io::Triangle> = m
+            .triangles
+            .iter()
+            .map(|t| stl_io::Triangle {
+                normal: stl_io::Vector::new([0.0; 3]),
+                vertices: t.map(|i| {
+                    let v = m.vertices[i as usize];
+                    stl_io::Vector::new([v[0] as f32, v[1] as f32, v[2] as f32])
+                }),
+            })
+            .collect();
+        let mut f = std::fs::File::create(path).unwrap();
+        stl_io::write_stl(&mut f, tris.iter()).unwrap();
+    }
+}
+
+fn write_obj(path: &Path, m: &RawMesh) {
+    let mut s = String::new();
+    for v in &m.vertices {
+        s += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+    }
+    for t in &m.triangles {
+        s += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+fn write_ply(path: &Path, m: &RawMesh) {
+    let mut s = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        m.vertices.len(),
+        m.triangles.len()
+    );
+    for v in &m.vertices {
+        s += &format!("{} {} {}\n", v[0], v[1], v[2]);
+    }
+    for t in &m.triangles {
+        s += &format!("3 {} {} {}\n", t[0], t[1], t[2]);
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+/// A closed box read from every mesh format: 12 triangles, closed, the same signed distances.
+#[test]
+fn a_closed_box_reads_the_same_from_every_mesh_format() {
+    let d = dir("formats");
+    let m = box_mesh([0.2, 0.2, 0.0], [0.8, 0.6, 0.5]);
+    let files = [
+        ("box_ascii.stl", 0),
+        ("box_binary.stl", 1),
+        ("box.obj", 2),
+        ("box.ply", 3),
+    ];
+    let dom = domain([0.0; 3], [1.0; 3]);
+    for (name, kind) in files {
+        let p = d.join(name);
+        match kind {
+            0 => write_stl(&p, &m, true),
+            1 => write_stl(&p, &m, false),
+            2 => write_obj(&p, &m),
+            _ => write_ply(&p, &m),
+        }
+        let t = Terrain::load(&spec(&p), &dom).unwrap_or_else(|e| panic!("{name}: {e:?}"));
+        assert_eq!(t.triangles(), 12, "{name}");
+        assert!(t.closed, "{name}");
+        let inside = t.nearest(&Point::new(0.5, 0.4, 0.45), Real::MAX).unwrap();
+        assert!((inside.distance + 0.05).abs() < 1e-6, "{name}: {inside:?}");
+        assert!((inside.normal - Vector::z()).norm() < 1e-6, "{name}");
+        // Off a corner: the distance to the corner, pointing away from it.
+        let out = t.nearest(&Point::new(0.9, 0.7, 0.6), Real::MAX).unwrap();
+        assert!(
+            (out.distance - 0.03f64.sqrt()).abs() < 1e-6,
+            "{name}: {out:?}"
+        );
+        assert!(t.contains(&Point::new(0.3, 0.3, 0.1)) && !t.contains(&Point::new(0.1, 0.1, 0.1)));
+        assert!(t.summary().contains("12 triangles"));
+    }
+}
+
+#[test]
+fn inward_normals_are_named_and_flip_normals_fixes_them() {
+    let d = dir("flipped");
+    let mut m = box_mesh([0.2, 0.2, 0.0], [0.8, 0.6, 0.5]);
+    m.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+    let p = d.join("inward.obj");
+    write_obj(&p, &m);
+    let dom = domain([0.0; 3], [1.0; 3]);
+    let e = Terrain::load(&spec(&p), &dom).unwrap_err();
+    assert_eq!(e.field, "flip_normals");
+    assert!(
+        e.problem.contains("into the ground") && e.fix.contains("flip_normals = true"),
+        "{e:?}"
+    );
+    let mut s = spec(&p);
+    s.flip_normals = true;
+    assert!(Terrain::load(&s, &dom).unwrap().closed);
+    // One face turned over: not consistent, named by its triangles.
+    let mut m = box_mesh([0.2, 0.2, 0.0], [0.8, 0.6, 0.5]);
+    m.triangles[3].swap(1, 2);
+    write_obj(&p, &m);
+    let e = Terrain::load(&spec(&p), &dom).unwrap_err();
+    assert!(e.problem.contains("wound opposite ways"), "{e:?}");
+}
+
+/// A DEM of a sloped bed: the surface is where the grid says, open, ground under it.
+#[test]
+fn a_dem_slope_is_an_open_surface_with_ground_under_it() {
+    let d = dir("dem");
+    let g = dem::Grid::from_fn(11, 6, 0.0, 0.0, 0.1, |x, _| 0.1 + 0.2 * x);
+    let p = d.join("slope.asc");
+    std::fs::write(&p, g.to_asc()).unwrap();
+    let dom = domain([0.0, 0.0, -0.5], [1.0, 0.5, 1.0]);
+    let t = Terrain::load(&spec(&p), &dom).unwrap();
+    assert_eq!(t.triangles(), 2 * 10 * 5);
+    assert!(!t.closed);
+    assert!((t.top_at(0.55, 0.25).unwrap() - 0.21).abs() < 1e-12);
+    // 0.1 m straight above the slope z = 0.1 + 0.2x: the distance is 0.1·cos θ.
+    let cos = 1.0 / (1.0f64 + 0.04).sqrt();
+    let s = t.nearest(&Point::new(0.5, 0.25, 0.3), Real::MAX).unwrap();
+    assert!((s.distance - 0.1 * cos).abs() < 1e-12, "{s:?}");
+    let s = t.nearest(&Point::new(0.5, 0.25, 0.1), Real::MAX).unwrap();
+    assert!((s.distance + 0.1 * cos).abs() < 1e-12, "{s:?}");
+    // Transformed: offset and vertical exaggeration.
+    let mut sp = spec(&p);
+    sp.offset = [0.0, 0.0, -0.1];
+    sp.scale = [1.0, 1.0, 2.0];
+    let t = Terrain::load(&sp, &dom).unwrap();
+    assert!((t.top_at(0.55, 0.25).unwrap() - (2.0 * 0.21 - 0.1)).abs() < 1e-12);
+    // Cropped to the west half: its rim is now inside the domain.
+    sp.crop = Some(CropSpec {
+        min: [0.0, 0.0, -1.0],
+        max: [0.5, 0.5, 1.0],
+    });
+    let e = Terrain::load(&sp, &dom).unwrap_err();
+    assert!(
+        e.problem.contains("not closed") && e.problem.contains("under the ground"),
+        "{e:?}"
+    );
+    // A domain as small as the crop takes it.
+    let small = domain([0.0, 0.0, -0.5], [0.5, 0.5, 1.0]);
+    let t = Terrain::load(&sp, &small).unwrap();
+    assert_eq!(t.triangles(), 2 * 5 * 5);
+}
+
+#[test]
+fn dem_holes_are_refused_or_filled_as_asked() {
+    let d = dir("holes");
+    let mut g = dem::Grid::from_fn(5, 5, 0.05, 0.05, 0.1, |_, _| 0.2);
+    g.z[12] = None;
+    let p = d.join("holes.asc");
+    std::fs::write(&p, g.to_asc()).unwrap();
+    let dom = domain([0.0, 0.0, 0.0], [0.5, 0.5, 1.0]);
+    let e = Terrain::load(&spec(&p), &dom).unwrap_err();
+    assert_eq!(e.field, "nodata");
+    assert!(
+        e.problem.contains("refused") && e.fix.contains("nodata = \"fill\""),
+        "{e:?}"
+    );
+    let mut s = spec(&p);
+    s.nodata = NoData::Fill;
+    let t = Terrain::load(&s, &dom).unwrap();
+    assert_eq!(t.filled_cells, 1);
+    assert!((t.top_at(0.25, 0.25).unwrap() - 0.2).abs() < 1e-12);
+    assert!(t.summary().contains("1 no-data cells filled"));
+}
+
+#[test]
+fn a_terrain_outside_the_domain_is_refused() {
+    let d = dir("outside");
+    let p = d.join("far.obj");
+    write_obj(&p, &box_mesh([100.0, 0.0, 0.0], [101.0, 1.0, 1.0]));
+    let e = Terrain::load(&spec(&p), &domain([0.0; 3], [1.0; 3])).unwrap_err();
+    assert_eq!(e.field, "offset");
+    assert!(
+        e.problem.contains("outside [domain]") && e.fix.contains("units"),
+        "{e:?}"
+    );
+    let missing =
+        Terrain::load(&spec(&d.join("none.stl")), &domain([0.0; 3], [1.0; 3])).unwrap_err();
+    assert_eq!(missing.field, "file");
+    assert!(missing.problem.contains("cannot open"), "{missing:?}");
+}
+
+/// A scene file names its terrain relative to itself; the scene as run holds the absolute path,
+/// and the coupler's check reports problems as scene fields.
+#[test]
+fn scene_paths_are_relative_to_the_scene_file() {
+    let d = dir("scene");
+    std::fs::create_dir_all(d.join("site")).unwrap();
+    write_obj(
+        &d.join("site/box.obj"),
+        &box_mesh([0.2, 0.2, 0.0], [0.8, 0.6, 0.5]),
+    );
+    let text = "name = \"t\"\n[time]\nend = 0.1\n[domain]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n\
+                [[terrain]]\nfile = \"site/box.obj\"\nrotation = [0, 0, 0]\n";
+    std::fs::write(d.join("scene.toml"), text).unwrap();
+    let scene = Scene::load(&d.join("scene.toml")).unwrap();
+    assert!(scene.terrain[0].file.is_absolute());
+    assert!(check_scene(&scene).is_empty());
+    let again = Scene::parse(&toml::to_string(&scene).unwrap(), "as run").unwrap();
+    assert_eq!(again.terrain, scene.terrain);
+    let mut bad = scene.clone();
+    bad.terrain[0].offset = [50.0, 0.0, 0.0];
+    let errs = check_scene(&bad);
+    assert_eq!(errs.len(), 1);
+    assert_eq!(errs[0].path, "terrain[0].offset");
+    // Schema checks need no file; a terrain's name is not a block's.
+    let clash = format!(
+        "{text}[[block]]\nname = \"terrain\"\nkind = \"fixed\"\nshape = {{ type = \"box\", min = [0, 0, 0], max = [1, 1, 0.1] }}\n"
+    );
+    let e = Scene::parse(&clash, "t").unwrap_err();
+    assert!(e.to_string().contains("terrain[0].name"), "{e}");
+    let e = Scene::parse(&text.replace("site/box.obj", "site/box.dxf"), "t").unwrap_err();
+    assert!(e.to_string().contains("terrain[0].file"), "{e}");
+    let e = Scene::parse(
+        &text.replace("rotation = [0, 0, 0]", "scale = [1, 0, 1]"),
+        "t",
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("terrain[0].scale"), "{e}");
+}

@@ -1,0 +1,256 @@
+//! Contacts of convex blocks with the fixed terrain (`[[terrain]]`, [`shared::terrain`]): a
+//! non-convex triangle mesh, possibly of millions of triangles, as one fixed body.
+//!
+//! The terrain enters the block system as one fixed [`Block`] whose shape is its bounding box:
+//! the broad phase pairs it with the free blocks over it like any fixed block, and everything
+//! downstream of the narrow phase (springs, Mohr–Coulomb, both integrators, the stability
+//! bound) sees ordinary contacts whose face owner is a fixed block. Only the narrow phase
+//! differs (here), with DDA's feature pairs kept so the shear history follows them:
+//!
+//! - a block vertex against the terrain (`VertexOfA`, the block is `a`): the nearest surface
+//!   point by parry's BVH projection (O(log n) in the triangle count), its outward normal and
+//!   signed distance from the pseudo-normals (exact at the mesh's edges and corners);
+//! - a terrain vertex against a block face (`VertexOfB`): the terrain vertices of the triangles
+//!   under the block's box, tested against the block's face planes. Only vertices where the
+//!   surface bends away (peaks and ridges, [`TerrainBody::peaks`], found in a BVH of their
+//!   own) are used: a vertex
+//!   of a flat or hollow patch is never the feature that touches, and counting it would add a
+//!   spring each time a block slid over one.
+//!
+//! Edge–edge contacts (a block edge across a terrain ridge with no vertex in either) are not
+//! detected.
+
+use crate::block::Block;
+use crate::contact::{self, Contact, ContactKey, Feature};
+use crate::friction::Joint;
+use crate::narrow_phase::NarrowParams;
+use parry3d_f64::bounding_volume::Aabb;
+use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
+use shared::math::{Point, Real, Vector};
+use shared::scene::{BlockKind, BlockSpec, ShapeSpec};
+use shared::solver::SolverError;
+use shared::terrain::Terrain;
+
+/// Faces of a block within this angle of the contact normal share their area with a vertex
+/// contact (cohesion acts on face–face contacts): cos 10°, as between blocks.
+const FACE_ALIGNMENT: Real = 0.984_807_753;
+
+/// A neighbour this far below a vertex's tangent plane (sine of the angle) makes it a peak.
+const PEAK_SINE: Real = 1e-3;
+
+/// A terrain with what its contacts need beyond the mesh.
+pub struct TerrainBody {
+    pub terrain: Terrain,
+    /// The mesh vertices where some neighbour lies below the tangent plane (the surface bends
+    /// away from a body resting on it there), ascending.
+    pub peaks: Vec<u32>,
+    /// A BVH over the peaks (leaf k is `peaks[k]`): the peaks under a block are found in
+    /// O(log n + found), however many flat or hollow vertices the terrain has.
+    peak_bvh: Bvh,
+}
+
+impl TerrainBody {
+    pub fn new(terrain: Terrain) -> Self {
+        let mesh = &terrain.mesh;
+        let v = mesh.vertices();
+        let normals: Vec<Vector> = match mesh.pseudo_normals() {
+            Some(p) => p
+                .vertices_pseudo_normal
+                .iter()
+                .map(|n| n.try_normalize(1e-300).unwrap_or_else(Vector::z))
+                .collect(),
+            None => vec![Vector::z(); v.len()],
+        };
+        let mut peak = vec![false; v.len()];
+        for t in mesh.indices() {
+            for k in 0..3 {
+                let (w, u) = (t[k] as usize, t[(k + 1) % 3] as usize);
+                let e = v[u] - v[w];
+                if e.dot(&normals[w]) < -PEAK_SINE * e.norm() {
+                    peak[w] = true;
+                }
+                if (-e).dot(&normals[u]) < -PEAK_SINE * e.norm() {
+                    peak[u] = true;
+                }
+            }
+        }
+        let peaks: Vec<u32> = (0..v.len() as u32).filter(|&w| peak[w as usize]).collect();
+        let leaves: Vec<Aabb> = peaks
+            .iter()
+            .map(|&w| Aabb::new(v[w as usize], v[w as usize]))
+            .collect();
+        let peak_bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+        Self {
+            terrain,
+            peaks,
+            peak_bvh,
+        }
+    }
+
+    /// The fixed block standing for the terrain in the block list: its bounding box (a flat
+    /// terrain gets a thickness of 10⁻³ of its size), the terrain's friction and cohesion.
+    pub fn block(&self, scene_index: usize) -> Result<Block, SolverError> {
+        let (lo, hi) = self.terrain.bounds();
+        let size = (hi - lo).norm().max(1e-6);
+        let mut min = [lo.x, lo.y, lo.z];
+        let mut max = [hi.x, hi.y, hi.z];
+        for k in 0..3 {
+            if max[k] - min[k] < 1e-3 * size {
+                min[k] -= 0.5e-3 * size;
+                max[k] += 0.5e-3 * size;
+            }
+        }
+        let spec = BlockSpec {
+            name: self.terrain.name.clone(),
+            kind: BlockKind::Fixed,
+            shape: ShapeSpec::Box { min, max },
+            density: 2500.0,
+            velocity: [0.0; 3],
+            angular_velocity: [0.0; 3],
+            motion: None,
+            friction_angle: self.terrain.friction_angle,
+            cohesion: self.terrain.cohesion,
+            elastic: None,
+            slide: None,
+        };
+        Block::from_spec(scene_index, &spec)
+    }
+}
+
+/// The contacts of block `a` (index, block) with terrain block `b`, in key order, inheriting
+/// from `old` (the previous step's contacts of the pair, sorted by key).
+#[allow(clippy::too_many_arguments)]
+pub fn collide(
+    a: u32,
+    ba: &Block,
+    b: u32,
+    body: &TerrainBody,
+    joint: Joint,
+    params: NarrowParams,
+    old: &[Contact],
+    out: &mut Vec<Contact>,
+) {
+    let m = params.margin;
+    let t = &body.terrain;
+    // Block vertices: how far a vertex may be sunk and still be found (a quarter of the
+    // block: deeper is a block through the ground, which the springs could not push back
+    // anyway). The BVH box test skips the vertices clear of the ground at once.
+    let reach = (0.25 * ba.size()).max(m);
+    for (vi, v) in ba.world_vertices.iter().enumerate() {
+        if !t.may_be_within(v, reach) {
+            continue;
+        }
+        let Some(s) = t.nearest(v, reach) else {
+            continue;
+        };
+        if s.distance > m {
+            continue;
+        }
+        let key = ContactKey {
+            a,
+            b,
+            feature: Feature::VertexOfA,
+            i: vi as u32,
+            j: 0,
+        };
+        let mut area = 0.0;
+        for &pf in &ba.vertex_faces[vi] {
+            if -ba.world_normals[pf as usize].dot(&s.normal) >= FACE_ALIGNMENT {
+                area +=
+                    ba.face_area[pf as usize] / ba.shape.faces[pf as usize].vertices.len() as Real;
+            }
+        }
+        let mut c = Contact::new(key, a, b);
+        c.face = s.triangle;
+        c.point = *v;
+        c.normal = s.normal;
+        c.gap = s.distance;
+        c.area = area;
+        c.tan_phi = joint.tan_phi;
+        c.cohesion = joint.cohesion;
+        if let Some(o) = contact::find(old, &key) {
+            c.inherit(o);
+        }
+        out.push(c);
+    }
+    // Terrain peaks inside the block's faces (or within the margin of them).
+    let grow = Vector::repeat(m);
+    let lo = Point::from(ba.aabb_min.coords - grow);
+    let hi = Point::from(ba.aabb_max.coords + grow);
+    let aabb = Aabb::new(lo, hi);
+    let vertices = t.mesh.vertices();
+    // The peaks in the block's box, in ascending vertex order (the contacts' key order): a
+    // short sort of the few found, in a per-thread buffer (no allocation once warm).
+    PEAKS.with_borrow_mut(|found| {
+        found.clear();
+        found.extend(
+            body.peak_bvh
+                .intersect_aabb(&aabb)
+                .map(|k| body.peaks[k as usize]),
+        );
+        found.sort_unstable();
+        for &w in found.iter() {
+            peak_contact(
+                a,
+                ba,
+                b,
+                w,
+                vertices[w as usize],
+                &lo,
+                &hi,
+                joint,
+                m,
+                old,
+                out,
+            );
+        }
+    });
+}
+
+thread_local! {
+    static PEAKS: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Terrain peak `w` at `p` against the faces of block `a`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn peak_contact(
+    a: u32,
+    ba: &Block,
+    b: u32,
+    w: u32,
+    p: Point,
+    lo: &Point,
+    hi: &Point,
+    joint: Joint,
+    m: Real,
+    old: &[Contact],
+    out: &mut Vec<Contact>,
+) {
+    if (0..3).any(|k| p[k] < lo[k] || p[k] > hi[k]) {
+        return;
+    }
+    let (d, f) = ba.plane_distance(&p);
+    if d > m {
+        return;
+    }
+    let key = ContactKey {
+        a,
+        b,
+        feature: Feature::VertexOfB,
+        i: w,
+        j: 0,
+    };
+    // The terrain vertex is the vertex owner (p), the block the face owner (q).
+    let mut c = Contact::new(key, b, a);
+    c.face = f as u32;
+    c.point = p;
+    c.normal = ba.world_normals[f];
+    c.gap = d;
+    c.tan_phi = joint.tan_phi;
+    c.cohesion = joint.cohesion;
+    if let Some(o) = contact::find(old, &key) {
+        c.inherit(o);
+    }
+    out.push(c);
+}

@@ -1,0 +1,200 @@
+//! Blocks on a terrain read from a file (`[[terrain]]`): the incline cases with the slope given
+//! as a triangle mesh (a DEM plane turned by α) instead of a slab block, against the same
+//! Mohr–Coulomb reference and tolerances; and a block set down on a small terrain bump, which
+//! must tip onto it and stay.
+
+use super::*;
+use shared::terrain::dem::Grid;
+
+/// A scratch folder for the terrain files of a case (removed on drop).
+struct Files(PathBuf);
+
+impl Files {
+    fn new(tag: &str) -> Files {
+        static N: AtomicUsize = AtomicUsize::new(0);
+        let d = std::env::temp_dir().join(format!(
+            "rockwave-solid-terrain-{}-{tag}-{}",
+            std::process::id(),
+            N.fetch_add(1, Ordering::Relaxed)
+        ));
+        std::fs::create_dir_all(&d).expect("temporary folder");
+        Files(d)
+    }
+}
+
+impl Drop for Files {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// The `[[terrain]]` table of `file` with extra lines.
+fn terrain_toml(file: &std::path::Path, extra: &str) -> String {
+    format!(
+        "[[terrain]]\nname = \"ground\"\nfile = {:?}\n{extra}\n",
+        file.display().to_string()
+    )
+}
+
+/// The incline scene with the slope a terrain: a flat DEM (spacing `cell`, reaching past the
+/// ±10 m domain so its rim is at the domain's sides) turned by α about y, as the slab is.
+pub fn incline_on_terrain_scene(inc: &Incline, cell: Real, dir: &std::path::Path) -> Scene {
+    let n = (24.0 / cell).round() as usize + 1;
+    let file = dir.join("plane.asc");
+    std::fs::write(
+        &file,
+        Grid::from_fn(n, n, -12.0, -12.0, cell, |_, _| 0.0).to_asc(),
+    )
+    .expect("write the DEM");
+    let block = rotate_y(
+        &box_corners([0.0, -0.2, 0.0], [inc.b, 0.2, inc.h]),
+        inc.alpha.to_radians(),
+    );
+    scene(
+        "incline_terrain",
+        [0.0, 0.0, -G],
+        10.0,
+        "",
+        &format!(
+            "friction_angle = {}\ncohesion = {}\ndamping_ratio = {INCLINE_DAMPING}",
+            inc.phi, inc.cohesion
+        ),
+        &[
+            terrain_toml(&file, &format!("rotation = [0.0, {}, 0.0]", inc.alpha)),
+            block_toml("rock", "free", 2500.0, &block, ""),
+        ],
+    )
+}
+
+/// The sliding and sticking incline cases on a terrain mesh of 0.5 m triangles (2 × 48² of
+/// them): d(1 s) against ½[g(sin α − cos α tan φ) − cA/m]t², the tolerances of [`incline_rows`].
+pub fn incline_on_terrain_rows(solver: &str) -> Vec<Row> {
+    let cases = [
+        (
+            "incline on a terrain mesh α=20° φ=30°: sticks",
+            Incline {
+                alpha: 20.0,
+                phi: 30.0,
+                cohesion: 0.0,
+                b: 0.4,
+                h: 0.2,
+            },
+        ),
+        (
+            "incline on a terrain mesh α=30° φ=20°: slides",
+            Incline {
+                alpha: 30.0,
+                phi: 20.0,
+                cohesion: 0.0,
+                b: 0.4,
+                h: 0.2,
+            },
+        ),
+    ];
+    cases
+        .iter()
+        .map(|(case, inc)| {
+            let files = Files::new("incline");
+            let scene = incline_on_terrain_scene(inc, 0.5, &files.0);
+            let run = || -> Result<Real, SolverError> {
+                let mut h = Harness::new(&scene, solver)?;
+                let start = h.block("rock").position;
+                h.run_until(1.0, None, |_| {})?;
+                Ok((h.block("rock").position - start).dot(&inc.downhill()))
+            };
+            match run() {
+                Err(e) => Row::failed(case, solver, "d(1 s) [m]", &e),
+                Ok(d) => {
+                    let reference = inc.reference_distance(1.0);
+                    let tol = if reference > 0.0 {
+                        Tolerance::Relative(0.005)
+                    } else {
+                        Tolerance::Absolute(1e-3)
+                    };
+                    Row::numeric(case, solver, "d(1 s) [m]", reference, d, tol)
+                }
+            }
+        })
+        .collect()
+}
+
+/// Height of the bump [m] and its offset from the block's centre along x [m].
+const BUMP: Real = 0.01;
+const BUMP_OFFSET: Real = 0.05;
+
+/// A 0.4 × 0.4 × 0.2 m block set down flat on a DEM whose only relief is one raised vertex
+/// (a bump of [`BUMP`] m, [`BUMP_OFFSET`] m off the block's centre along +x). Its weight is
+/// on the −x side of the bump, so it tips onto its −x edge and rests there on the bump, tilted
+/// by atan(BUMP / (0.2 + BUMP_OFFSET)); it must come to rest there, not slide off or sink
+/// through the bump. Returns the tilt [rad], the horizontal drift [m] and the final speed.
+pub fn block_on_bump(solver: &str, duration: Real) -> Result<(Real, Real, Real), SolverError> {
+    let files = Files::new("bump");
+    let file = files.0.join("bump.asc");
+    let cell: Real = 0.05;
+    let n = (4.0 / cell).round() as usize + 1;
+    let grid = Grid::from_fn(n, n, -2.0, -2.0, cell, |x, y| {
+        if (x - BUMP_OFFSET).abs() < 1e-9 && y.abs() < 1e-9 {
+            BUMP
+        } else {
+            0.0
+        }
+    });
+    assert!(grid.z.contains(&Some(BUMP)), "the bump is on the grid");
+    std::fs::write(&file, grid.to_asc()).expect("write the DEM");
+    let block = box_corners([-0.2, -0.2, BUMP], [0.2, 0.2, BUMP + 0.2]);
+    let scene = scene(
+        "terrain_bump",
+        [0.0, 0.0, -G],
+        2.0,
+        "",
+        "friction_angle = 35\ndamping_ratio = 0.2",
+        &[
+            terrain_toml(&file, ""),
+            block_toml("rock", "free", 2500.0, &block, ""),
+        ],
+    );
+    let mut h = Harness::new(&scene, solver)?;
+    let start = h.block("rock").position;
+    h.run_until(duration, None, |_| {})?;
+    let b = h.block("rock");
+    let drift = (b.position - start).xy().norm();
+    Ok((b.rotation.angle(), drift, b.velocity.norm()))
+}
+
+/// The bump case as rows: the tilt against θ = atan(BUMP / (0.2 + BUMP_OFFSET)) (5 %); the
+/// horizontal drift of the centroid against that of the block turned by θ about its −x bottom
+/// edge, 0.2(1 − cos θ) + 0.1 sin θ (2 mm: it tips in place, it does not slide off); the block
+/// at rest (under 1 mm/s) after 1.5 s.
+pub fn bump_rows(solver: &str) -> Vec<Row> {
+    let case = "block tipped onto a terrain bump stays";
+    let theta = (BUMP / (0.2 + BUMP_OFFSET)).atan();
+    match block_on_bump(solver, 1.5) {
+        Err(e) => vec![Row::failed(case, solver, "tilt [rad]", &e)],
+        Ok((tilt, drift, speed)) => vec![
+            Row::numeric(
+                case,
+                solver,
+                "tilt [rad]",
+                theta,
+                tilt,
+                Tolerance::Relative(0.05),
+            ),
+            Row::numeric(
+                case,
+                solver,
+                "horizontal drift [m]",
+                0.2 * (1.0 - theta.cos()) + 0.1 * theta.sin(),
+                drift,
+                Tolerance::Absolute(2e-3),
+            ),
+            Row::numeric(
+                case,
+                solver,
+                "speed at 1.5 s [m/s]",
+                0.0,
+                speed,
+                Tolerance::Absolute(1e-3),
+            ),
+        ],
+    }
+}

@@ -1,0 +1,29 @@
+//! Blocks on a `[[terrain]]` read from a file: the incline's Mohr–Coulomb reference with the
+//! slope a triangle mesh, and a block on a terrain bump that stays.
+
+use solid_node::verification::{self as v, Row};
+
+fn check(rows: &[Row]) {
+    eprintln!("{}", v::markdown(rows));
+    let unexpected: Vec<Row> = rows.iter().filter(|r| !r.as_expected()).cloned().collect();
+    assert!(
+        unexpected.is_empty(),
+        "cases not as documented:\n{}",
+        v::markdown(&unexpected)
+    );
+}
+
+#[test]
+fn incline_on_a_terrain_mesh_matches_mohr_coulomb() {
+    let rows: Vec<Row> = solid_node::REGISTRY
+        .names()
+        .into_iter()
+        .flat_map(v::incline_on_terrain_rows)
+        .collect();
+    check(&rows);
+}
+
+#[test]
+fn a_block_on_a_terrain_bump_tips_onto_it_and_stays() {
+    check(&v::bump_rows(v::EXPLICIT));
+}
