@@ -74,8 +74,22 @@ pub fn still_water(
     let particles = s.system().len();
     let steps = run(s.as_mut(), &scene, end, |_, _| {})?;
     drop(s);
-    let gauges = read_csv(&dir.path().join("gauges.csv"))?;
-    let probes = read_csv(&dir.path().join("probes.csv"))?;
+    hydrostatics(dir.path(), &scene, depth, end, particles, steps)
+}
+
+/// Reads a still-water run's files: the free surface at the first gauge and the pressure at
+/// the three probes (0.75, 0.5 and 0.25 of `depth` above z = 0), each averaged over the second
+/// half of the run, against ρ0 g (η − z).
+pub(crate) fn hydrostatics(
+    dir: &Path,
+    scene: &Scene,
+    depth: f64,
+    end: f64,
+    particles: usize,
+    steps: u64,
+) -> Result<StillWater, SolverError> {
+    let gauges = read_csv(&dir.join("gauges.csv"))?;
+    let probes = read_csv(&dir.join("probes.csv"))?;
     let late = |rows: &[Vec<f64>], col: usize| {
         let sel: Vec<f64> = rows
             .iter()

@@ -98,44 +98,9 @@ pub fn terrain_basin(
         crossed += usize::from(d < 0.0);
         deepest = deepest.max(-d);
     }
-    let gauges = super::still_water::read_csv(&dir.path().join("gauges.csv"))?;
-    let probes = super::still_water::read_csv(&dir.path().join("probes.csv"))?;
-    let late = |rows: &[Vec<f64>], col: usize| {
-        let sel: Vec<f64> = rows
-            .iter()
-            .filter(|r| r[0] >= 0.5 * end)
-            .map(|r| r[col])
-            .collect();
-        sel.iter().sum::<f64>() / sel.len().max(1) as f64
-    };
-    let surface = late(&gauges, 1);
-    let fluid = scene.fluid.as_ref().expect("fluid");
-    let rho_g = fluid.density * scene.gravity[2].abs();
-    let zs = [0.75 * depth, 0.5 * depth, 0.25 * depth];
-    let probes: Vec<(f64, f64, f64)> = zs
-        .iter()
-        .enumerate()
-        .map(|(k, &z)| {
-            (
-                (depth - z) / depth,
-                late(&probes, k + 1),
-                rho_g * (surface - z),
-            )
-        })
-        .collect();
-    let max_error = probes
-        .iter()
-        .map(|(_, p, r)| (p - r).abs() / (rho_g * depth))
-        .fold(0.0, f64::max);
+    let still = super::still_water::hydrostatics(dir.path(), &scene, depth, end, particles, steps)?;
     Ok(TerrainBasin {
-        still: StillWater {
-            probes,
-            max_error,
-            surface,
-            depth,
-            particles,
-            steps,
-        },
+        still,
         crossed,
         deepest,
         boundary,
