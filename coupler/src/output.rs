@@ -136,17 +136,12 @@ impl RunDir {
             .iter()
             .map(|t| t.mesh.indices().iter().map(|f| f.to_vec()).collect())
             .collect();
-        let refs: Vec<PolyhedronRef> = corners
-            .iter()
-            .zip(&faces)
-            .map(|(v, f)| (v.as_slice(), f.as_slice()))
-            .collect();
-        let ids: Vec<f64> = (0..terrain.len()).map(|i| i as f64).collect();
-        shared::vtk::write_polyhedra(
+        write_polyhedra(
             &self.path.join("terrain.vtp"),
-            &refs,
-            &[("terrain", &ids)],
-            scene.output.vtk_format,
+            &corners,
+            &faces,
+            "terrain",
+            scene,
         )
         .map_err(|e| format!("cannot write terrain.vtp: {e}"))
     }
@@ -171,17 +166,12 @@ impl RunDir {
             .iter()
             .map(|p| p.faces.iter().map(|f| f.vertices.clone()).collect())
             .collect();
-        let refs: Vec<PolyhedronRef> = corners
-            .iter()
-            .zip(&faces)
-            .map(|(v, f)| (v.as_slice(), f.as_slice()))
-            .collect();
-        let ids: Vec<f64> = (0..refs.len()).map(|i| i as f64).collect();
-        shared::vtk::write_polyhedra(
+        write_polyhedra(
             &self.path.join("blocks_00000.vtp"),
-            &refs,
-            &[("block", &ids)],
-            scene.output.vtk_format,
+            &corners,
+            &faces,
+            "block",
+            scene,
         )
     }
 
@@ -534,4 +524,22 @@ mod tests {
         assert!((s.crest.unwrap().amount - 0.05).abs() < 1e-12);
         assert!(s.trough.is_none());
     }
+}
+
+/// Writes polyhedra (corners and faces of each) to `path` as VTK, each cell tagged with its
+/// index under `field`, in the scene's VTK format.
+fn write_polyhedra(
+    path: &std::path::Path,
+    corners: &[Vec<[f64; 3]>],
+    faces: &[Vec<Vec<u32>>],
+    field: &str,
+    scene: &Scene,
+) -> io::Result<()> {
+    let refs: Vec<PolyhedronRef> = corners
+        .iter()
+        .zip(faces)
+        .map(|(v, f)| (v.as_slice(), f.as_slice()))
+        .collect();
+    let ids: Vec<f64> = (0..refs.len()).map(|i| i as f64).collect();
+    shared::vtk::write_polyhedra(path, &refs, &[(field, &ids)], scene.output.vtk_format)
 }

@@ -60,6 +60,22 @@ pub struct StillWater {
     pub steps: u64,
 }
 
+impl StillWater {
+    /// The probe farthest from hydrostatic: (depth over H, measured p, reference p).
+    pub fn worst_probe(&self) -> (f64, f64, f64) {
+        self.probes
+            .iter()
+            .copied()
+            .fold((0.0, 0.0, 0.0), |worst, x| {
+                if (x.1 - x.2).abs() > (worst.1 - worst.2).abs() {
+                    x
+                } else {
+                    worst
+                }
+            })
+    }
+}
+
 /// Runs still water and reads the probe and gauge CSV files the solver wrote.
 pub fn still_water(
     solver: &str,

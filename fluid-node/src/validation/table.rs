@@ -77,17 +77,7 @@ pub fn validate_solver(
                 "still water {still_label}: {} particles, {} steps, error {:.3}",
                 s.particles, s.steps, s.max_error
             ));
-            let (d, p, r) = s
-                .probes
-                .iter()
-                .copied()
-                .fold((0.0f64, 0.0f64, 0.0f64), |acc, x| {
-                    if (x.1 - x.2).abs() > (acc.1 - acc.2).abs() {
-                        x
-                    } else {
-                        acc
-                    }
-                });
+            let (d, p, r) = s.worst_probe();
             rows.push(Row {
                 case: format!(
                     "still water, H = {depth} m, dx = H/{}",

@@ -147,17 +147,7 @@ pub fn validate_terrain_basin(solver: &str, plan: &Plan, mut log: impl FnMut(&st
                 "terrain basin {solver}: {} particles, {} terrain/wall particles, {} steps, error {:.3}, deepest {:.2e} m",
                 s.particles, r.boundary, s.steps, s.max_error, r.deepest
             ));
-            let (d, p, q) = s
-                .probes
-                .iter()
-                .copied()
-                .fold((0.0f64, 0.0f64, 0.0f64), |acc, x| {
-                    if (x.1 - x.2).abs() > (acc.1 - acc.2).abs() {
-                        x
-                    } else {
-                        acc
-                    }
-                });
+            let (d, p, q) = s.worst_probe();
             let surf = (s.surface - s.depth) / dx;
             vec![
                 row(
