@@ -474,6 +474,24 @@ fn final_positions(path: &Path) -> BTreeMap<String, [f64; 3]> {
     out
 }
 
+/// Writes polyhedra (corners and faces of each) to `path` as VTK, each cell tagged with its
+/// index under `field`, in the scene's VTK format.
+fn write_polyhedra(
+    path: &std::path::Path,
+    corners: &[Vec<[f64; 3]>],
+    faces: &[Vec<Vec<u32>>],
+    field: &str,
+    scene: &Scene,
+) -> io::Result<()> {
+    let refs: Vec<PolyhedronRef> = corners
+        .iter()
+        .zip(faces)
+        .map(|(v, f)| (v.as_slice(), f.as_slice()))
+        .collect();
+    let ids: Vec<f64> = (0..refs.len()).map(|i| i as f64).collect();
+    shared::vtk::write_polyhedra(path, &refs, &[(field, &ids)], scene.output.vtk_format)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -524,22 +542,4 @@ mod tests {
         assert!((s.crest.unwrap().amount - 0.05).abs() < 1e-12);
         assert!(s.trough.is_none());
     }
-}
-
-/// Writes polyhedra (corners and faces of each) to `path` as VTK, each cell tagged with its
-/// index under `field`, in the scene's VTK format.
-fn write_polyhedra(
-    path: &std::path::Path,
-    corners: &[Vec<[f64; 3]>],
-    faces: &[Vec<Vec<u32>>],
-    field: &str,
-    scene: &Scene,
-) -> io::Result<()> {
-    let refs: Vec<PolyhedronRef> = corners
-        .iter()
-        .zip(faces)
-        .map(|(v, f)| (v.as_slice(), f.as_slice()))
-        .collect();
-    let ids: Vec<f64> = (0..refs.len()).map(|i| i as f64).collect();
-    shared::vtk::write_polyhedra(path, &refs, &[(field, &ids)], scene.output.vtk_format)
 }
