@@ -1,10 +1,57 @@
 //! The coupler's command line on bad input: clear errors, nothing written.
 
-use std::process::Command;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 fn coupler() -> Command {
     Command::new(env!("CARGO_BIN_EXE_coupler"))
 }
+
+/// `Command::output` with a deadline: a command that hangs fails its test (killed, named)
+/// instead of holding the whole test run until CI's time limit.
+trait OutputWithin {
+    fn output_within(&mut self, limit: Duration) -> Output;
+}
+
+impl OutputWithin for Command {
+    fn output_within(&mut self, limit: Duration) -> Output {
+        let mut child = self
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Drained while the command runs, so a chatty one never blocks on a full pipe.
+        let drain = |mut r: Box<dyn std::io::Read + Send>| {
+            std::thread::spawn(move || {
+                let mut v = Vec::new();
+                let _ = r.read_to_end(&mut v);
+                v
+            })
+        };
+        let out = drain(Box::new(child.stdout.take().unwrap()));
+        let err = drain(Box::new(child.stderr.take().unwrap()));
+        let start = Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break s;
+            }
+            if start.elapsed() > limit {
+                let _ = child.kill();
+                let _ = child.wait();
+                panic!("{self:?} did not end within {limit:?}; killed");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        Output {
+            status,
+            stdout: out.join().unwrap(),
+            stderr: err.join().unwrap(),
+        }
+    }
+}
+
+/// Long enough for any command here on a loaded machine; short beside CI's limit.
+const LIMIT: Duration = Duration::from_secs(120);
 
 fn temp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("rockwave-cli-{name}-{}", std::process::id()));
@@ -15,7 +62,7 @@ fn temp(name: &str) -> std::path::PathBuf {
 
 #[test]
 fn check_accepts_the_default_scene() {
-    let o = coupler().arg("check").output().unwrap();
+    let o = coupler().arg("check").output_within(LIMIT);
     assert!(o.status.success());
     assert!(String::from_utf8_lossy(&o.stdout).contains("sliding_wedge"));
 }
@@ -29,8 +76,7 @@ fn refused_run(scene: &std::path::Path, dir: &std::path::Path) -> String {
         .arg(scene)
         .arg("--out")
         .arg(&out)
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(!out.exists(), "{} was written", out.display());
@@ -51,7 +97,7 @@ fn every_repository_scene_passes_check() {
     }
     assert!(files.len() >= 5, "{files:?}");
     for f in files {
-        let o = coupler().arg("check").arg(&f).output().unwrap();
+        let o = coupler().arg("check").arg(&f).output_within(LIMIT);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.success(), "{}: {err}", f.display());
     }
@@ -108,7 +154,7 @@ fn syntax_error_and_unknown_field_are_reported() {
         shared::scene::DEFAULT_SCENE.replace("[time]\n", "[time]\nendd = 2.0\n"),
     )
     .unwrap();
-    let o = coupler().arg("check").arg(&scene).output().unwrap();
+    let o = coupler().arg("check").arg(&scene).output_within(LIMIT);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1));
     assert!(err.contains("endd") && err.contains("line"), "{err}");
@@ -125,7 +171,7 @@ fn impossible_geometry_is_refused() {
         shared::scene::DEFAULT_SCENE
     );
     std::fs::write(&scene, text).unwrap();
-    let o = coupler().arg("check").arg(&scene).output().unwrap();
+    let o = coupler().arg("check").arg(&scene).output_within(LIMIT);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1));
     assert!(
@@ -143,8 +189,7 @@ fn existing_run_directory_is_never_overwritten() {
         .arg("run")
         .arg("--out")
         .arg(&dir)
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("already exists"), "{err}");
@@ -157,24 +202,22 @@ fn existing_run_directory_is_never_overwritten() {
 
 #[test]
 fn bad_overrides_are_named() {
-    let o = coupler().args(["run", "--dx=-1"]).output().unwrap();
+    let o = coupler().args(["run", "--dx=-1"]).output_within(LIMIT);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--dx"));
     let o = coupler()
         .args(["run", "--step-timeout=-3"])
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--step-timeout"));
     // --dt-max goes through the scene's own check of time.dt_max.
-    let o = coupler().args(["run", "--dt-max=-1"]).output().unwrap();
+    let o = coupler().args(["run", "--dt-max=-1"]).output_within(LIMIT);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("dt_max"), "{err}");
     let o = coupler()
         .args(["run", "--scheme", "sideways"])
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     assert_ne!(o.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&o.stderr).contains("sideways"));
     for (args, named) in [
@@ -185,7 +228,7 @@ fn bad_overrides_are_named() {
         ),
         (&["--attach", "--retries", "2"][..], "--retries"),
     ] {
-        let o = coupler().arg("run").args(args).output().unwrap();
+        let o = coupler().arg("run").args(args).output_within(LIMIT);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
         assert!(
@@ -198,22 +241,19 @@ fn bad_overrides_are_named() {
     let o = coupler()
         .args(["run", "--dx", "0.1", "--resume"])
         .arg(&dir)
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     assert_ne!(o.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--dx"));
     let o = coupler()
         .args(["run", "--dt-max", "0.002", "--resume"])
         .arg(&dir)
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     assert_ne!(o.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--dt-max"));
     let o = coupler()
         .args(["run", "--resume"])
         .arg(&dir)
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("no scene.toml"), "{err}");
@@ -322,7 +362,7 @@ fn solver_tables_and_sizes_are_refused_by_check_naming_field_and_line() {
     let mut failures = Vec::new();
     for (name, text, field, needle) in &cases {
         let (path, line) = scene_with(&dir, name, text, needle);
-        let o = coupler().arg("check").arg(&path).output().unwrap();
+        let o = coupler().arg("check").arg(&path).output_within(LIMIT);
         let err = String::from_utf8_lossy(&o.stderr);
         if o.status.code() != Some(1)
             || !err.contains(&format!("line {line}: {field}"))
@@ -347,8 +387,7 @@ fn runs_too_big_for_the_machine_are_refused_before_anything_is_allocated() {
             .args(flags)
             .arg("--out")
             .arg(&out)
-            .output()
-            .unwrap();
+            .output_within(LIMIT);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{err}");
         assert!(
@@ -369,8 +408,7 @@ fn out_pointing_at_a_file_says_it_is_a_file() {
         .arg("run")
         .arg("--out")
         .arg(&file)
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("is a file"), "{err}");
@@ -435,8 +473,7 @@ fn a_live_run_id_is_refused_and_a_killed_one_is_free_again() {
             "run", "--quiet", "--dx", "0.08", "--end", "0.1", "--run-id", &id, "--out",
         ])
         .arg(dir.join("second"))
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
@@ -460,8 +497,7 @@ fn a_live_run_id_is_refused_and_a_killed_one_is_free_again() {
             "run", "--quiet", "--dx", "0.08", "--end", "0.02", "--run-id", &id, "--out",
         ])
         .arg(dir.join("third"))
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     assert_eq!(
         o.status.code(),
         Some(0),
@@ -489,7 +525,7 @@ fn nodes_leave_when_their_coupler_dies_during_start_up() {
     wait_until("the orphaned nodes to leave", 5.0, || {
         !nodes.iter().any(|&p| running(p))
     });
-    let _ = coupler().args(["clean", &id]).output();
+    let _ = coupler().args(["clean", &id]).output_within(LIMIT);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -500,12 +536,11 @@ fn a_lonely_node_names_the_attach_command() {
     let id = format!("clilonely{}", std::process::id());
     let o = Command::new(node)
         .args(["--prefix", &id, "--connect-timeout", "0.3"])
-        .output()
-        .unwrap();
+        .output_within(LIMIT);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         err.contains(&format!("coupler run --attach --run-id {id}")),
         "{err}"
     );
-    let _ = coupler().args(["clean", &id]).output();
+    let _ = coupler().args(["clean", &id]).output_within(LIMIT);
 }

@@ -91,10 +91,21 @@ impl RunId {
     }
 
     /// The iceoryx2 configuration that keeps this run's files apart.
+    ///
+    /// iceoryx2's own clean-up of dead nodes (when a node is created, dropped, or opens a
+    /// service) is off. A run never outlives one of its processes (a dead node stops the run,
+    /// and the last one out removes the run's files by prefix, [`remove_run_files`]), so that
+    /// clean-up has nothing to do here; and in iceoryx2 0.10 it can hang for ever. A process
+    /// killed between creating a shared-memory file and sizing it leaves a zero-length file,
+    /// and opening one loops without its timeout (`posix_shared_memory` `open_impl`: the
+    /// `MappingSizeIsZero` arm never checks the elapsed time). That hung `coupler clean` in CI.
     pub fn config(&self) -> Config {
         let mut config = Config::default();
         config.global.prefix =
             FileName::new(self.file_prefix().as_bytes()).expect("run ids are valid file names");
+        config.global.node.cleanup_dead_nodes_on_creation = false;
+        config.global.node.cleanup_dead_nodes_on_destruction = false;
+        config.global.service.cleanup_dead_nodes_on_open = false;
         config
     }
 }
@@ -303,16 +314,11 @@ pub fn process_alive(pid: u32) -> bool {
 
 /// Removes every file of run `id` that iceoryx2 left behind. Call only when no process of the
 /// run is alive any more (the coupler does, after its nodes exited; a node does when it finds
-/// the coupler dead). Dead iceoryx2 nodes are first cleaned through iceoryx2 itself, then any
-/// remaining file carrying the run's prefix is removed. Returns the number of files removed.
+/// the coupler dead). Every file of the run carries its prefix, so removing by prefix is
+/// complete; iceoryx2's stale-resource clean-up is not used, because it opens each dead port's
+/// shared memory first and hangs on a zero-length one (see [`RunId::config`]). Returns the
+/// number of files removed.
 pub fn remove_run_files(id: &RunId) -> usize {
-    let config = id.config();
-    let _ = Node::<Ipc>::list(&config, |state| {
-        if let NodeState::Dead(dead) = state {
-            let _ = dead.try_remove_stale_resources();
-        }
-        CallbackProgression::Continue
-    });
     let prefix = id.file_prefix();
     let mut removed = 0;
     for root in [Path::new(SHM_ROOT), Path::new(ICEORYX2_ROOT)] {

@@ -315,10 +315,50 @@ fn clean_removes_a_named_dead_run() {
         !leftovers(&named).is_empty(),
         "a SIGKILL of everything leaves files behind"
     );
-    let o = std::process::Command::new(bin("coupler"))
-        .args(["clean", named.as_str()])
-        .output()
+    let mut clean = std::process::Command::new(bin("coupler"));
+    clean.args(["clean", named.as_str()]);
+    let o = run(clean);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(leftovers(&named).is_empty(), "{:?}", leftovers(&named));
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn clean_ends_when_a_killed_process_left_an_unsized_shared_memory_file() {
+    // A process killed between creating a shared-memory file and sizing it leaves a zero-length,
+    // write-only file (iceoryx2 makes it readable once initialised). iceoryx2 0.10's own
+    // dead-node clean-up opens it and loops for ever; that hung `coupler clean` (and so the test
+    // that called it) in CI. Such a file is made here by hand from a killed run's connection.
+    let (id, out) = fresh("unsized");
+    let named = shared::transport::RunId::parse(&format!("x{}", &id.as_str()[2..])).unwrap();
+    let child = long_toy_run(&named, &out)
+        .stderr(Stdio::piped())
+        .spawn()
         .unwrap();
+    let pid = child.id();
+    let nodes = running_nodes(pid);
+    for n in nodes.iter().chain([&pid]) {
+        unsafe_kill(*n, 9);
+    }
+    let _ = wait_output(child, Duration::from_secs(5));
+    assert!(eventually(Duration::from_secs(3), || nodes
+        .iter()
+        .all(|&n| !shared::transport::process_alive(n))));
+    let connection = leftovers(&named)
+        .into_iter()
+        .find(|p| p.extension().is_some_and(|e| e == "connection"))
+        .expect("a stepping run has connections");
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::File::create(&connection).unwrap(); // truncates to zero length
+    std::fs::set_permissions(&connection, std::fs::Permissions::from_mode(0o200)).unwrap();
+
+    let clean = std::process::Command::new(bin("coupler"))
+        .args(["clean", named.as_str()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (o, _) = wait_output(clean, Duration::from_secs(20));
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(leftovers(&named).is_empty(), "{:?}", leftovers(&named));
     std::fs::remove_dir_all(&out).unwrap();

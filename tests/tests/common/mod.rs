@@ -61,8 +61,15 @@ pub fn coupler(id: &RunId, out: &Path, args: &[&str]) -> Command {
     c
 }
 
+/// Runs `cmd` to its end with its output captured. Bounded (10 min, far beyond any test run
+/// here even on a loaded machine), so a hang fails its test instead of stalling CI.
 pub fn run(mut cmd: Command) -> Output {
-    cmd.output().expect("coupler starts")
+    let child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("coupler starts");
+    wait_output(child, Duration::from_secs(600)).0
 }
 
 pub fn stderr(o: &Output) -> String {
