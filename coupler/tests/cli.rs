@@ -529,6 +529,35 @@ fn nodes_leave_when_their_coupler_dies_during_start_up() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A node stuck inside the transport during start-up (here: told to stall before its hello)
+/// gives up once start-up outlasts twice its connect timeout plus the watchdog's grace, naming
+/// the cause and the fix, instead of living on without a coupler.
+#[test]
+fn a_node_stuck_in_start_up_gives_up_and_says_why() {
+    let node = std::path::Path::new(env!("CARGO_BIN_EXE_coupler")).with_file_name("solid-node");
+    let id = format!("clistuck{}", std::process::id());
+    let start = Instant::now();
+    let o = Command::new(node)
+        .args([
+            "--prefix",
+            &id,
+            "--connect-timeout",
+            "0.2",
+            "--stall-startup",
+        ])
+        .output_within(LIMIT);
+    let took = start.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("start-up did not finish within 10.4 s"),
+        "{err}"
+    );
+    assert!(err.contains(&format!("coupler clean {id}")), "{err}");
+    assert!((10.3..40.0).contains(&took), "gave up after {took:.1} s");
+    let _ = coupler().args(["clean", &id]).output_within(LIMIT);
+}
+
 /// A node that finds no coupler names the flag form of the attach command.
 #[test]
 fn a_lonely_node_names_the_attach_command() {

@@ -39,4 +39,7 @@ pub(super) struct NodeArgs {
     /// coupler's restarts: a node that fails again at the same step stops the run).
     #[arg(long, hide = true)]
     pub die_at_step: Option<u64>,
+    /// Block for ever before the hello (tests the start-up watchdog).
+    #[arg(long, hide = true)]
+    pub stall_startup: bool,
 }

@@ -78,6 +78,12 @@ pub(super) fn join<'r, I>(
         solver: Text::new(args.solver.as_deref().unwrap_or("")),
     };
 
+    if args.stall_startup {
+        // Stands for a transport call that never returns (see `watchdog`).
+        loop {
+            std::thread::park();
+        }
+    }
     // Say hello until the setup arrives.
     let started = Instant::now();
     let mut last_hello: Option<Instant> = None;
@@ -120,6 +126,7 @@ pub(super) fn join<'r, I>(
         listener.wait(HELLO_EVERY)?;
     };
     drop(hello_out);
+    super::watchdog::disarm();
 
     Ok(Joined {
         control: Control {

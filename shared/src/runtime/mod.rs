@@ -16,7 +16,8 @@
 //! - `args`: the command line of every node binary;
 //! - `control`: the link to the coupler (handshake, commands, statuses, bounded waits);
 //! - `serve`: building the solver and the command loop both roles share;
-//! - `fluid`, `solid`: each role's data ports and its exchange around the solver's advance.
+//! - `fluid`, `solid`: each role's data ports and its exchange around the solver's advance;
+//! - `watchdog`: a bound on start-up that holds even inside a stuck transport call.
 
 mod args;
 mod control;
@@ -24,6 +25,7 @@ mod fluid;
 mod presence;
 mod serve;
 mod solid;
+mod watchdog;
 
 pub use control::{peak_rss_bytes_of, process_cpu_seconds, process_peak_rss_bytes};
 
@@ -98,6 +100,7 @@ fn node_main(
         connect: args.connect.clone(),
     };
     let timeout = std::time::Duration::from_secs_f64(args.connect_timeout.clamp(0.0, 1e6));
+    watchdog::arm(&who, id.as_str(), timeout, exit::TRANSPORT);
     // The run (this process's iceoryx2 node or zenoh session) is gone again before the exit
     // is handled.
     let served = transport::join(
