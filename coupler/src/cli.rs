@@ -32,6 +32,11 @@ pub struct RunArgs {
     /// single-rate).
     #[arg(long, value_name = "N")]
     pub solid_substeps: Option<u32>,
+    /// Added-mass stabilisation: under-relax the water's loads on each block as if it carried
+    /// C × ρ_water × its volume of artificial added mass (overrides the scene's `[coupling]
+    /// added_mass`; 0 is off).
+    #[arg(long, value_name = "C")]
+    pub added_mass: Option<f64>,
     /// Particle spacing [m] (overrides the scene's fluid.dx), for quick coarse runs.
     #[arg(long)]
     pub dx: Option<f64>,
@@ -106,7 +111,7 @@ pub struct RunArgs {
     /// Continue the run in RUN_DIR from its last complete checkpoint, with the scene, solvers
     /// and scheme it was started with; its CSV files are cut back and its later frames removed
     /// first, so the finished run is identical to an uninterrupted one.
-    #[arg(long, value_name = "RUN_DIR", conflicts_with_all = ["scene", "out", "dx", "target_error", "end", "dt_max", "solid_substeps"])]
+    #[arg(long, value_name = "RUN_DIR", conflicts_with_all = ["scene", "out", "dx", "target_error", "end", "dt_max", "solid_substeps", "added_mass"])]
     pub resume: Option<PathBuf>,
     /// Restart a node that dies or hangs up to N times: every node goes back to the last
     /// checkpoint (t = 0 without one) and the run continues; a node that fails again at the
@@ -295,6 +300,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     }
     if let Some(n) = args.solid_substeps {
         scene.coupling.solid_substeps = n;
+    }
+    if let Some(c) = args.added_mass {
+        scene.coupling.added_mass = c;
     }
     // Overrides must leave a valid scene too.
     let problems = crate::scenes::problems(&scene);

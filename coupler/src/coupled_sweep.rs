@@ -48,6 +48,8 @@ pub struct Config {
     pub end: f64,
     /// Multi-rate coupling: the solid's steps per coupling step at most (1: single-rate).
     pub solid_substeps: u32,
+    /// Added-mass stabilisation, `[coupling] added_mass` (0: off).
+    pub added_mass: f64,
 }
 
 impl Config {
@@ -56,7 +58,15 @@ impl Config {
             1 => String::new(),
             n => format!(" ×{n} substeps"),
         };
-        format!("{}+{}/{}{rate}", self.fluid, self.solid, self.scheme)
+        let relaxed = if self.added_mass > 0.0 {
+            format!(" +{} ρV added mass", self.added_mass)
+        } else {
+            String::new()
+        };
+        format!(
+            "{}+{}/{}{rate}{relaxed}",
+            self.fluid, self.solid, self.scheme
+        )
     }
 }
 
@@ -119,6 +129,8 @@ pub fn floating(exe: Option<&Path>, scratch: &Scratch, config: &Config) -> Float
         config.dt_factor.to_string(),
         "--solid-substeps".into(),
         config.solid_substeps.to_string(),
+        "--added-mass".into(),
+        config.added_mass.to_string(),
         "--run-id".into(),
         id.to_string(),
     ];

@@ -315,6 +315,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
                         penalty_stiffness: None,
                         end: plan.coupled_end,
                         solid_substeps: 1,
+                        added_mass: 0.0,
                     });
                 }
             }
@@ -331,6 +332,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
             penalty_stiffness: None,
             end: plan.coupled_end,
             solid_substeps: 1,
+            added_mass: 0.0,
         });
     }
     for config in &configs {

@@ -40,6 +40,10 @@ pub struct StabilityArgs {
     /// Redraw the maps from the CSV files already in --out, running nothing.
     #[arg(long)]
     pub replot: bool,
+    /// Rerun only the density map's rows whose label contains this text (e.g. "added mass");
+    /// the map's other rows are kept from its CSV in --out. Needs `--only density`.
+    #[arg(long, value_name = "TEXT")]
+    pub rows: Option<String>,
 }
 
 /// File stem, title and x label of each map.
@@ -117,13 +121,17 @@ const COUPLED_DT_ROWS: [(&str, Scheme, u32); 5] = [
     ("dfsph", Scheme::Parallel, SUBSTEPS),
 ];
 
-/// The density map's DFSPH rows, (fluid, solid, scheme, substeps), beside WCSPH's with every
-/// solid solver and scheme: an incompressible fluid answers a block's acceleration within the
-/// same step at any dt, so the added-mass limit of explicit coupling is a density ratio that
-/// no smaller step moves (Causin, Gerbeau & Nobile 2005).
-const DFSPH_DENSITY_ROWS: [(&str, &str, Scheme, u32); 2] = [
-    ("dfsph", "explicit", Scheme::Parallel, 1),
-    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS),
+/// The density map's DFSPH rows, (fluid, solid, scheme, substeps, added mass), beside
+/// WCSPH's with every solid solver and scheme: an incompressible fluid answers a block's
+/// acceleration within the same step at any dt, so the added-mass limit of explicit coupling
+/// is a density ratio that no smaller step moves (Causin, Gerbeau & Nobile 2005); the last
+/// rows relax the loads with an artificial added mass of ρ_w V (`[coupling] added_mass = 1`,
+/// `shared::load_relaxation`), which moves that limit.
+const DFSPH_DENSITY_ROWS: [(&str, &str, Scheme, u32, f64); 4] = [
+    ("dfsph", "explicit", Scheme::Parallel, 1, 0.0),
+    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 0.0),
+    ("dfsph", "explicit", Scheme::Parallel, 1, 1.0),
+    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 1.0),
 ];
 
 /// Runs `coupler stability`; returns the exit code.
@@ -143,6 +151,9 @@ fn wanted(args: &StabilityArgs, what: &str) -> bool {
 
 fn run_inner(args: &StabilityArgs) -> Result<(), String> {
     let plan = if args.quick { &QUICK } else { &FULL };
+    if args.rows.is_some() && args.only != ["density"] {
+        return Err("--rows reruns rows of the density map only. Fix: add --only density".into());
+    }
     if args.replot {
         for map in [DT_MAP, STIFFNESS_MAP, DENSITY_MAP] {
             let trials = chart::read_trials(&args.out.join(map.0))?;
@@ -161,12 +172,25 @@ fn run_inner(args: &StabilityArgs) -> Result<(), String> {
         stiffness_map(plan, &args.out)?;
     }
     if wanted(args, "density") {
-        density_map(plan, &args.out, &scratch)?;
+        density_map(plan, &args.out, &scratch, args.rows.as_deref())?;
     }
     if wanted(args, "damping") {
         damping(plan, &args.out)?;
     }
     Ok(())
+}
+
+/// `kept` with its rows matching `rows` replaced by `rerun`: where the first of them was, or at
+/// the end for rows new to the map.
+fn merge_rows(kept: Vec<Trial>, rerun: Vec<Trial>, rows: &str) -> Vec<Trial> {
+    let at = kept.iter().position(|t| t.method.contains(rows));
+    let mut out: Vec<Trial> = kept
+        .into_iter()
+        .filter(|t| !t.method.contains(rows))
+        .collect();
+    let at = at.unwrap_or(out.len()).min(out.len());
+    out.splice(at..at, rerun);
+    out
 }
 
 fn report(t: &Trial) {
@@ -300,6 +324,7 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
                 penalty_stiffness: None,
                 end: plan.coupled_end,
                 solid_substeps,
+                added_mass: 0.0,
             };
             let t = coupled_trial(
                 scratch,
@@ -339,15 +364,22 @@ fn stiffness_map(plan: &Plan, out: &Path) -> Result<(), String> {
     draw(out, STIFFNESS_MAP, &trials)
 }
 
-fn density_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
+/// The density map; with `rows`, only the rows whose label contains it are run, and the other
+/// rows are kept from the map's CSV in `out` (in their order, the rerun rows in their place).
+fn density_map(
+    plan: &Plan,
+    out: &Path,
+    scratch: &Scratch,
+    rows: Option<&str>,
+) -> Result<(), String> {
     println!(
         "block-to-water density ratio under each coupling scheme (floating-block tank, real processes)"
     );
     let mut trials = Vec::new();
     let wcsph = solid_node::REGISTRY.names().into_iter().flat_map(|solid| {
-        [Scheme::Parallel, Scheme::Serial].map(|scheme| ("wcsph", solid, scheme, 1))
+        [Scheme::Parallel, Scheme::Serial].map(|scheme| ("wcsph", solid, scheme, 1, 0.0))
     });
-    for (fluid, solid, scheme, solid_substeps) in wcsph.chain(DFSPH_DENSITY_ROWS) {
+    for (fluid, solid, scheme, solid_substeps, added_mass) in wcsph.chain(DFSPH_DENSITY_ROWS) {
         for &ratio in plan.density {
             let config = Config {
                 fluid: fluid.into(),
@@ -359,11 +391,18 @@ fn density_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String>
                 penalty_stiffness: None,
                 end: plan.coupled_end,
                 solid_substeps,
+                added_mass,
             };
+            if rows.is_some_and(|r| !config.label().contains(r)) {
+                continue;
+            }
             let t = coupled_trial(scratch, &config.label(), ratio, &config);
             report(&t);
             trials.push(t);
         }
+    }
+    if let Some(r) = rows {
+        trials = merge_rows(chart::read_trials(&out.join(DENSITY_MAP.0))?, trials, r);
     }
     summarise(&trials);
     draw(out, DENSITY_MAP, &trials)
@@ -404,4 +443,37 @@ fn damping(plan: &Plan, out: &Path) -> Result<(), String> {
     }
     println!("  table: {}", path.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn trial(method: &str, value: f64) -> Trial {
+        Trial {
+            method: method.into(),
+            value,
+            stable: true,
+            detail: String::new(),
+        }
+    }
+
+    #[test]
+    fn rerun_rows_replace_theirs_in_place_and_new_rows_go_last() {
+        let kept = vec![
+            trial("a", 1.0),
+            trial("b x", 1.0),
+            trial("b x", 2.0),
+            trial("c", 1.0),
+        ];
+        let merged = merge_rows(kept.clone(), vec![trial("b x", 3.0)], "x");
+        let rows: Vec<_> = merged
+            .iter()
+            .map(|t| (t.method.as_str(), t.value))
+            .collect();
+        assert_eq!(rows, [("a", 1.0), ("b x", 3.0), ("c", 1.0)]);
+        let merged = merge_rows(kept, vec![trial("d y", 1.0)], "y");
+        assert_eq!(merged.len(), 5);
+        assert_eq!(merged[4].method, "d y");
+    }
 }

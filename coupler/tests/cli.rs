@@ -215,6 +215,13 @@ fn bad_overrides_are_named() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("dt_max"), "{err}");
+    // So does --added-mass, through [coupling] added_mass.
+    for bad in ["--added-mass=-1", "--added-mass=NaN"] {
+        let o = coupler().args(["run", bad]).output_within(LIMIT);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{bad}: {err}");
+        assert!(err.contains("coupling.added_mass"), "{bad}: {err}");
+    }
     let o = coupler()
         .args(["run", "--scheme", "sideways"])
         .output_within(LIMIT);

@@ -116,14 +116,27 @@ impl Watched {
         // An oscillation already above a weight per step that doubled: a block slamming back
         // into the water after a flight (loads from nothing to many weights) is not one.
         let grew = older > weight && newer > 2.0 * older;
+        let ratio = self.density / water_density;
+        // A light block is outweighed by the water that moves with it; a heavy one only by the
+        // film it squeezes against a wall or the floor (docs/REFERENCES.md §4.1–4.1a).
+        let (cause, fix) = if ratio < 1.0 {
+            (
+                "is too light for loads that lag one step",
+                "relax the loads with an artificial added mass ([coupling] added_mass = 1, or --added-mass 1), a heavier block, or (with WCSPH, whose limit falls with dt²) a smaller step ([time].dt_max or --dt-factor)",
+            )
+        } else {
+            (
+                "is outweighed by the water it squeezes against a wall or the floor, answering loads that lag one step",
+                "with an incompressible fluid (DFSPH) use WCSPH for this scene, or relax the loads ([coupling] added_mass = 1 to 5, or --added-mass), which moves this limit but does not remove it; with WCSPH a smaller step ([time].dt_max or --dt-factor: the limit falls with dt²)",
+            )
+        };
         (newer > SWING * weight && grew && reversals >= 2).then(|| {
             format!(
-                "added-mass instability of the partitioned coupling: the water's load on block '{}' oscillates and grows (its step-to-step change rose ×{:.1} within {n} steps to {:.3e} N, {:.0} times the block's weight, reversing {reversals} times); the block (ρ_b/ρ_w = {:.4}) is too light for loads that lag one step; fix: a heavier block, or a smaller step ([time].dt_max or --dt-factor: the limit falls with dt²)",
+                "added-mass instability of the partitioned coupling: the water's load on block '{}' oscillates and grows (its step-to-step change rose ×{:.1} within {n} steps to {:.3e} N, {:.0} times the block's weight, reversing {reversals} times); the block (ρ_b/ρ_w = {ratio:.4}) {cause}; fix: {fix}",
                 self.name,
                 newer / older.max(Real::MIN_POSITIVE),
                 newer,
                 newer / weight,
-                self.density / water_density,
             )
         })
     }

@@ -1,6 +1,7 @@
 //! rockwave's solver SDK.
 //!
 //! - [`added_mass`]: detection of the added-mass instability of partitioned coupling.
+//! - [`load_relaxation`]: its remedy, the water's loads under-relaxed by an artificial added mass.
 //! - [`checkpoint`]: checkpoint files (atomic writes, format version, scene hash).
 //! - [`math`]: the scalar and vector types used everywhere.
 //! - [`scene`]: the scene schema (TOML), its validation and the embedded default scene.
@@ -19,6 +20,7 @@ pub mod added_mass;
 pub mod checkpoint;
 pub mod cutting;
 pub mod geometry;
+pub mod load_relaxation;
 pub mod math;
 pub mod protocol;
 pub mod registry;

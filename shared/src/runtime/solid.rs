@@ -23,6 +23,7 @@ use super::control::{self, Control, Fatal};
 use super::serve::{self, Side, StepFailure};
 use crate::added_mass::AddedMassMonitor;
 use crate::geometry::Polyhedron;
+use crate::load_relaxation::LoadRelaxation;
 use crate::math::Vector;
 use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Resume, Role};
 use crate::scene::{BlockKind, Scene};
@@ -45,10 +46,11 @@ pub(super) fn run_node(
     let scene = &built.scene;
     let n_moving = scene.moving_blocks().len();
     let opts = serve::Options::new(scene, args, setup, Role::Solid);
-    let added_mass = scene
+    let (added_mass, relaxation) = scene
         .fluid
         .as_ref()
-        .map(|fluid| added_mass_monitor(scene, fluid.density));
+        .map(|fluid| load_handling(scene, fluid.density))
+        .unzip();
     let mut solver = built.solver;
     let fluid = if setup.fluid_present {
         let link = FluidLink::open(
@@ -58,6 +60,7 @@ pub(super) fn run_node(
             n_moving,
             solver.vertex_count(),
             added_mass,
+            relaxation.flatten(),
         );
         match link {
             Ok(link) => Fluid::Coupled(Box::new(link)),
@@ -82,10 +85,10 @@ fn open_loads_in(run: &dyn Transport) -> Result<LoadsIn, Fatal> {
     Ok(run.loads_in()?)
 }
 
-/// The added-mass watch over the scene's moving blocks (kinematic ones cannot be moved by
-/// their loads: infinite mass).
-fn added_mass_monitor(scene: &Scene, water_density: f64) -> AddedMassMonitor {
-    let blocks = scene
+/// (name, mass, volume, density) of each moving block, in loads order (kinematic blocks
+/// cannot be moved by their loads: infinite mass).
+fn moving_masses(scene: &Scene) -> Vec<(String, f64, f64, f64)> {
+    scene
         .moving_blocks()
         .into_iter()
         .map(|i| {
@@ -95,10 +98,20 @@ fn added_mass_monitor(scene: &Scene, water_density: f64) -> AddedMassMonitor {
                 BlockKind::Free => b.density * volume,
                 _ => f64::INFINITY,
             };
-            (b.name.clone(), mass, b.density)
+            (b.name.clone(), mass, volume, b.density)
         })
-        .collect();
-    AddedMassMonitor::new(blocks, Vector::from(scene.gravity).norm(), water_density)
+        .collect()
+}
+
+/// What the solid node does with the water's loads before its solver sees them: the
+/// added-mass watch, and the relaxation when the scene asks for it.
+fn load_handling(scene: &Scene, water_density: f64) -> (AddedMassMonitor, Option<LoadRelaxation>) {
+    let blocks = moving_masses(scene);
+    let masses: Vec<_> = blocks.iter().map(|b| (b.1, b.2)).collect();
+    let relax = LoadRelaxation::new(&masses, scene.coupling.added_mass, water_density);
+    let watched = blocks.into_iter().map(|(n, m, _, d)| (n, m, d)).collect();
+    let watch = AddedMassMonitor::new(watched, Vector::from(scene.gravity).norm(), water_density);
+    (watch, relax)
 }
 
 /// Whether a fluid node runs: a dry scene has none.
@@ -115,6 +128,8 @@ struct FluidLink {
     bell: Box<dyn Bell>,
     /// The watch on the loads for the added-mass instability (when the scene has water).
     added_mass: Option<AddedMassMonitor>,
+    /// The loads' under-relaxation (`[coupling] added_mass` > 0).
+    relaxation: Option<LoadRelaxation>,
 }
 
 struct Solid {
@@ -157,6 +172,7 @@ impl FluidLink {
         n_moving: usize,
         vertex_count: usize,
         added_mass: Option<AddedMassMonitor>,
+        relaxation: Option<LoadRelaxation>,
     ) -> Result<FluidLink, Fatal> {
         let blocks = run.blocks_out(n_moving)?;
         let vertices = run.vertices_out(vertex_count)?;
@@ -166,11 +182,12 @@ impl FluidLink {
             vertices,
             bell,
             added_mass,
+            relaxation,
         })
     }
 
-    /// Waits for loads message `tag` and hands it to the solver; also what the added-mass
-    /// watch makes of them.
+    /// Waits for loads message `tag` and hands it (relaxed, if asked) to the solver; also what
+    /// the added-mass watch makes of the water's own loads.
     fn receive_loads(
         &mut self,
         control: &Control,
@@ -180,8 +197,13 @@ impl FluidLink {
         let mut read = Duration::ZERO;
         let mut added_mass = None;
         let watch = &mut self.added_mass;
+        let relaxation = &mut self.relaxation;
         control.receive_tagged(&*self.loads, |h| h.step, tag, &mut |_, loads| {
             let t = Instant::now();
+            let loads = match relaxation.as_mut() {
+                Some(r) => r.apply(loads),
+                None => loads,
+            };
             solver.read_loads(loads);
             added_mass = watch.as_mut().and_then(|m| m.observe(loads));
             read = t.elapsed();
@@ -246,18 +268,19 @@ impl Side for Solid {
     }
 
     fn save_runtime(&self) -> Result<Vec<u8>, String> {
-        let watch = match &self.fluid {
-            Fluid::Coupled(link) => link.added_mass.clone(),
-            Fluid::Absent => None,
+        let state = match &self.fluid {
+            Fluid::Coupled(link) => (link.added_mass.clone(), link.relaxation.clone()),
+            Fluid::Absent => (None, None),
         };
-        crate::checkpoint::encode(&watch)
+        crate::checkpoint::encode(&state)
     }
 
     fn restore_runtime(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let watch: Option<AddedMassMonitor> =
-            crate::checkpoint::decode(bytes, "the solid runtime's added-mass watch")?;
+        let (watch, relaxation): (Option<AddedMassMonitor>, Option<LoadRelaxation>) =
+            crate::checkpoint::decode(bytes, "the solid runtime's load watch and relaxation")?;
         if let Fluid::Coupled(link) = &mut self.fluid {
             link.added_mass = watch;
+            link.relaxation = relaxation;
         }
         Ok(())
     }

@@ -288,6 +288,12 @@ pub struct CouplingSpec {
     /// shared step (default 1: one solid step per exchange). `--solid-substeps` overrides it.
     #[serde(default = "one")]
     pub solid_substeps: u32,
+    /// Added-mass stabilisation: the water's loads on each block are under-relaxed as if the
+    /// block carried an artificial added mass of this many times ρ_water × its volume
+    /// (`shared::load_relaxation`); 0 (the default) hands the loads over as they are.
+    /// `--added-mass` overrides it.
+    #[serde(default)]
+    pub added_mass: f64,
 }
 
 fn one() -> u32 {
@@ -302,6 +308,7 @@ impl Default for CouplingSpec {
             penalty_damping: None,
             margin: None,
             solid_substeps: one(),
+            added_mass: 0.0,
         }
     }
 }

@@ -497,6 +497,14 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
                 "1 is single-rate; 4 to 20 let an explicit solid sub-cycle inside a long fluid step",
             );
         }
+        if !(0.0..=100.0).contains(&k.added_mass) {
+            c.fail(
+                "added_mass",
+                k.added_mass,
+                "must be in 0..=100 (times ρ_water × the block's volume)",
+                "0 is off; 0.5 to 2 stabilise light blocks under an incompressible fluid",
+            );
+        }
     });
 
     let diag = (0..3)
