@@ -147,10 +147,7 @@ mod tests {
     use super::*;
 
     fn load(fz: Real) -> BlockLoad {
-        BlockLoad {
-            force: [0.0, 0.0, fz],
-            ..Default::default()
-        }
+        BlockLoad::vertical(fz)
     }
 
     /// A spring of Ω² = ω²dt² = 0.5 on a light block, the model of the water's one-step answer:

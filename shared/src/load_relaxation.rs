@@ -88,10 +88,7 @@ mod tests {
     use super::*;
 
     fn load(fz: Real) -> BlockLoad {
-        BlockLoad {
-            force: [0.0, 0.0, fz],
-            ..Default::default()
-        }
+        BlockLoad::vertical(fz)
     }
 
     /// A block of mass m in water of added mass M_A (the load answers −M_A a, one step late),

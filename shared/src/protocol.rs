@@ -353,3 +353,14 @@ pub struct BlockLoad {
     /// points X ([`crate::strain::generalised_force`]); zero for rigid blocks.
     pub strain_load: [f64; 6],
 }
+
+#[cfg(test)]
+impl BlockLoad {
+    /// A load of `fz` newtons straight up (unit tests of what reads loads).
+    pub(crate) fn vertical(fz: f64) -> Self {
+        BlockLoad {
+            force: [0.0, 0.0, fz],
+            ..Default::default()
+        }
+    }
+}
