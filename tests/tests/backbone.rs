@@ -4,6 +4,7 @@
 
 mod common;
 use common::*;
+use std::path::PathBuf;
 use std::process::Stdio;
 use std::time::Duration;
 
@@ -337,17 +338,27 @@ fn clean_ends_when_a_killed_process_left_an_unsized_shared_memory_file() {
         .unwrap();
     let pid = child.id();
     let nodes = running_nodes(pid);
+    let is_connection = |p: &PathBuf| p.extension().is_some_and(|e| e == "connection");
+    // Connections appear once both sides have met; on a loaded machine that can take a while.
+    let connected = eventually(Duration::from_secs(30), || {
+        leftovers(&named).iter().any(is_connection)
+    });
     for n in nodes.iter().chain([&pid]) {
         unsafe_kill(*n, 9);
     }
+    assert!(
+        connected,
+        "no connection within 30 s: {:?}",
+        leftovers(&named)
+    );
     let _ = wait_output(child, Duration::from_secs(5));
     assert!(eventually(Duration::from_secs(3), || nodes
         .iter()
         .all(|&n| !shared::transport::process_alive(n))));
     let connection = leftovers(&named)
         .into_iter()
-        .find(|p| p.extension().is_some_and(|e| e == "connection"))
-        .expect("a stepping run has connections");
+        .find(is_connection)
+        .expect("the connection is still there");
     use std::os::unix::fs::PermissionsExt;
     std::fs::File::create(&connection).unwrap(); // truncates to zero length
     std::fs::set_permissions(&connection, std::fs::Permissions::from_mode(0o200)).unwrap();
