@@ -96,7 +96,7 @@ pub fn still_water(
 /// Reads a still-water run's files: the free surface at the first gauge and the pressure at
 /// the three probes (0.75, 0.5 and 0.25 of `depth` above z = 0), each averaged over the second
 /// half of the run, against ρ0 g (η − z).
-pub(crate) fn hydrostatics(
+pub fn hydrostatics(
     dir: &Path,
     scene: &Scene,
     depth: f64,
