@@ -209,12 +209,29 @@ fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
             dir.display()
         ));
     };
-    let hash = shared::checkpoint::scene_hash(
+    let hash = shared::checkpoint::run_hash(
+        &scene,
         &crate::session::scene_text(&scene).map_err(|e| e.to_string())?,
     );
     if hash != ck.scene_hash {
+        let terrain: Vec<String> = scene
+            .terrain
+            .iter()
+            .map(|t| format!("'{}'", t.file.display()))
+            .collect();
+        let (what, fix) = if terrain.is_empty() {
+            (
+                "scene.toml is".to_string(),
+                "restore the run's own scene.toml",
+            )
+        } else {
+            (
+                format!("scene.toml or its terrain file ({}) is", terrain.join(", ")),
+                "restore the run's own scene.toml and terrain files (a terrain file changed under the same path is another run)",
+            )
+        };
         return Err(format!(
-            "--resume {}: scene.toml is not the scene the checkpoint at step {} was written for (scene hash {hash:016x}, checkpoint {:016x}). Fix: restore the run's own scene.toml",
+            "--resume {}: {what} not what the checkpoint at step {} was written for (hash {hash:016x}, checkpoint {:016x}). Fix: {fix}",
             dir.display(),
             ck.step,
             ck.scene_hash

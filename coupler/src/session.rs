@@ -874,7 +874,10 @@ impl Session {
         let (particles, blocks) = dir.series();
         self.stats.checkpoints += 1;
         let ck = CouplerCheckpoint {
-            scene_hash: shared::checkpoint::scene_hash(&scene_text(&self.opts.scene)?),
+            scene_hash: shared::checkpoint::run_hash(
+                &self.opts.scene,
+                &scene_text(&self.opts.scene)?,
+            ),
             fluid_solver: self.stats.fluid_solver.clone(),
             solid_solver: self.stats.solid_solver.clone(),
             scheme: self.scheme(),

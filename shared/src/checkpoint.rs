@@ -43,8 +43,24 @@ pub fn coupler_file(run_dir: &Path, step: u64) -> PathBuf {
 /// FNV-1a (64 bit) of the scene text as run: a cheap, stable fingerprint (no dependency, the
 /// same on every platform) to refuse resuming a run with another scene.
 pub fn scene_hash(scene_toml: &str) -> u64 {
-    scene_toml.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+    fnv1a(0xcbf2_9ce4_8422_2325, scene_toml.as_bytes())
+}
+
+fn fnv1a(start: u64, bytes: &[u8]) -> u64 {
+    bytes.iter().fold(start, |h, &b| {
         (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// [`scene_hash`] continued over the bytes of each terrain file the scene reads, in order: a
+/// terrain file replaced under the same path makes another run, which a resume must refuse.
+/// A file that cannot be read adds its path and the error instead (so it differs too).
+pub fn run_hash(scene: &crate::scene::Scene, scene_toml: &str) -> u64 {
+    scene.terrain.iter().fold(scene_hash(scene_toml), |h, t| {
+        match std::fs::read(&t.file) {
+            Ok(bytes) => fnv1a(h, &bytes),
+            Err(e) => fnv1a(h, format!("{}: {e}", t.file.display()).as_bytes()),
+        }
     })
 }
 
@@ -198,6 +214,31 @@ mod tests {
         let e = read_file::<(u64, Vec<f64>, String)>(&path).unwrap_err();
         assert!(e.contains("format version 99"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_terrain_file_changed_under_the_same_path_changes_the_run_hash() {
+        let dir = std::env::temp_dir().join(format!("rw-ckpt-terrain-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("t.asc");
+        std::fs::write(&file, "ncols 2").unwrap();
+        let spec = toml::from_str(&format!("file = {:?}", file.display().to_string())).unwrap();
+        let mut scene = crate::scene::Scene::default_scene();
+        let text = "the same scene text";
+        assert_eq!(
+            run_hash(&scene, text),
+            scene_hash(text),
+            "no terrain: the text alone"
+        );
+        scene.terrain.push(spec);
+        let a = run_hash(&scene, text);
+        assert_eq!(a, run_hash(&scene, text));
+        std::fs::write(&file, "ncols 3").unwrap();
+        let b = run_hash(&scene, text);
+        assert_ne!(a, b, "a changed terrain file");
+        std::fs::remove_dir_all(&dir).unwrap();
+        let gone = run_hash(&scene, text);
+        assert!(gone != a && gone != b, "a missing terrain file");
     }
 
     #[test]

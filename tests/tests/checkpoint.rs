@@ -185,7 +185,11 @@ fn parallel_checkpoints_change_nothing_and_a_killed_coupler_resumes_exactly() {
     .unwrap();
     let out = run(resume(&c));
     assert_eq!(out.status.code(), Some(1));
-    assert!(stderr(&out).contains("scene hash"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("scene.toml is not what the checkpoint"),
+        "{}",
+        stderr(&out)
+    );
     std::fs::remove_dir_all(a.join("checkpoints")).ok();
     let out = run(resume(&a));
     assert_eq!(out.status.code(), Some(1));

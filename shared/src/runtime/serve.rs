@@ -168,7 +168,7 @@ impl Options {
             die_at: args.die_at_step,
             role,
             run_dir: setup.run_dir.clone(),
-            scene_hash: checkpoint::scene_hash(&setup.scene_toml),
+            scene_hash: checkpoint::run_hash(scene, &setup.scene_toml),
             resume: setup.resume.clone(),
         }
     }
