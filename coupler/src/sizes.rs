@@ -7,7 +7,8 @@
 //! base of about 25 MB (the same scene at dx = 0.04 m).
 
 use shared::geometry::Polyhedron;
-use shared::scene::{FieldError, Scene, Walls};
+use shared::scene::{BlockKind, FieldError, Scene, Walls};
+use shared::terrain::Terrain;
 
 /// Peak resident bytes of the fluid node per particle (water and boundary), measured as above.
 pub const BYTES_PER_PARTICLE: f64 = 320.0;
@@ -30,8 +31,9 @@ const BOUNDARY_LAYERS: f64 = 3.0;
 pub struct Estimate {
     /// Water particles: water volume / dx³.
     pub fluid_particles: f64,
-    /// Boundary particles: three layers over the domain's surface (a tank's walls), an upper
-    /// estimate; zero with `walls = "penalty"`.
+    /// Boundary particles: three layers over the domain's surface when fixed blocks make the
+    /// tank's walls (an upper estimate), plus three layers under each terrain surface inside
+    /// the domain; zero with `walls = "penalty"`.
     pub boundary_particles: f64,
     /// Peak memory of the fluid node [bytes].
     pub memory: f64,
@@ -75,10 +77,24 @@ pub fn estimate(scene: &Scene) -> Option<Estimate> {
             bottom = bottom.min(lo.z);
         }
     }
-    let fluid_particles = volume / dx.powi(3);
     let d = &scene.domain;
     let e: Vec<f64> = (0..3).map(|k| d.max[k] - d.min[k]).collect();
-    let area = 2.0 * (e[0] * e[1] + e[1] * e[2] + e[0] * e[2]);
+    let walls = scene.blocks.iter().any(|b| b.kind == BlockKind::Fixed);
+    let mut area = if walls {
+        2.0 * (e[0] * e[1] + e[1] * e[2] + e[0] * e[2])
+    } else {
+        0.0
+    };
+    // A terrain that does not load is reported by the scene check; it adds nothing here.
+    let terrain = Terrain::load_all(scene).unwrap_or_default();
+    if !terrain.is_empty() {
+        volume -= water_in_ground(scene, &terrain, dx);
+        area += terrain
+            .iter()
+            .map(|t| area_in_domain(t, scene))
+            .sum::<f64>();
+    }
+    let fluid_particles = volume.max(0.0) / dx.powi(3);
     let boundary_particles = match fluid.walls {
         Walls::Particles => BOUNDARY_LAYERS * area / (dx * dx),
         Walls::Penalty => 0.0,
@@ -107,6 +123,56 @@ pub fn estimate(scene: &Scene) -> Option<Estimate> {
         frames,
         disk,
     })
+}
+
+/// Area [m²] of a terrain's triangles whose centroid is inside the domain (the fluid node fills
+/// boundary particles under them).
+fn area_in_domain(t: &Terrain, scene: &Scene) -> f64 {
+    let d = &scene.domain;
+    t.mesh
+        .triangles()
+        .filter(|tri| {
+            let c = tri.center();
+            (0..3).all(|k| c[k] >= d.min[k] && c[k] <= d.max[k])
+        })
+        .map(|tri| tri.area())
+        .sum()
+}
+
+/// Volume [m³] of the water boxes that lies under the terrain (left dry by the fill): the
+/// water's bounding boxes sampled on columns 2 dx apart, each column's water below the highest
+/// terrain surface over it counted. Boxes only (the water of every repository scene with a
+/// terrain); another shape adds nothing, keeping the estimate an upper one.
+fn water_in_ground(scene: &Scene, terrain: &[Terrain], dx: f64) -> f64 {
+    let Some(fluid) = scene.fluid.as_ref() else {
+        return 0.0;
+    };
+    let step = 2.0 * dx;
+    let mut dry = 0.0;
+    for w in &fluid.water {
+        let shared::scene::ShapeSpec::Box { min, max } = &w.shape else {
+            continue;
+        };
+        let (nx, ny) = (
+            ((max[0] - min[0]) / step).ceil().max(1.0) as usize,
+            ((max[1] - min[1]) / step).ceil().max(1.0) as usize,
+        );
+        let (cx, cy) = ((max[0] - min[0]) / nx as f64, (max[1] - min[1]) / ny as f64);
+        for i in 0..nx {
+            for j in 0..ny {
+                let (x, y) = (
+                    min[0] + (i as f64 + 0.5) * cx,
+                    min[1] + (j as f64 + 0.5) * cy,
+                );
+                let bed = terrain
+                    .iter()
+                    .filter_map(|t| t.top_at(x, y))
+                    .fold(f64::NEG_INFINITY, f64::max);
+                dry += (bed.min(max[2]) - min[2]).max(0.0) * cx * cy;
+            }
+        }
+    }
+    dry
 }
 
 /// Memory available to new processes on this machine [bytes] (MemAvailable of /proc/meminfo).
