@@ -49,11 +49,13 @@ pub fn read_vtp(path: &Path) -> Result<PolyData, String> {
 }
 
 /// Writes the .pov scene of one frame: camera framing the domain from the front-left, water
-/// particles as blue spheres of radius dx/2, blocks as grey triangle meshes.
+/// particles as blue spheres of radius dx/2, blocks as grey triangle meshes, the terrain (the
+/// run's `terrain.vtp`) as an opaque ground.
 pub fn scene_file(
     scene: &Scene,
     particles: Option<&PolyData>,
     blocks: Option<&PolyData>,
+    terrain: Option<&PolyData>,
     time: f64,
 ) -> String {
     let (lo, hi) = (scene.domain.min, scene.domain.max);
@@ -105,6 +107,21 @@ pub fn scene_file(
             let _ = writeln!(s, "sphere {{ {}, {r:.5} }}", v(*q));
         }
         s.push_str("texture { Water } }\n");
+    }
+    if let Some(t) = terrain {
+        let mut mesh = String::new();
+        for poly in &t.polys {
+            for k in 1..poly.len().saturating_sub(1) {
+                let (p0, p1, p2) = (t.points[poly[0]], t.points[poly[k]], t.points[poly[k + 1]]);
+                let _ = writeln!(mesh, "triangle {{ {}, {}, {} }}", v(p0), v(p1), v(p2));
+            }
+        }
+        if !mesh.is_empty() {
+            let _ = writeln!(
+                s,
+                "mesh {{\n{mesh}texture {{ pigment {{ rgb <0.62, 0.6, 0.52> }} finish {{ diffuse 0.8 }} }} }}"
+            );
+        }
     }
     if let Some(b) = blocks {
         // Walls, slopes and beaches are drawn as faint glass so they do not hide the water;
@@ -168,6 +185,11 @@ pub fn export(
     }
     let out = run_dir.join("povray");
     std::fs::create_dir_all(&out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let terrain_file = run_dir.join("terrain.vtp");
+    let terrain = terrain_file
+        .is_file()
+        .then(|| read_vtp(&terrain_file))
+        .transpose()?;
     let mut written = Vec::new();
     for (i, &t) in times.iter().enumerate() {
         let particles = frames
@@ -182,7 +204,13 @@ pub fn export(
         let path = out.join(format!("frame_{i:05}.pov"));
         std::fs::write(
             &path,
-            scene_file(&scene, particles.as_ref(), blocks.as_ref(), t),
+            scene_file(
+                &scene,
+                particles.as_ref(),
+                blocks.as_ref(),
+                terrain.as_ref(),
+                t,
+            ),
         )
         .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         if render {
@@ -260,7 +288,7 @@ mod tests {
         }
         let b = read_vtp(&dir.join("b.vtp")).unwrap();
         let scene = Scene::default_scene();
-        let pov = scene_file(&scene, None, Some(&b), 0.5);
+        let pov = scene_file(&scene, None, Some(&b), None, 0.5);
         assert_eq!(pov.matches("triangle").count(), 4);
         assert!(pov.contains("camera"));
         std::fs::remove_dir_all(&dir).unwrap();

@@ -1,4 +1,4 @@
-//! A scene with a `[[terrain]]` (scenes/fjord.toml: a DEM valley, a slide slab, water) through
+//! A scene with a `[[terrain]]` (scenes/fjord.toml: a DEM valley, a jointed slide, water) through
 //! all three processes: two runs at once write byte-identical results, and a run whose coupler
 //! is SIGKILLed after a checkpoint and resumed ends identical to the uninterrupted one (the
 //! terrain is not checkpointed: every node reads it again from the scene's file).
@@ -88,7 +88,7 @@ fn terrain_runs_are_deterministic_and_resume_exactly() {
     finish(ra, "run a");
     finish(rb, "run b");
     assert_identical(&a, &b, "two runs of the fjord");
-    // The slab moved: the solid node read the terrain and the block slid on it.
+    // The slide moved: the solid node read the terrain and the blocks slid on it.
     let blocks = std::fs::read_to_string(a.join("blocks.csv")).unwrap();
     assert!(blocks.lines().count() > 5, "{blocks}");
 
