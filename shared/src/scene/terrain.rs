@@ -92,6 +92,8 @@ pub enum TerrainFormat {
     Ply,
     /// ESRI ASCII grid (`.asc`): a digital elevation model.
     EsriAscii,
+    /// GeoTIFF (`.tif`, `.tiff`): a digital elevation model, one band, north-up.
+    GeoTiff,
 }
 
 impl TerrainFormat {
@@ -103,6 +105,7 @@ impl TerrainFormat {
             "obj" => Some(TerrainFormat::Obj),
             "ply" => Some(TerrainFormat::Ply),
             "asc" => Some(TerrainFormat::EsriAscii),
+            "tif" | "tiff" => Some(TerrainFormat::GeoTiff),
             _ => None,
         }
     }
@@ -181,7 +184,7 @@ pub(super) fn validate(
                 "file",
                 format!("{:?}", t.file.display().to_string()),
                 "has no known terrain extension",
-                "give a .stl, .obj or .ply triangle mesh or an .asc (ESRI ASCII grid) elevation model",
+                "give a .stl, .obj or .ply triangle mesh or an .asc (ESRI ASCII grid) or .tif (GeoTIFF) elevation model",
             );
         }
         for (field, v) in [("offset", t.offset), ("rotation", t.rotation)] {

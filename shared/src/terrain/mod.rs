@@ -15,6 +15,7 @@
 
 pub mod dem;
 pub mod files;
+pub mod geotiff;
 pub mod topology;
 
 use crate::math::{Point, Real, Rotation, Vector};
@@ -102,7 +103,7 @@ impl Terrain {
                 "file",
                 format!("{file:?}"),
                 "has no known terrain extension",
-                "give a .stl, .obj, .ply or .asc file",
+                "give a .stl, .obj, .ply, .asc or .tif file",
             )
         })?;
         let mut filled_cells = 0;
@@ -110,8 +111,13 @@ impl Terrain {
             TerrainFormat::Stl => files::read_stl(&spec.file).map_err(file_err)?,
             TerrainFormat::Obj => files::read_obj(&spec.file).map_err(file_err)?,
             TerrainFormat::Ply => files::read_ply(&spec.file).map_err(file_err)?,
-            TerrainFormat::EsriAscii => {
-                let mut grid = dem::read(&spec.file).map_err(file_err)?;
+            TerrainFormat::EsriAscii | TerrainFormat::GeoTiff => {
+                let mut grid = if format == TerrainFormat::GeoTiff {
+                    geotiff::read(&spec.file)
+                } else {
+                    dem::read(&spec.file)
+                }
+                .map_err(file_err)?;
                 filled_cells = grid
                     .resolve(spec.nodata)
                     .map_err(|e| {
