@@ -187,7 +187,8 @@ impl FluidLink {
     }
 
     /// Waits for loads message `tag` and hands it (relaxed, if asked) to the solver; also what
-    /// the added-mass watch makes of the water's own loads.
+    /// the added-mass watch makes of the loads the solver was given (relaxed loads that still
+    /// oscillate and grow are still an instability).
     fn receive_loads(
         &mut self,
         control: &Control,
