@@ -31,16 +31,6 @@ impl DdaSolver {
         mut integrator: Box<dyn Integrator>,
     ) -> Result<DdaSolver, SolverError> {
         let mut world = World::new(ctx.scene)?;
-        if world.joints.any() && integrator.name() != crate::verification::EXPLICIT {
-            return Err(SolverError::Failed(format!(
-                "the scene has [[slide]]s, whose bonded joints (tension cut-off, breaking to \
-                 residual friction) only the '{}' solver models; fix: run with --solid-solver {} \
-                 (or [solid] solver = \"{}\")",
-                crate::verification::EXPLICIT,
-                crate::verification::EXPLICIT,
-                crate::verification::EXPLICIT
-            )));
-        }
         world.detect(world.penalty.margin);
         integrator.init(&mut world);
         let settled = if world.joints.bond_count() > 0 {

@@ -111,6 +111,14 @@ const SOLVE_TOLERANCE: Real = 1e-11;
 /// spreading under load sit exactly on the limit: without the band they flip on round-off).
 const STATE_TOLERANCE: Real = 1e-6;
 
+/// Band about zero gap, as a fraction of the contact margin, inside which a contact keeps its
+/// open or closed state between open–close iterations. Blocks cut from one rock mass touch at
+/// exactly zero gap where no bond holds them (corners, pairs across two joint sets): a
+/// contact there closes when open (the load presses it by round-off) and opens when closed
+/// (its shear spring lifts it by as much), and the iterations never settle, however short the
+/// step. Inside the band a closed contact may pull by at most k_n · 10⁻⁶ margin.
+const GAP_TOLERANCE: Real = 1e-6;
+
 /// The per-iteration state of one contact.
 #[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 struct Trial {
@@ -120,6 +128,21 @@ struct Trial {
     /// Shear spring elongation after the last solve.
     shear: Vector,
     gap: Real,
+    /// Still bonded across a slide's joint ([`crate::joints`]): the normal spring then pulls
+    /// too. A bond broken in an iteration stays broken for the rest of the attempt.
+    bonded: bool,
+}
+
+impl Trial {
+    /// The cohesion this trial's contact has: none once the trial has broken its bond.
+    #[inline]
+    fn cohesion(&self, c: &Contact) -> Real {
+        if c.bonded && !self.bonded {
+            0.0
+        } else {
+            c.cohesion
+        }
+    }
 }
 
 /// Why a sub-step must be cut.
@@ -369,7 +392,8 @@ impl<const N: usize> Newmark<N> {
                 }
                 ContactState::Sliding => {
                     // Friction as a load along the slip of the last iteration (Shi 1993).
-                    let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, tr.normal_force);
+                    let limit =
+                        Joint::shear_limit(c.tan_phi, tr.cohesion(c), c.area, tr.normal_force);
                     let s = tr.shear;
                     let dir = if s.norm() > 0.0 {
                         s.normalize()
@@ -390,6 +414,7 @@ impl<const N: usize> Newmark<N> {
     /// open/closed or locked/sliding, and whether sliding friction used a stale normal force.
     fn classify(&mut self, world: &World) -> (usize, bool) {
         let pen = &world.penalty;
+        let gap_band = GAP_TOLERANCE * pen.margin;
         let mut changed = 0;
         let mut stale = false;
         for (ci, c) in world.contacts.iter().enumerate() {
@@ -401,12 +426,37 @@ impl<const N: usize> Newmark<N> {
             let n = c.normal;
             let gap = c.gap + n.dot(&delta);
             let tr = &mut self.trials[ci];
-            let (state, normal_force, shear) = if gap >= 0.0 {
+            let shear = c.shear + (delta - n * n.dot(&delta));
+            // Compression positive; a bonded joint pulls back when opened.
+            let signed_force = -pen.normal * gap;
+            let mut bonded = tr.bonded;
+            if bonded && !pen.bonds_hold {
+                // A bond breaks for good when the tension passes T·A or the shear the
+                // Mohr–Coulomb envelope with cohesion; the contact is then a plain one (residual
+                // friction, open if it has opened) from this iteration on.
+                let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, signed_force);
+                if signed_force < -c.tensile * c.area
+                    || pen.shear * shear.norm() > limit * (1.0 + STATE_TOLERANCE)
+                {
+                    bonded = false;
+                }
+            }
+            let closes = match tr.state {
+                ContactState::Open => gap < -gap_band,
+                _ => gap < gap_band,
+            };
+            let (state, normal_force, shear) = if bonded {
+                (ContactState::Locked, signed_force, shear)
+            } else if !closes {
                 (ContactState::Open, 0.0, Vector::zeros())
             } else {
-                let nf = -pen.normal * gap;
-                let shear = c.shear + (delta - n * n.dot(&delta));
-                let limit = Joint::shear_limit(c.tan_phi, c.cohesion, c.area, nf);
+                let nf = signed_force;
+                let limit = if pen.bonds_hold {
+                    Real::INFINITY
+                } else {
+                    let cohesion = if c.bonded { 0.0 } else { c.cohesion };
+                    Joint::shear_limit(c.tan_phi, cohesion, c.area, nf)
+                };
                 // A contact whose shear sits on the Mohr–Coulomb limit (within
                 // STATE_TOLERANCE) keeps its trial state: locked and sliding then give the same
                 // solution, and flipping between them on round-off would never converge.
@@ -422,6 +472,9 @@ impl<const N: usize> Newmark<N> {
                 };
                 (state, nf, shear)
             };
+            if bonded != tr.bonded {
+                changed += 1;
+            }
             if state != tr.state {
                 changed += 1;
             } else if state == ContactState::Sliding
@@ -434,6 +487,7 @@ impl<const N: usize> Newmark<N> {
                 normal_force,
                 shear,
                 gap,
+                bonded,
             };
         }
         (changed, stale)
@@ -459,8 +513,9 @@ impl<const N: usize> Newmark<N> {
         }
         self.trials.clear();
         self.trials.extend(world.contacts.iter().map(|c| Trial {
-            // A contact already interpenetrating at the start is closed; others keep their state.
-            state: if c.state == ContactState::Open && c.gap < 0.0 {
+            // A contact already interpenetrating at the start is closed, a bonded one is held
+            // (it pulls when opened); others keep their state.
+            state: if c.bonded || (c.state == ContactState::Open && c.gap < 0.0) {
                 ContactState::Locked
             } else {
                 c.state
@@ -468,6 +523,7 @@ impl<const N: usize> Newmark<N> {
             normal_force: c.normal_force,
             shear: c.shear,
             gap: c.gap,
+            bonded: c.bonded,
         }));
         self.solution.clear();
         for &i in &world.free {
@@ -537,9 +593,14 @@ impl<const N: usize> Newmark<N> {
         }
         let pen = world.penalty.clone();
         for (c, tr) in world.contacts.iter_mut().zip(&self.trials) {
+            if c.bonded && !tr.bonded {
+                c.break_bond();
+            }
             c.state = tr.state;
             c.gap = tr.gap;
-            c.normal_force = tr.normal_force;
+            // The signed force of a bonded joint in tension acts; the normal force reported is
+            // the compression.
+            c.normal_force = tr.normal_force.max(0.0);
             match tr.state {
                 ContactState::Open => {
                     c.shear = Vector::zeros();

@@ -210,6 +210,98 @@ fn in_normal_cone(n: &Vector, n1: &Vector, n2: &Vector) -> bool {
     n.dot(n1) >= c12 && n.dot(n2) >= c12
 }
 
+/// An edge with the outward normals of its two faces: the feature of an edge–edge contact.
+#[derive(Clone, Copy)]
+pub struct Edge {
+    pub p0: Point,
+    pub p1: Point,
+    pub n1: Vector,
+    pub n2: Vector,
+}
+
+/// Where edge `ea` (of the vertex side, P) crosses edge `eb` (of the face side, Q).
+pub(crate) struct Crossing {
+    /// The closest points on `ea` and on `eb`.
+    pub pa: Point,
+    pub pb: Point,
+    /// Unit normal, out of Q's edge (within its normal cone).
+    pub normal: Vector,
+    /// (pa − pb)·normal: negative when the edges interpenetrate.
+    pub gap: Real,
+}
+
+/// The crossing of two edges within `margin`, if they can touch there: not parallel, closest
+/// points inside both (a crossing at an end point is a vertex, carried by vertex–face), the
+/// normal inside both edges' normal cones. The caller checks that the points lie in (or at the
+/// margin of) the other body ([`local_depths`]).
+#[inline]
+pub(crate) fn crossing(ea: &Edge, eb: &Edge, m: Real) -> Option<Crossing> {
+    let (a0, b0) = (ea.p0, eb.p0);
+    let u = ea.p1 - a0;
+    let w = eb.p1 - b0;
+    let cross = u.cross(&w);
+    let cn = cross.norm();
+    if cn <= PARALLEL_SINE * u.norm() * w.norm() {
+        return None;
+    }
+    let (s, t) = closest_parameters(&a0, &u, &b0, &w);
+    // End points are vertices: vertex–face contacts carry them, also a crossing within the
+    // margin of one (corners that coincide, as in a cut rock mass, would otherwise cross at
+    // every corner with a normal across the joint).
+    let (lu, lw) = (u.norm(), w.norm());
+    let (su, tw) = (m.max(1e-9 * lu), m.max(1e-9 * lw));
+    if !(s * lu > su && (1.0 - s) * lu > su && t * lw > tw && (1.0 - t) * lw > tw) {
+        return None;
+    }
+    let pa = a0 + u * s;
+    let pb = b0 + w * t;
+    let mut n = cross / cn;
+    if n.dot(&(eb.n1 + eb.n2)) < 0.0 {
+        n = -n;
+    }
+    if !in_normal_cone(&n, &eb.n1, &eb.n2) || !in_normal_cone(&-n, &ea.n1, &ea.n2) {
+        return None;
+    }
+    let gap = (pa - pb).dot(&n);
+    if gap > m {
+        return None;
+    }
+    Some(Crossing {
+        pa,
+        pb,
+        normal: n,
+        gap,
+    })
+}
+
+/// True when a crossing whose points lie `da` (pa under Q's surface) and `db` (pb under P's)
+/// from the other body is a contact: both within the margin of the other body (the crossing
+/// is local, not two far edges whose infinite lines happen to cross), and the depth along n
+/// of the order of the points' depth below the nearest face. An edge sunk a little into a
+/// face is "crossed" by every edge of that face's plane at the distance between them, which
+/// is no contact (the face carries it as vertex–face); a true crossing is at most 1/cos of
+/// the angle between n and the nearest face normal deeper.
+#[inline]
+pub(crate) fn local_depths(c: &Crossing, da: Real, db: Real, m: Real) -> bool {
+    da <= m
+        && db <= m
+        && -c.gap <= EDGE_DEPTH_RATIO * (-da).max(0.0) + m
+        && -c.gap <= EDGE_DEPTH_RATIO * (-db).max(0.0) + m
+}
+
+/// The edge `e` of block `b` in the world, with its faces' normals.
+#[inline]
+pub(crate) fn block_edge(b: &Block, e: usize) -> Edge {
+    let [v0, v1] = b.shape.edges[e];
+    let [f1, f2] = b.edge_faces[e];
+    Edge {
+        p0: b.world_vertices[v0 as usize],
+        p1: b.world_vertices[v1 as usize],
+        n1: b.world_normals[f1 as usize],
+        n2: b.world_normals[f2 as usize],
+    }
+}
+
 fn edge_edge(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<Contact>) {
     let Pair {
         a,
@@ -219,72 +311,17 @@ fn edge_edge(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<C
         joint,
     } = *pair;
     let m = params.margin;
-    for (ia, ea) in ba.shape.edges.iter().enumerate() {
-        let (a0, a1) = (
-            ba.world_vertices[ea[0] as usize],
-            ba.world_vertices[ea[1] as usize],
-        );
-        if clip_segment(bb, &a0, &a1, m).is_none() {
+    for ia in 0..ba.shape.edges.len() {
+        let ea = block_edge(ba, ia);
+        if clip_segment(bb, &ea.p0, &ea.p1, m).is_none() {
             continue;
         }
-        let u = a1 - a0;
-        let [fa1, fa2] = ba.edge_faces[ia];
-        let (na1, na2) = (
-            ba.world_normals[fa1 as usize],
-            ba.world_normals[fa2 as usize],
-        );
-        for (ib, eb) in bb.shape.edges.iter().enumerate() {
-            let (b0, b1) = (
-                bb.world_vertices[eb[0] as usize],
-                bb.world_vertices[eb[1] as usize],
-            );
-            let w = b1 - b0;
-            let cross = u.cross(&w);
-            let cn = cross.norm();
-            if cn <= PARALLEL_SINE * u.norm() * w.norm() {
+        for ib in 0..bb.shape.edges.len() {
+            let Some(x) = crossing(&ea, &block_edge(bb, ib), m) else {
                 continue;
-            }
-            let (s, t) = closest_parameters(&a0, &u, &b0, &w);
-            // End points are vertices: vertex–face contacts carry them, also a crossing within
-            // the margin of one (corners that coincide, as in a cut rock mass, would otherwise
-            // cross at every corner with a normal across the joint).
-            let (lu, lw) = (u.norm(), w.norm());
-            let (su, tw) = (m.max(1e-9 * lu), m.max(1e-9 * lw));
-            if !(s * lu > su && (1.0 - s) * lu > su && t * lw > tw && (1.0 - t) * lw > tw) {
-                continue;
-            }
-            let pa = a0 + u * s;
-            let pb = b0 + w * t;
-            let [fb1, fb2] = bb.edge_faces[ib];
-            let (nb1, nb2) = (
-                bb.world_normals[fb1 as usize],
-                bb.world_normals[fb2 as usize],
-            );
-            let mut n = cross / cn;
-            if n.dot(&(nb1 + nb2)) < 0.0 {
-                n = -n;
-            }
-            if !in_normal_cone(&n, &nb1, &nb2) || !in_normal_cone(&-n, &na1, &na2) {
-                continue;
-            }
-            let gap = (pa - pb).dot(&n);
-            if gap > m {
-                continue;
-            }
-            // Both closest points must lie in (or at the margin of) the other block: the
-            // crossing is local, not two far edges whose infinite lines happen to cross.
-            let (da, db) = (bb.plane_distance(&pa).0, ba.plane_distance(&pb).0);
-            if da > m || db > m {
-                continue;
-            }
-            // And the depth along n must be of the order of the points' depth below the
-            // nearest face: an edge sunk a little into a face is "crossed" by every edge of
-            // that face's plane at the distance between them, which is no contact (the face
-            // carries it as vertex–face). A true crossing is at most 1/cos of the angle
-            // between n and the nearest face normal deeper.
-            if -gap > EDGE_DEPTH_RATIO * (-da).max(0.0) + m
-                || -gap > EDGE_DEPTH_RATIO * (-db).max(0.0) + m
-            {
+            };
+            let (da, db) = (bb.plane_distance(&x.pa).0, ba.plane_distance(&x.pb).0);
+            if !local_depths(&x, da, db, m) {
                 continue;
             }
             let key = ContactKey {
@@ -295,9 +332,9 @@ fn edge_edge(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<C
                 j: ib as u32,
             };
             let mut c = Contact::new(key, a, b);
-            c.point = Point::from((pa.coords + pb.coords) * 0.5);
-            c.normal = n;
-            c.gap = gap;
+            c.point = Point::from((x.pa.coords + x.pb.coords) * 0.5);
+            c.normal = x.normal;
+            c.gap = x.gap;
             c.tan_phi = joint.tan_phi;
             c.cohesion = joint.cohesion;
             let prev = contact::find(old, &key);

@@ -16,14 +16,19 @@
 //!   own) are used: a vertex
 //!   of a flat or hollow patch is never the feature that touches, and counting it would add a
 //!   spring each time a block slid over one.
-//!
-//! Edge–edge contacts (a block edge across a terrain ridge with no vertex in either) are not
-//! detected.
+//! - a block edge across a terrain edge (`EdgeEdge`, the block edge is `i`, the terrain ridge
+//!   `j`): only the mesh edges where the surface bends away (*ridges*, [`TerrainBody::ridges`],
+//!   in a BVH of their own) can be crossed by a block resting on the terrain, as only peaks can
+//!   touch a face. The crossing test is the one between two blocks
+//!   ([`crate::narrow_phase::crossing`]); its locality check measures the block edge's point
+//!   against the ridge's two triangle planes (locally, the terrain is the wedge under them).
+//!   Without these, a block lying across a ridge with no vertex on either side (a slab bridging
+//!   a crest, a block rocking over the brink of a cliff) would sink through it.
 
 use crate::block::Block;
 use crate::contact::{self, Contact, ContactKey, Feature};
 use crate::friction::Joint;
-use crate::narrow_phase::NarrowParams;
+use crate::narrow_phase::{self, Edge, NarrowParams};
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
 use shared::math::{Point, Real, Vector};
@@ -47,6 +52,11 @@ pub struct TerrainBody {
     /// A BVH over the peaks (leaf k is `peaks[k]`): the peaks under a block are found in
     /// O(log n + found), however many flat or hollow vertices the terrain has.
     peak_bvh: Bvh,
+    /// The mesh edges between two triangles where the surface bends away by more than
+    /// [`PEAK_SINE`] (convex creases), in the order of their vertex pairs.
+    pub ridges: Vec<Edge>,
+    /// A BVH over the ridges (leaf k is `ridges[k]`): O(log n + found) per block, as the peaks.
+    ridge_bvh: Bvh,
 }
 
 impl TerrainBody {
@@ -80,10 +90,18 @@ impl TerrainBody {
             .map(|&w| Aabb::new(v[w as usize], v[w as usize]))
             .collect();
         let peak_bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+        let ridges = ridges(mesh);
+        let leaves: Vec<Aabb> = ridges
+            .iter()
+            .map(|e| Aabb::from_points([e.p0, e.p1]))
+            .collect();
+        let ridge_bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
         Self {
             terrain,
             peaks,
             peak_bvh,
+            ridges,
+            ridge_bvh,
         }
     }
 
@@ -205,10 +223,123 @@ pub fn collide(
             );
         }
     });
+    ridge_contacts(a, ba, b, body, &aabb, joint, m, old, out);
 }
 
 thread_local! {
     static PEAKS: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+    static RIDGES: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// The convex creases of a triangle mesh: each edge shared by two triangles whose far vertex
+/// lies below the other's plane by more than [`PEAK_SINE`] of its distance, with the two
+/// triangles' outward normals. Edges of one triangle only (the mesh's rim) are left out: a
+/// block there is leaving the terrain. Sorted by vertex pair, so the order is the mesh's.
+fn ridges(mesh: &parry3d_f64::shape::TriMesh) -> Vec<Edge> {
+    let v = mesh.vertices();
+    let tris = mesh.indices();
+    // (low vertex, high vertex, triangle) of every triangle edge; equal pairs are neighbours.
+    let mut edges: Vec<(u32, u32, u32)> = Vec::with_capacity(3 * tris.len());
+    for (ti, t) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (p, q) = (t[k], t[(k + 1) % 3]);
+            edges.push((p.min(q), p.max(q), ti as u32));
+        }
+    }
+    edges.sort_unstable();
+    let normal = |t: &[u32; 3]| {
+        let (a, b, c) = (v[t[0] as usize], v[t[1] as usize], v[t[2] as usize]);
+        (b - a).cross(&(c - a)).try_normalize(1e-300)
+    };
+    let far = |t: &[u32; 3], p: u32, q: u32| *t.iter().find(|&&w| w != p && w != q).unwrap();
+    let mut out = Vec::new();
+    for w in edges.windows(2) {
+        let ((p, q, t1), (p2, q2, t2)) = (w[0], w[1]);
+        if (p, q) != (p2, q2) {
+            continue;
+        }
+        let (tri1, tri2) = (&tris[t1 as usize], &tris[t2 as usize]);
+        let (Some(n1), Some(n2)) = (normal(tri1), normal(tri2)) else {
+            continue;
+        };
+        let o2 = v[far(tri2, p, q) as usize] - v[p as usize];
+        if o2.dot(&n1) < -PEAK_SINE * o2.norm() {
+            out.push(Edge {
+                p0: v[p as usize],
+                p1: v[q as usize],
+                n1,
+                n2,
+            });
+        }
+    }
+    out
+}
+
+/// Edges of block `a` crossing the terrain's ridges in `aabb` (the block's, grown by the
+/// margin), in key order (block edge, then ridge).
+#[allow(clippy::too_many_arguments)]
+fn ridge_contacts(
+    a: u32,
+    ba: &Block,
+    b: u32,
+    body: &TerrainBody,
+    aabb: &Aabb,
+    joint: Joint,
+    m: Real,
+    old: &[Contact],
+    out: &mut Vec<Contact>,
+) {
+    RIDGES.with_borrow_mut(|found| {
+        found.clear();
+        found.extend(body.ridge_bvh.intersect_aabb(aabb));
+        if found.is_empty() {
+            return;
+        }
+        found.sort_unstable();
+        let grow = Vector::repeat(m);
+        for ia in 0..ba.shape.edges.len() {
+            let ea = narrow_phase::block_edge(ba, ia);
+            let lo = ea.p0.coords.inf(&ea.p1.coords) - grow;
+            let hi = ea.p0.coords.sup(&ea.p1.coords) + grow;
+            for &j in found.iter() {
+                let eb = &body.ridges[j as usize];
+                let (rlo, rhi) = (
+                    eb.p0.coords.inf(&eb.p1.coords),
+                    eb.p0.coords.sup(&eb.p1.coords),
+                );
+                if (0..3).any(|k| rhi[k] < lo[k] || rlo[k] > hi[k]) {
+                    continue;
+                }
+                let Some(x) = narrow_phase::crossing(&ea, eb, m) else {
+                    continue;
+                };
+                // The block edge's point under the terrain: locally the wedge below the
+                // ridge's two triangles. The ridge's point in the block: its face planes.
+                let da = (x.pa - eb.p0).dot(&eb.n1).max((x.pa - eb.p0).dot(&eb.n2));
+                let db = ba.plane_distance(&x.pb).0;
+                if !narrow_phase::local_depths(&x, da, db, m) {
+                    continue;
+                }
+                let key = ContactKey {
+                    a,
+                    b,
+                    feature: Feature::EdgeEdge,
+                    i: ia as u32,
+                    j,
+                };
+                let mut c = Contact::new(key, a, b);
+                c.point = Point::from((x.pa.coords + x.pb.coords) * 0.5);
+                c.normal = x.normal;
+                c.gap = x.gap;
+                c.tan_phi = joint.tan_phi;
+                c.cohesion = joint.cohesion;
+                if let Some(o) = contact::find(old, &key) {
+                    c.inherit(o);
+                }
+                out.push(c);
+            }
+        }
+    });
 }
 
 /// Terrain peak `w` at `p` against the faces of block `a`.

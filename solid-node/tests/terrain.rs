@@ -27,3 +27,13 @@ fn incline_on_a_terrain_mesh_matches_mohr_coulomb() {
 fn a_block_on_a_terrain_bump_tips_onto_it_and_stays() {
     check(&v::bump_rows(v::EXPLICIT));
 }
+
+#[test]
+fn a_cube_across_a_terrain_ridge_rests_on_its_edge_crossings() {
+    let rows: Vec<Row> = solid_node::REGISTRY
+        .names()
+        .into_iter()
+        .flat_map(v::mesa_rows)
+        .collect();
+    check(&rows);
+}

@@ -112,3 +112,11 @@ fn jointed_slopes_stand_or_fail_by_their_factor_of_safety() {
     assert_eq!(rows.len(), 6);
     check(&rows);
 }
+
+#[test]
+fn jointed_slopes_stand_or_fail_by_their_factor_of_safety_implicit() {
+    let rows = v::jointed_rows("implicit");
+    println!("{}", v::markdown(&rows));
+    assert_eq!(rows.len(), 6);
+    check(&rows);
+}

@@ -287,8 +287,8 @@ pub fn jointed_distance(
 /// Time the jointed cases run [s].
 pub const JOINTED_DURATION: Real = 0.6;
 
-/// The planar, hanging and wedge rows (explicit solver: bonds and their breaking are modelled
-/// there).
+/// The planar, hanging and wedge rows of one solver (both model the bonds and their breaking:
+/// the explicit one in [`crate::penalty`], the implicit one in its open–close iterations).
 pub fn jointed_rows(solver: &str) -> Vec<Row> {
     let planar = |fs| Planar {
         psi: 35.0,
@@ -428,24 +428,5 @@ mod tests {
                 .position
         );
         assert_eq!(a, b);
-    }
-
-    #[test]
-    fn the_implicit_solver_refuses_bonded_joints_with_the_fix() {
-        let p = Planar {
-            psi: 35.0,
-            phi: 22.8,
-            fs: 1.3,
-            l: 2.0,
-            t: 0.2,
-        };
-        let msg = match Harness::new(&p.scene(), "implicit") {
-            Ok(_) => panic!("the implicit solver took a scene with bonded joints"),
-            Err(e) => e.to_string(),
-        };
-        assert!(
-            msg.contains("[[slide]]") && msg.contains("--solid-solver explicit"),
-            "{msg}"
-        );
     }
 }

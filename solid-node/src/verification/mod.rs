@@ -57,12 +57,13 @@ pub fn run_all(quick: bool) -> Vec<Row> {
         rows.extend(restitution_rows(solver));
         if solver == EXPLICIT {
             rows.extend(explicit_limit_rows());
-            rows.extend(jointed_rows(solver));
         }
+        rows.extend(jointed_rows(solver));
         rows.push(stack_row(solver, if quick { 3.0 } else { 10.0 }));
         rows.extend(default_wedge_rows(solver));
         rows.extend(incline_on_terrain_rows(solver));
         rows.extend(bump_rows(solver));
+        rows.extend(mesa_rows(solver));
     }
     for &solver in &solvers {
         rows.extend(deformable::rows(solver));

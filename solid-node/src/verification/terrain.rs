@@ -198,3 +198,106 @@ pub fn bump_rows(solver: &str) -> Vec<Row> {
         ],
     }
 }
+
+/// Height [m] and half-width [m] of the mesa in [`block_on_mesa`].
+const MESA: (Real, Real) = (0.4, 0.2);
+
+/// A cube as wide as a mesa's flat top, turned 45° about z and set down on it at zero gap. The
+/// DEM (0.4 m cells) has the top as one cell, its rim four *ridges* with no vertex between the
+/// corners; the cube's bottom corners hang over the 45° flanks and the mesa's corners stand
+/// outside the cube's bottom face, so neither has a vertex in the other: the cube rests only
+/// where its bottom edges cross the rim, eight edge–edge contacts, as the twisted stack of two
+/// cubes does. Without them it would sink into the mesa. Returns the drop of the centroid, the
+/// tilt [rad], the horizontal drift [m] after `duration`, and how many edge–edge contacts hold it.
+pub fn block_on_mesa(
+    solver: &str,
+    duration: Real,
+) -> Result<(Real, Real, Real, usize), SolverError> {
+    let files = Files::new("mesa");
+    let file = files.0.join("mesa.asc");
+    let (height, half) = MESA;
+    let cell = 2.0 * half;
+    // Past the ±2 m domain, so the terrain's rim is at its sides.
+    let grid = Grid::from_fn(12, 12, -11.0 * half, -11.0 * half, cell, |x, y| {
+        if x.abs() <= half + 1e-9 && y.abs() <= half + 1e-9 {
+            height
+        } else {
+            0.0
+        }
+    });
+    std::fs::write(&file, grid.to_asc()).expect("write the DEM");
+    let (s, c) = std::f64::consts::FRAC_PI_4.sin_cos();
+    let block: Vec<[Real; 3]> = box_corners([-half, -half, height], [half, half, height + cell])
+        .iter()
+        .map(|p| [c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
+        .collect();
+    let scene = scene(
+        "terrain_mesa",
+        [0.0, 0.0, -G],
+        2.0,
+        "",
+        "friction_angle = 35\ndamping_ratio = 0.2",
+        &[
+            terrain_toml(&file, ""),
+            block_toml("rock", "free", 2500.0, &block, ""),
+        ],
+    );
+    let mut h = Harness::new(&scene, solver)?;
+    let start = h.block("rock").position;
+    h.run_until(duration, None, |_| {})?;
+    let b = h.block("rock");
+    let edges = h
+        .world()
+        .contacts
+        .iter()
+        .filter(|c| c.key.feature == crate::contact::Feature::EdgeEdge && c.gap < 0.0)
+        .count();
+    Ok((
+        start.z - b.position.z,
+        b.rotation.angle(),
+        (b.position - start).xy().norm(),
+        edges,
+    ))
+}
+
+/// The mesa case as rows: the cube stays on the rim (drop under 1 mm: the springs' deflection),
+/// level and in place, held by its eight edge crossings.
+pub fn mesa_rows(solver: &str) -> Vec<Row> {
+    let case = "cube turned 45° on a mesa's rim (edge crossings only)";
+    match block_on_mesa(solver, 1.0) {
+        Err(e) => vec![Row::failed(case, solver, "drop [m]", &e)],
+        Ok((drop, tilt, drift, edges)) => vec![
+            Row::numeric(
+                case,
+                solver,
+                "drop [m]",
+                0.0,
+                drop,
+                Tolerance::Absolute(1e-3),
+            ),
+            Row::numeric(
+                case,
+                solver,
+                "tilt [rad]",
+                0.0,
+                tilt,
+                Tolerance::Absolute(1e-3),
+            ),
+            Row::numeric(
+                case,
+                solver,
+                "horizontal drift [m]",
+                0.0,
+                drift,
+                Tolerance::Absolute(1e-3),
+            ),
+            Row::categorical(
+                case,
+                solver,
+                "closed edge–edge contacts",
+                "8",
+                &edges.to_string(),
+            ),
+        ],
+    }
+}
