@@ -19,6 +19,12 @@
 //! its size, the step is cut by 3 and retried (Shi's rule). Cuts happen inside one
 //! `advance(dt)`: it takes as many sub-steps as needed and still ends exactly at t + dt.
 //!
+//! **Bonded joints** of a `[[slide]]` ([`crate::joints`]): a bonded contact's normal spring acts
+//! in tension too, and its shear spring holds up to c·A + N tan φ. An iteration whose trial
+//! tension passes T·A or whose shear passes that envelope breaks the bond for the rest of the
+//! attempt (a state change, so the step is solved again without it), and the committed step
+//! breaks it for good: the residual friction alone from then on, as in the explicit scheme.
+//!
 //! The scheme is unconditionally stable but damps contact oscillations: a penalty bounce
 //! keeps e ≈ exp(−πΩ/4) of its speed (Ω = ω·Δt), the price DDA pays for its large steps.
 //!
