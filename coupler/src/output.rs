@@ -280,6 +280,10 @@ pub struct Summary {
     /// Highest water on a shore (slope, beach, wall) above the still-water level, from the
     /// particle frames (resolved to the output interval).
     pub max_runup: Option<crate::runup::RunUp>,
+    /// The same per `[[runup]]` box, by name (null where no water rose above the still-water
+    /// level on a shore in the box).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub runup: BTreeMap<String, Option<crate::runup::RunUp>>,
 }
 
 impl Summary {
@@ -300,6 +304,7 @@ impl Summary {
             Err(_) => "failed",
         };
         let wall = stats.wall_seconds.max(1e-9);
+        let runups = crate::runup::runups(&dir.path, scene);
         let mut compute_share = BTreeMap::new();
         if solvers.0.is_some() {
             compute_share.insert("fluid".into(), stats.fluid_compute_seconds / wall);
@@ -327,7 +332,8 @@ impl Summary {
                 coupler_peak_rss_mib: mib(stats.coupler_peak_rss_bytes),
             },
             final_block_positions: final_positions(&dir.path.join("blocks.csv")),
-            max_runup: crate::runup::max_runup(&dir.path, scene),
+            max_runup: runups.max,
+            runup: runups.regions.into_iter().collect(),
         }
     }
 }

@@ -1,5 +1,6 @@
 //! Maximum run-up: the highest elevation above the still-water level that the water reaches
-//! on a shore (a slope, beach or wall: a fixed-block face that is not horizontal).
+//! on a shore (a slope, beach or wall: a fixed-block face or a `[[terrain]]` triangle that is
+//! not horizontal).
 //!
 //! Read from the particle frames of the run directory after the run, so it is resolved in
 //! time only to the output interval (a peak between two frames is missed; a finer
@@ -31,9 +32,43 @@ const CONTACT: f64 = 1.5;
 /// Particles with fewer neighbours within 1.5 dx are spray, not the water's edge.
 const MIN_NEIGHBOURS: usize = 3;
 
+/// The run-ups of a run: over every shore, and over each `[[runup]]` box.
+#[derive(Debug, Clone, Default)]
+pub struct RunUps {
+    /// The highest water on any shore (height 0 and no position if none rose above the
+    /// still-water level); None without frames.
+    pub max: Option<RunUp>,
+    /// Per `[[runup]]`, in the scene's order: its name and the highest water on a shore inside
+    /// its box (None if none rose above the still-water level there, or without frames).
+    pub regions: Vec<(String, Option<RunUp>)>,
+}
+
 /// The maximum run-up over the frames listed in `particles.pvd`, or None without frames.
 pub fn max_runup(run_dir: &Path, scene: &Scene) -> Option<RunUp> {
+    runups(run_dir, scene).max
+}
+
+/// The run-ups over every shore and over each `[[runup]]` box, in one pass over the frames.
+pub fn runups(run_dir: &Path, scene: &Scene) -> RunUps {
+    let mut out = RunUps {
+        max: None,
+        regions: scene.runups.iter().map(|r| (r.name.clone(), None)).collect(),
+    };
+    let Some((max, regions)) = scan(run_dir, scene) else {
+        return out;
+    };
+    out.max = Some(max);
+    for (slot, r) in out.regions.iter_mut().zip(regions) {
+        slot.1 = r;
+    }
+    out
+}
+
+fn scan(run_dir: &Path, scene: &Scene) -> Option<(RunUp, Vec<Option<RunUp>>)> {
     let dx = scene.fluid.as_ref()?.dx;
+    let inside = |r: &shared::scene::RunupSpec, p: &[f64; 3]| {
+        (0..2).all(|k| p[k] >= r.min[k] && p[k] <= r.max[k])
+    };
     let shores: Vec<Polyhedron> = scene
         .blocks
         .iter()
@@ -41,6 +76,18 @@ pub fn max_runup(run_dir: &Path, scene: &Scene) -> Option<RunUp> {
         .filter_map(|b| Polyhedron::from_shape(&b.shape).ok())
         .filter(|p| p.faces.iter().any(|f| f.normal.z.abs() < HORIZONTAL))
         .collect();
+    // A terrain the run could read is read again here (the nodes had it; a file gone since is
+    // no shore, and the run-up is then that of the blocks alone).
+    let terrain = shared::terrain::Terrain::load_all(scene).unwrap_or_default();
+    let on_terrain_shore = |p: &[f64; 3]| {
+        terrain.iter().any(|t| {
+            t.nearest(&shared::math::Point::from(*p), CONTACT * dx)
+                .is_some_and(|s| {
+                    let n = t.mesh.triangle(s.triangle).normal();
+                    s.distance > -dx && n.is_some_and(|n| n.z.abs() < HORIZONTAL)
+                })
+        })
+    };
     let frames = crate::povray::pvd_frames(&run_dir.join("particles.pvd"));
     let first = read_vtp(&run_dir.join(&frames.first()?.1)).ok()?;
     let level = first
@@ -50,6 +97,8 @@ pub fn max_runup(run_dir: &Path, scene: &Scene) -> Option<RunUp> {
         .fold(f64::NEG_INFINITY, f64::max)
         + 0.5 * dx;
     let mut best: Option<RunUp> = None;
+    let mut regions: Vec<Option<RunUp>> = vec![None; scene.runups.len()];
+    let higher = |b: &Option<RunUp>, h: f64| b.as_ref().is_none_or(|b| h > b.height);
     for (time, file) in &frames {
         let Ok(frame) = read_vtp(&run_dir.join(file)) else {
             continue;
@@ -67,7 +116,13 @@ pub fn max_runup(run_dir: &Path, scene: &Scene) -> Option<RunUp> {
             grid.entry(cell(p)).or_default().push(i);
         }
         for p in high.iter().filter(|p| p[2] > level) {
-            if best.as_ref().is_some_and(|b| p[2] - level <= b.height) {
+            let h = p[2] - level;
+            let raises_region = scene
+                .runups
+                .iter()
+                .zip(&regions)
+                .any(|(r, b)| inside(r, p) && higher(b, h));
+            if !higher(&best, h) && !raises_region {
                 continue;
             }
             let on_shore = shores.iter().any(|s| {
@@ -75,7 +130,7 @@ pub fn max_runup(run_dir: &Path, scene: &Scene) -> Option<RunUp> {
                 let (d, face) = s.plane_distance(&local);
                 d <= CONTACT * dx && d > -dx && s.faces[face].normal.z.abs() < HORIZONTAL
             });
-            if !on_shore {
+            if !on_shore && !on_terrain_shore(p) {
                 continue;
             }
             let c = cell(p);
@@ -97,21 +152,30 @@ pub fn max_runup(run_dir: &Path, scene: &Scene) -> Option<RunUp> {
                 }
             }
             if neighbours >= MIN_NEIGHBOURS {
-                best = Some(RunUp {
-                    height: p[2] - level,
+                let r = RunUp {
+                    height: h,
                     time: *time,
                     position: *p,
                     still_water_level: level,
-                });
+                };
+                for (spec, b) in scene.runups.iter().zip(regions.iter_mut()) {
+                    if inside(spec, p) && higher(b, h) {
+                        *b = Some(r.clone());
+                    }
+                }
+                if higher(&best, h) {
+                    best = Some(r);
+                }
             }
         }
     }
-    best.or(Some(RunUp {
+    let max = best.unwrap_or(RunUp {
         height: 0.0,
         time: 0.0,
         position: [f64::NAN; 3],
         still_water_level: level,
-    }))
+    });
+    Some((max, regions))
 }
 
 #[cfg(test)]
@@ -126,7 +190,55 @@ mod tests {
         let dx = 0.05;
         scene.set_dx(dx);
         let dir = std::env::temp_dir().join(format!("rockwave-runup-{}", std::process::id()));
+        tongue_up_the_slope(&dir, &scene, dx);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The same tongue with the slope a `[[terrain]]` DEM instead of the fixed slope block: the
+    /// terrain's inclined triangles are shore as the block's faces are.
+    #[test]
+    fn runup_on_a_terrain_shore() {
+        let mut scene = Scene::default_scene();
+        let dx = 0.05;
+        scene.set_dx(dx);
+        let dir = std::env::temp_dir().join(format!("rockwave-runup-dem-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
+        // z = (1.5 − x)·tan 25° up to x = 1.5, flat beyond (not shore), past the domain.
+        let tan = 25f64.to_radians().tan();
+        let grid = shared::terrain::dem::Grid::from_fn(221, 61, -1.0, -1.0, dx, |x, _| {
+            ((1.5 - x) * tan).max(0.0)
+        });
+        std::fs::write(dir.join("slope.asc"), grid.to_asc()).unwrap();
+        scene.blocks.retain(|b| b.kind != BlockKind::Fixed);
+        scene.terrain.push(
+            toml::from_str(&format!("name = \"slope\"\nfile = {:?}", dir.join("slope.asc")))
+                .unwrap(),
+        );
+        assert_eq!(
+            shared::terrain::Terrain::load_all(&scene).unwrap().len(),
+            1,
+            "the terrain loads"
+        );
+        // Two `[[runup]]` boxes: the slope's (its run-up is the tongue's) and the flat far
+        // side's (no shore: none).
+        scene.runups = vec![
+            toml::from_str("name = \"slope\"\nmin = [0.0, 0.0]\nmax = [1.5, 1.0]").unwrap(),
+            toml::from_str("name = \"far\"\nmin = [3.0, 0.0]\nmax = [5.0, 1.0]").unwrap(),
+        ];
+        let top = tongue_up_the_slope(&dir, &scene, dx);
+        let r = runups(&dir, &scene);
+        let slope = r.regions[0].1.as_ref().expect("the slope's run-up");
+        assert_eq!(r.regions[0].0, "slope");
+        assert!((slope.height - r.max.as_ref().unwrap().height).abs() < 1e-12);
+        assert!((slope.position[2] - top).abs() < 1e-9);
+        assert!(r.regions[1].1.is_none(), "{:?}", r.regions[1]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Writes the still frame and the tongue frame into `dir`, checks the run-up over every
+    /// shore, and returns the tongue's top.
+    fn tongue_up_the_slope(dir: &Path, scene: &Scene, dx: f64) -> f64 {
+        std::fs::create_dir_all(dir).unwrap();
         // Still water up to z = 0.5 between the slope toe region and the far wall.
         let mut still = Vec::new();
         for i in 0..60 {
@@ -161,11 +273,11 @@ mod tests {
             &[(0.0, "p0.vtp".into()), (0.5, "p1.vtp".into())],
         )
         .unwrap();
-        let r = max_runup(&dir, &scene).unwrap();
+        let r = max_runup(dir, scene).unwrap();
         let level = 0.5 * dx + 9.0 * dx + 0.5 * dx;
         assert!((r.still_water_level - level).abs() < 1e-12);
         assert!((r.height - (top - level)).abs() < 1e-9, "{r:?}, top {top}");
         assert_eq!(r.time, 0.5);
-        std::fs::remove_dir_all(&dir).unwrap();
+        top
     }
 }

@@ -566,6 +566,30 @@ fn cases() -> Vec<Case> {
             "\" G4\"",
         ),
         case(
+            "runup box empty",
+            plus("[[runup]]\nname = \"beach\"\nmin = [3.0, 0.0]\nmax = [2.0, 0.8]"),
+            "runup[0].max",
+            "max = [2.0, 0.8]",
+        ),
+        case(
+            "runup box with 3 numbers",
+            plus("[[runup]]\nname = \"beach\"\nmin = [0.0, 0.0, 0.0]\nmax = [2.0, 0.8]"),
+            "runup[0].min",
+            "min = [0.0, 0.0, 0.0]",
+        ),
+        case(
+            "runup box outside the domain",
+            plus("[[runup]]\nname = \"beach\"\nmin = [30.0, 0.0]\nmax = [32.0, 0.8]"),
+            "runup[0].min",
+            "min = [30.0, 0.0]",
+        ),
+        case(
+            "duplicate runup name",
+            plus("[[runup]]\nname = \"beach\"\nmin = [0.0, 0.0]\nmax = [2.0, 0.8]\n[[runup]]\nname = \"beach\"\nmin = [3.0, 0.0]\nmax = [4.0, 0.8]"),
+            "runup[1].name",
+            "name = \"beach\"",
+        ),
+        case(
             "probe outside the domain",
             edit(
                 "position = [4.95, 0.4, 0.05]",

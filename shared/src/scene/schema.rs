@@ -60,6 +60,9 @@ pub struct Scene {
     /// `[[probe]]` entries: pressure recorded at a point.
     #[serde(default, rename = "probe")]
     pub probes: Vec<ProbeSpec>,
+    /// `[[runup]]` entries: shores (plan-view boxes) whose highest water is reported.
+    #[serde(default, rename = "runup", skip_serializing_if = "Vec::is_empty")]
+    pub runups: Vec<RunupSpec>,
 }
 
 fn default_gravity() -> [f64; 3] {
@@ -524,6 +527,19 @@ pub struct GaugeSpec {
     pub name: String,
     pub x: f64,
     pub y: f64,
+}
+
+/// One `[[runup]]`: a stretch of shore, as a box in plan (x, y), over which the highest water
+/// above the still-water level is reported in `summary.json` (`runup.<name>`), as
+/// `max_runup` is for every shore of the scene. A far shore gets its own figure this way,
+/// instead of the splash on the slide's own flank that usually sets the global maximum.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RunupSpec {
+    pub name: String,
+    /// Corners of the box in plan [m]: [x, y].
+    pub min: [f64; 2],
+    pub max: [f64; 2],
 }
 
 /// One `[[probe]]`: a pressure probe at a point.

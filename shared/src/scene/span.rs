@@ -70,8 +70,10 @@ fn search(table: &DeTable<'_>, prefix: &str, offset: usize) -> Option<String> {
 /// The length every fixed-size array field must have: serde reads `[f64; 3]` from the first
 /// three elements of a TOML array and ignores the rest, so `min = [0, 0, 0, 7]` would be
 /// silently truncated. `Some((n, true))`: each element of the array is an array of `n`.
-fn fixed_length(key: &str) -> Option<(usize, bool)> {
+/// `table` is the top-level table the key is in (a `[[runup]]` box is in plan: 2 numbers).
+fn fixed_length(table: Option<&str>, key: &str) -> Option<(usize, bool)> {
     match key {
+        "min" | "max" if table == Some("runup") => Some((2, false)),
         "gravity" | "min" | "max" | "velocity" | "angular_velocity" | "amplitude" | "position" => {
             Some((3, false))
         }
@@ -100,7 +102,11 @@ fn walk(table: &DeTable<'_>, path: &mut Vec<Seg>, errors: &mut Vec<FieldError>) 
             continue;
         }
         path.push(Seg::Key(key.to_string()));
-        match (value.get_ref(), fixed_length(key)) {
+        let top = match path.first() {
+            Some(Seg::Key(t)) => Some(t.as_str()),
+            _ => None,
+        };
+        match (value.get_ref(), fixed_length(top, key)) {
             (DeValue::Array(a), Some((n, nested))) => {
                 let bad = if nested {
                     a.iter().enumerate().find_map(|(i, v)| match v.get_ref() {
@@ -121,7 +127,11 @@ fn walk(table: &DeTable<'_>, path: &mut Vec<Seg>, errors: &mut Vec<FieldError>) 
                         value: format!("{len} numbers"),
                         problem: format!(
                             "must hold exactly {n} numbers{}",
-                            if n == 3 { " (x, y, z)" } else { "" }
+                            match (n, top) {
+                                (2, Some("runup")) => " (x, y)",
+                                (3, _) => " (x, y, z)",
+                                _ => "",
+                            }
                         ),
                         fix: format!("give {n} numbers; extra ones are not ignored silently"),
                         line: None,

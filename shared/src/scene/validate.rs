@@ -761,6 +761,37 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
             })
         });
     }
+    let mut runup_names = std::collections::HashSet::new();
+    for (i, r) in s.runups.iter().enumerate() {
+        c.key("runup", |c| {
+            c.at(Seg::Index(i), |c| {
+                c.label("name", &r.name, "runup");
+                if !runup_names.insert(r.name.as_str()) {
+                    c.fail(
+                        "name",
+                        &r.name,
+                        "is used by an earlier runup (summary.json keys run-ups by name)",
+                        "give every [[runup]] a unique name",
+                    );
+                }
+                if !(0..2).all(|k| r.min[k] < r.max[k]) {
+                    c.fail(
+                        "max",
+                        r.max,
+                        &format!("is not above min = {:?} in both x and y: the box is empty", r.min),
+                        "give the shore's box in plan with min < max, e.g. min = [150, 190], max = [250, 260]",
+                    );
+                } else if !(0..2).all(|k| r.min[k] < d.max[k] && r.max[k] > d.min[k]) {
+                    c.fail(
+                        "min",
+                        r.min,
+                        "gives a box outside the domain in plan: no water can reach it",
+                        "put the box over a shore inside [domain]",
+                    );
+                }
+            })
+        });
+    }
     let mut probe_names = std::collections::HashSet::new();
     for (i, p) in s.probes.iter().enumerate() {
         c.key("probe", |c| {
