@@ -52,7 +52,11 @@ pub fn max_runup(run_dir: &Path, scene: &Scene) -> Option<RunUp> {
 pub fn runups(run_dir: &Path, scene: &Scene) -> RunUps {
     let mut out = RunUps {
         max: None,
-        regions: scene.runups.iter().map(|r| (r.name.clone(), None)).collect(),
+        regions: scene
+            .runups
+            .iter()
+            .map(|r| (r.name.clone(), None))
+            .collect(),
     };
     let Some((max, regions)) = scan(run_dir, scene) else {
         return out;
@@ -211,8 +215,11 @@ mod tests {
         std::fs::write(dir.join("slope.asc"), grid.to_asc()).unwrap();
         scene.blocks.retain(|b| b.kind != BlockKind::Fixed);
         scene.terrain.push(
-            toml::from_str(&format!("name = \"slope\"\nfile = {:?}", dir.join("slope.asc")))
-                .unwrap(),
+            toml::from_str(&format!(
+                "name = \"slope\"\nfile = {:?}",
+                dir.join("slope.asc")
+            ))
+            .unwrap(),
         );
         assert_eq!(
             shared::terrain::Terrain::load_all(&scene).unwrap().len(),

@@ -53,11 +53,35 @@ impl OutputWithin for Command {
 /// Long enough for any command here on a loaded machine; short beside CI's limit.
 const LIMIT: Duration = Duration::from_secs(120);
 
-fn temp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("rockwave-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A scratch folder for a test's files, removed when the guard drops (also on a failed assert).
+struct Temp(tempfile::TempDir);
+
+impl std::ops::Deref for Temp {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        self.0.path()
+    }
+}
+
+impl AsRef<std::path::Path> for Temp {
+    fn as_ref(&self) -> &std::path::Path {
+        self.0.path()
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for Temp {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.path().as_os_str()
+    }
+}
+
+fn temp(name: &str) -> Temp {
+    Temp(
+        tempfile::Builder::new()
+            .prefix(&format!("rockwave-cli-{name}-"))
+            .tempdir()
+            .unwrap(),
+    )
 }
 
 #[test]

@@ -250,12 +250,12 @@ mod tests {
     use shared::terrain::dem::Grid;
 
     fn slope(dir: &str) -> Terrain {
-        let d = std::env::temp_dir().join(format!(
-            "rockwave-fluid-terrain-{}-{dir}",
-            std::process::id()
-        ));
-        std::fs::create_dir_all(&d).unwrap();
-        let p = d.join("slope.asc");
+        // The terrain is read into memory: its folder goes when this returns.
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!("rockwave-fluid-terrain-{dir}-"))
+            .tempdir()
+            .unwrap();
+        let p = tmp.path().join("slope.asc");
         // z = 0.2 + 0.1 x over [0, 1] × [0, 1].
         std::fs::write(
             &p,

@@ -585,7 +585,9 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "duplicate runup name",
-            plus("[[runup]]\nname = \"beach\"\nmin = [0.0, 0.0]\nmax = [2.0, 0.8]\n[[runup]]\nname = \"beach\"\nmin = [3.0, 0.0]\nmax = [4.0, 0.8]"),
+            plus(
+                "[[runup]]\nname = \"beach\"\nmin = [0.0, 0.0]\nmax = [2.0, 0.8]\n[[runup]]\nname = \"beach\"\nmin = [3.0, 0.0]\nmax = [4.0, 0.8]",
+            ),
             "runup[1].name",
             "name = \"beach\"",
         ),

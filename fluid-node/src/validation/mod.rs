@@ -20,8 +20,7 @@ use shared::protocol::BlockLoad;
 use shared::scene::{Scene, Scheme, Walls};
 use shared::solver::{SetupContext, SolverError, StepReport};
 use shared::step::{StepRule, grant};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::path::Path;
 
 mod dam_break;
 mod impact;
@@ -36,25 +35,17 @@ pub use table::*;
 pub use terrain_basin::*;
 
 /// A scratch run directory, removed on drop.
-pub struct TempRunDir(PathBuf);
+pub struct TempRunDir(tempfile::TempDir);
 
 impl TempRunDir {
     pub fn new(tag: &str) -> std::io::Result<Self> {
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir =
-            std::env::temp_dir().join(format!("rockwave-fluid-{tag}-{}-{n}", std::process::id()));
-        std::fs::create_dir_all(&dir)?;
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("rockwave-fluid-{tag}-"))
+            .tempdir()?;
         Ok(Self(dir))
     }
     pub fn path(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for TempRunDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
+        self.0.path()
     }
 }
 

@@ -2,11 +2,12 @@ use super::*;
 use crate::scene::CropSpec;
 use std::path::Path;
 
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rockwave-terrain-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A scratch folder for a test's files, removed when the returned guard drops.
+fn dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("rockwave-terrain-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 fn spec(file: &Path) -> TerrainSpec {
@@ -104,7 +105,8 @@ fn write_ply(path: &Path, m: &RawMesh) {
 /// A closed box read from every mesh format: 12 triangles, closed, the same signed distances.
 #[test]
 fn a_closed_box_reads_the_same_from_every_mesh_format() {
-    let d = dir("formats");
+    let tmp = dir("formats");
+    let d = tmp.path();
     let m = box_mesh([0.2, 0.2, 0.0], [0.8, 0.6, 0.5]);
     let files = [
         ("box_ascii.stl", 0),
@@ -140,7 +142,8 @@ fn a_closed_box_reads_the_same_from_every_mesh_format() {
 
 #[test]
 fn inward_normals_are_named_and_flip_normals_fixes_them() {
-    let d = dir("flipped");
+    let tmp = dir("flipped");
+    let d = tmp.path();
     let mut m = box_mesh([0.2, 0.2, 0.0], [0.8, 0.6, 0.5]);
     m.triangles.iter_mut().for_each(|t| t.swap(1, 2));
     let p = d.join("inward.obj");
@@ -166,7 +169,8 @@ fn inward_normals_are_named_and_flip_normals_fixes_them() {
 /// A DEM of a sloped bed: the surface is where the grid says, open, ground under it.
 #[test]
 fn a_dem_slope_is_an_open_surface_with_ground_under_it() {
-    let d = dir("dem");
+    let tmp = dir("dem");
+    let d = tmp.path();
     let g = dem::Grid::from_fn(11, 6, 0.0, 0.0, 0.1, |x, _| 0.1 + 0.2 * x);
     let p = d.join("slope.asc");
     std::fs::write(&p, g.to_asc()).unwrap();
@@ -205,7 +209,8 @@ fn a_dem_slope_is_an_open_surface_with_ground_under_it() {
 
 #[test]
 fn dem_holes_are_refused_or_filled_as_asked() {
-    let d = dir("holes");
+    let tmp = dir("holes");
+    let d = tmp.path();
     let mut g = dem::Grid::from_fn(5, 5, 0.05, 0.05, 0.1, |_, _| 0.2);
     g.z[12] = None;
     let p = d.join("holes.asc");
@@ -227,7 +232,8 @@ fn dem_holes_are_refused_or_filled_as_asked() {
 
 #[test]
 fn a_terrain_outside_the_domain_is_refused() {
-    let d = dir("outside");
+    let tmp = dir("outside");
+    let d = tmp.path();
     let p = d.join("far.obj");
     write_obj(&p, &box_mesh([100.0, 0.0, 0.0], [101.0, 1.0, 1.0]));
     let e = Terrain::load(&spec(&p), &domain([0.0; 3], [1.0; 3])).unwrap_err();
@@ -246,7 +252,8 @@ fn a_terrain_outside_the_domain_is_refused() {
 /// and the coupler's check reports problems as scene fields.
 #[test]
 fn scene_paths_are_relative_to_the_scene_file() {
-    let d = dir("scene");
+    let tmp = dir("scene");
+    let d = tmp.path();
     std::fs::create_dir_all(d.join("site")).unwrap();
     write_obj(
         &d.join("site/box.obj"),

@@ -2,24 +2,23 @@
 
 use super::*;
 
-static RUN_COUNTER: AtomicUsize = AtomicUsize::new(0);
-
 /// A solver with its own temporary run directory (removed on drop).
 pub struct Harness {
     pub solver: DdaSolver,
     /// The scene's step limits, as the coupler applies them.
     pub rule: StepRule,
-    dir: PathBuf,
+    /// Removed on drop, also when the solver could not be built.
+    dir: tempfile::TempDir,
 }
 
 impl Harness {
     pub fn new(scene: &Scene, solver: &str) -> Result<Harness, SolverError> {
-        let n = RUN_COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir = std::env::temp_dir().join(format!("rockwave-solid-{}-{n}", std::process::id()));
-        std::fs::create_dir_all(&dir)?;
+        let dir = tempfile::Builder::new()
+            .prefix("rockwave-solid-")
+            .tempdir()?;
         let ctx = SetupContext {
             scene,
-            run_dir: &dir,
+            run_dir: dir.path(),
             scheme: Scheme::Parallel,
             peer_present: false,
         };
@@ -37,7 +36,7 @@ impl Harness {
     }
 
     pub fn run_dir(&self) -> &std::path::Path {
-        &self.dir
+        self.dir.path()
     }
 
     /// One step towards `target`, granted by the coupler's rule ([`shared::step::grant`]: the
@@ -78,11 +77,5 @@ impl Harness {
     pub fn block(&self, name: &str) -> &crate::block::Block {
         let i = self.solver.block_index(name).expect("block exists");
         &self.solver.world.blocks[i]
-    }
-}
-
-impl Drop for Harness {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
     }
 }

@@ -18,7 +18,6 @@ use shared::solver::{SetupContext, Solver, SolverError};
 use shared::step::{StepRule, grant};
 use std::f64::consts::PI;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 const G: Real = shared::math::STANDARD_GRAVITY;
 

@@ -7,24 +7,19 @@ use super::*;
 use shared::terrain::dem::Grid;
 
 /// A scratch folder for the terrain files of a case (removed on drop).
-struct Files(PathBuf);
+struct Files(tempfile::TempDir);
 
 impl Files {
     fn new(tag: &str) -> Files {
-        static N: AtomicUsize = AtomicUsize::new(0);
-        let d = std::env::temp_dir().join(format!(
-            "rockwave-solid-terrain-{}-{tag}-{}",
-            std::process::id(),
-            N.fetch_add(1, Ordering::Relaxed)
-        ));
-        std::fs::create_dir_all(&d).expect("temporary folder");
+        let d = tempfile::Builder::new()
+            .prefix(&format!("rockwave-solid-terrain-{tag}-"))
+            .tempdir()
+            .expect("temporary folder");
         Files(d)
     }
-}
 
-impl Drop for Files {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
+    fn join(&self, name: &str) -> PathBuf {
+        self.0.path().join(name)
     }
 }
 
@@ -95,7 +90,7 @@ pub fn incline_on_terrain_rows(solver: &str) -> Vec<Row> {
         .iter()
         .map(|(case, inc)| {
             let files = Files::new("incline");
-            let scene = incline_on_terrain_scene(inc, 0.5, &files.0);
+            let scene = incline_on_terrain_scene(inc, 0.5, files.0.path());
             let run = || -> Result<Real, SolverError> {
                 let mut h = Harness::new(&scene, solver)?;
                 let start = h.block("rock").position;
@@ -129,7 +124,7 @@ const BUMP_OFFSET: Real = 0.05;
 /// through the bump. Returns the tilt [rad], the horizontal drift [m] and the final speed.
 pub fn block_on_bump(solver: &str, duration: Real) -> Result<(Real, Real, Real), SolverError> {
     let files = Files::new("bump");
-    let file = files.0.join("bump.asc");
+    let file = files.join("bump.asc");
     let cell: Real = 0.05;
     let n = (4.0 / cell).round() as usize + 1;
     let grid = Grid::from_fn(n, n, -2.0, -2.0, cell, |x, y| {
@@ -214,7 +209,7 @@ pub fn block_on_mesa(
     duration: Real,
 ) -> Result<(Real, Real, Real, usize), SolverError> {
     let files = Files::new("mesa");
-    let file = files.0.join("mesa.asc");
+    let file = files.join("mesa.asc");
     let (height, half) = MESA;
     let cell = 2.0 * half;
     // Past the ±2 m domain, so the terrain's rim is at its sides.
