@@ -211,7 +211,7 @@ fn in_normal_cone(n: &Vector, n1: &Vector, n2: &Vector) -> bool {
 }
 
 /// An edge with the outward normals of its two faces: the feature of an edge–edge contact.
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy)]
 pub struct Edge {
     pub p0: Point,
     pub p1: Point,

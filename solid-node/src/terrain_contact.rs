@@ -54,7 +54,7 @@ pub struct TerrainBody {
     peak_bvh: Bvh,
     /// The mesh edges between two triangles where the surface bends away by more than
     /// [`PEAK_SINE`] (convex creases), in the order of their vertex pairs.
-    pub ridges: Vec<Edge>,
+    pub ridges: Vec<Ridge>,
     /// A BVH over the ridges (leaf k is `ridges[k]`): O(log n + found) per block, as the peaks.
     ridge_bvh: Bvh,
 }
@@ -91,9 +91,10 @@ impl TerrainBody {
             .collect();
         let peak_bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
         let ridges = ridges(mesh);
+        let v = mesh.vertices();
         let leaves: Vec<Aabb> = ridges
             .iter()
-            .map(|e| Aabb::from_points([e.p0, e.p1]))
+            .map(|r| Aabb::from_points([v[r.vertices[0] as usize], v[r.vertices[1] as usize]]))
             .collect();
         let ridge_bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
         Self {
@@ -228,14 +229,43 @@ pub fn collide(
 
 thread_local! {
     static PEAKS: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
-    static RIDGES: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+    /// The ridges near a block with their geometry (per thread, reused: no allocation once warm).
+    static RIDGES: std::cell::RefCell<Vec<(u32, Edge)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// A convex crease of the terrain: a mesh edge (its two vertices) and the two triangles that
+/// meet there. 16 bytes, so a rough 10⁶-triangle DEM (about 1.5·10⁶ edges, many of them
+/// ridges) keeps its ridges in tens of MB; the geometry is read from the mesh when a block
+/// is near.
+#[derive(Debug, Clone, Copy)]
+pub struct Ridge {
+    pub vertices: [u32; 2],
+    pub triangles: [u32; 2],
+}
+
+impl Ridge {
+    /// The ridge with its two triangles' outward normals.
+    fn edge(&self, mesh: &parry3d_f64::shape::TriMesh) -> Edge {
+        let v = mesh.vertices();
+        let normal = |t: u32| {
+            mesh.triangle(t)
+                .normal()
+                .map_or(Vector::z(), |n| n.into_inner())
+        };
+        Edge {
+            p0: v[self.vertices[0] as usize],
+            p1: v[self.vertices[1] as usize],
+            n1: normal(self.triangles[0]),
+            n2: normal(self.triangles[1]),
+        }
+    }
 }
 
 /// The convex creases of a triangle mesh: each edge shared by two triangles whose far vertex
 /// lies below the other's plane by more than [`PEAK_SINE`] of its distance, with the two
 /// triangles' outward normals. Edges of one triangle only (the mesh's rim) are left out: a
 /// block there is leaving the terrain. Sorted by vertex pair, so the order is the mesh's.
-fn ridges(mesh: &parry3d_f64::shape::TriMesh) -> Vec<Edge> {
+fn ridges(mesh: &parry3d_f64::shape::TriMesh) -> Vec<Ridge> {
     let v = mesh.vertices();
     let tris = mesh.indices();
     // (low vertex, high vertex, triangle) of every triangle edge; equal pairs are neighbours.
@@ -259,16 +289,14 @@ fn ridges(mesh: &parry3d_f64::shape::TriMesh) -> Vec<Edge> {
             continue;
         }
         let (tri1, tri2) = (&tris[t1 as usize], &tris[t2 as usize]);
-        let (Some(n1), Some(n2)) = (normal(tri1), normal(tri2)) else {
+        let (Some(n1), Some(_)) = (normal(tri1), normal(tri2)) else {
             continue;
         };
         let o2 = v[far(tri2, p, q) as usize] - v[p as usize];
         if o2.dot(&n1) < -PEAK_SINE * o2.norm() {
-            out.push(Edge {
-                p0: v[p as usize],
-                p1: v[q as usize],
-                n1,
-                n2,
+            out.push(Ridge {
+                vertices: [p, q],
+                triangles: [t1, t2],
             });
         }
     }
@@ -291,18 +319,23 @@ fn ridge_contacts(
 ) {
     RIDGES.with_borrow_mut(|found| {
         found.clear();
-        found.extend(body.ridge_bvh.intersect_aabb(aabb));
+        let mesh = &body.terrain.mesh;
+        found.extend(
+            body.ridge_bvh
+                .intersect_aabb(aabb)
+                .map(|j| (j, body.ridges[j as usize].edge(mesh))),
+        );
         if found.is_empty() {
             return;
         }
-        found.sort_unstable();
+        found.sort_unstable_by_key(|f| f.0);
         let grow = Vector::repeat(m);
         for ia in 0..ba.shape.edges.len() {
             let ea = narrow_phase::block_edge(ba, ia);
             let lo = ea.p0.coords.inf(&ea.p1.coords) - grow;
             let hi = ea.p0.coords.sup(&ea.p1.coords) + grow;
-            for &j in found.iter() {
-                let eb = &body.ridges[j as usize];
+            for (j, eb) in found.iter() {
+                let j = *j;
                 let (rlo, rhi) = (
                     eb.p0.coords.inf(&eb.p1.coords),
                     eb.p0.coords.sup(&eb.p1.coords),
@@ -384,4 +417,42 @@ fn peak_contact(
         c.inherit(o);
     }
     out.push(c);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared::scene::{DomainSpec, TerrainSpec};
+    use shared::terrain::dem::Grid;
+
+    fn body(grid: &Grid) -> TerrainBody {
+        let tmp = tempfile::tempdir().unwrap();
+        let file = tmp.path().join("dem.asc");
+        std::fs::write(&file, grid.to_asc()).unwrap();
+        let spec: TerrainSpec =
+            toml::from_str(&format!("file = {:?}", file.display().to_string())).unwrap();
+        let domain = DomainSpec {
+            min: [-2.0, -2.0, -2.0],
+            max: [2.0, 2.0, 2.0],
+        };
+        TerrainBody::new(Terrain::load(&spec, &domain).unwrap())
+    }
+
+    /// A roof (z = −|x|) has its ridges along its crest and nowhere else; a flat ground and a
+    /// valley (z = |x|) have none.
+    #[test]
+    fn ridges_are_the_convex_creases() {
+        let grid = |f: fn(f64) -> f64| Grid::from_fn(11, 11, -2.5, -2.5, 0.5, move |x, _| f(x));
+        let roof = body(&grid(|x| -x.abs()));
+        assert_eq!(roof.ridges.len(), 10, "one per cell along the crest");
+        let v = roof.terrain.mesh.vertices();
+        for r in &roof.ridges {
+            let e = r.edge(&roof.terrain.mesh);
+            assert!(e.p0.x.abs() < 1e-12 && e.p1.x.abs() < 1e-12, "{e:?}");
+            assert!(e.n1.z > 0.0 && e.n2.z > 0.0 && e.n1.x * e.n2.x < 0.0);
+            assert!(r.vertices.iter().all(|&w| v[w as usize].z.abs() < 1e-12));
+        }
+        assert!(body(&grid(|_| 0.0)).ridges.is_empty());
+        assert!(body(&grid(|x| x.abs())).ridges.is_empty());
+    }
 }
