@@ -274,6 +274,31 @@ pub(crate) fn crossing(ea: &Edge, eb: &Edge, m: Real) -> Option<Crossing> {
     })
 }
 
+impl Crossing {
+    /// The contact of this crossing between P = `key.a`'s feature and Q = `key.b`'s, at the
+    /// midpoint of the closest points, with the pair's joint, its history taken from `old`.
+    /// Returns whether it is new (no contact of that key before).
+    #[inline]
+    pub(crate) fn contact(
+        &self,
+        key: ContactKey,
+        joint: &Joint,
+        old: &[Contact],
+    ) -> (Contact, bool) {
+        let mut c = Contact::new(key, key.a, key.b);
+        c.point = Point::from((self.pa.coords + self.pb.coords) * 0.5);
+        c.normal = self.normal;
+        c.gap = self.gap;
+        c.tan_phi = joint.tan_phi;
+        c.cohesion = joint.cohesion;
+        let prev = contact::find(old, &key);
+        if let Some(o) = prev {
+            c.inherit(o);
+        }
+        (c, prev.is_none())
+    }
+}
+
 /// True when a crossing whose points lie `da` (pa under Q's surface) and `db` (pb under P's)
 /// from the other body is a contact: both within the margin of the other body (the crossing
 /// is local, not two far edges whose infinite lines happen to cross), and the depth along n
@@ -331,17 +356,8 @@ fn edge_edge(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<C
                 i: ia as u32,
                 j: ib as u32,
             };
-            let mut c = Contact::new(key, a, b);
-            c.point = Point::from((x.pa.coords + x.pb.coords) * 0.5);
-            c.normal = x.normal;
-            c.gap = x.gap;
-            c.tan_phi = joint.tan_phi;
-            c.cohesion = joint.cohesion;
-            let prev = contact::find(old, &key);
-            if let Some(o) = prev {
-                c.inherit(o);
-            }
-            c.apply_joint(&joint, prev.is_none(), params.at_start);
+            let (mut c, fresh) = x.contact(key, &joint, old);
+            c.apply_joint(&joint, fresh, params.at_start);
             out.push(c);
         }
     }

@@ -360,16 +360,7 @@ fn ridge_contacts(
                     i: ia as u32,
                     j,
                 };
-                let mut c = Contact::new(key, a, b);
-                c.point = Point::from((x.pa.coords + x.pb.coords) * 0.5);
-                c.normal = x.normal;
-                c.gap = x.gap;
-                c.tan_phi = joint.tan_phi;
-                c.cohesion = joint.cohesion;
-                if let Some(o) = contact::find(old, &key) {
-                    c.inherit(o);
-                }
-                out.push(c);
+                out.push(x.contact(key, &joint, old).0);
             }
         }
     });

@@ -31,6 +31,30 @@ fn terrain_toml(file: &std::path::Path, extra: &str) -> String {
     )
 }
 
+/// A free 2500 kg/m³ block `rock` with corners `block` on the terrain of `file` in a ±2 m
+/// domain (friction 35°, 20 % contact damping), ready to run; with its starting centroid.
+fn rock_on_terrain(
+    name: &str,
+    file: &std::path::Path,
+    block: &[[Real; 3]],
+    solver: &str,
+) -> Result<(Harness, shared::math::Point), SolverError> {
+    let scene = scene(
+        name,
+        [0.0, 0.0, -G],
+        2.0,
+        "",
+        "friction_angle = 35\ndamping_ratio = 0.2",
+        &[
+            terrain_toml(file, ""),
+            block_toml("rock", "free", 2500.0, block, ""),
+        ],
+    );
+    let h = Harness::new(&scene, solver)?;
+    let start = h.block("rock").position;
+    Ok((h, start))
+}
+
 /// The incline scene with the slope a terrain: a flat DEM (spacing `cell`, reaching past the
 /// ±10 m domain so its rim is at the domain's sides) turned by α about y, as the slab is.
 pub fn incline_on_terrain_scene(inc: &Incline, cell: Real, dir: &std::path::Path) -> Scene {
@@ -137,19 +161,7 @@ pub fn block_on_bump(solver: &str, duration: Real) -> Result<(Real, Real, Real),
     assert!(grid.z.contains(&Some(BUMP)), "the bump is on the grid");
     std::fs::write(&file, grid.to_asc()).expect("write the DEM");
     let block = box_corners([-0.2, -0.2, BUMP], [0.2, 0.2, BUMP + 0.2]);
-    let scene = scene(
-        "terrain_bump",
-        [0.0, 0.0, -G],
-        2.0,
-        "",
-        "friction_angle = 35\ndamping_ratio = 0.2",
-        &[
-            terrain_toml(&file, ""),
-            block_toml("rock", "free", 2500.0, &block, ""),
-        ],
-    );
-    let mut h = Harness::new(&scene, solver)?;
-    let start = h.block("rock").position;
+    let (mut h, start) = rock_on_terrain("terrain_bump", &file, &block, solver)?;
     h.run_until(duration, None, |_| {})?;
     let b = h.block("rock");
     let drift = (b.position - start).xy().norm();
@@ -226,19 +238,7 @@ pub fn block_on_mesa(
         .iter()
         .map(|p| [c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
         .collect();
-    let scene = scene(
-        "terrain_mesa",
-        [0.0, 0.0, -G],
-        2.0,
-        "",
-        "friction_angle = 35\ndamping_ratio = 0.2",
-        &[
-            terrain_toml(&file, ""),
-            block_toml("rock", "free", 2500.0, &block, ""),
-        ],
-    );
-    let mut h = Harness::new(&scene, solver)?;
-    let start = h.block("rock").position;
+    let (mut h, start) = rock_on_terrain("terrain_mesa", &file, &block, solver)?;
     h.run_until(duration, None, |_| {})?;
     let b = h.block("rock");
     let edges = h
