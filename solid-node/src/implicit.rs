@@ -139,15 +139,14 @@ struct Trial {
     bonded: bool,
 }
 
-impl Trial {
-    /// The cohesion this trial's contact has: none once the trial has broken its bond.
-    #[inline]
-    fn cohesion(&self, c: &Contact) -> Real {
-        if c.bonded && !self.bonded {
-            0.0
-        } else {
-            c.cohesion
-        }
+/// The cohesion contact `c` has in a trial where it is `still_bonded` or not: none once the
+/// trial has broken its bond.
+#[inline]
+fn trial_cohesion(c: &Contact, still_bonded: bool) -> Real {
+    if c.bonded && !still_bonded {
+        0.0
+    } else {
+        c.cohesion
     }
 }
 
@@ -398,8 +397,12 @@ impl<const N: usize> Newmark<N> {
                 }
                 ContactState::Sliding => {
                     // Friction as a load along the slip of the last iteration (Shi 1993).
-                    let limit =
-                        Joint::shear_limit(c.tan_phi, tr.cohesion(c), c.area, tr.normal_force);
+                    let limit = Joint::shear_limit(
+                        c.tan_phi,
+                        trial_cohesion(c, tr.bonded),
+                        c.area,
+                        tr.normal_force,
+                    );
                     let s = tr.shear;
                     let dir = if s.norm() > 0.0 {
                         s.normalize()
@@ -460,8 +463,7 @@ impl<const N: usize> Newmark<N> {
                 let limit = if pen.bonds_hold {
                     Real::INFINITY
                 } else {
-                    let cohesion = if c.bonded { 0.0 } else { c.cohesion };
-                    Joint::shear_limit(c.tan_phi, cohesion, c.area, nf)
+                    Joint::shear_limit(c.tan_phi, trial_cohesion(c, bonded), c.area, nf)
                 };
                 // A contact whose shear sits on the Mohr–Coulomb limit (within
                 // STATE_TOLERANCE) keeps its trial state: locked and sliding then give the same
