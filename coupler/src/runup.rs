@@ -50,22 +50,15 @@ pub fn max_runup(run_dir: &Path, scene: &Scene) -> Option<RunUp> {
 
 /// The run-ups over every shore and over each `[[runup]]` box, in one pass over the frames.
 pub fn runups(run_dir: &Path, scene: &Scene) -> RunUps {
-    let mut out = RunUps {
-        max: None,
-        regions: scene
-            .runups
-            .iter()
-            .map(|r| (r.name.clone(), None))
-            .collect(),
+    let (max, regions) = match scan(run_dir, scene) {
+        Some((max, regions)) => (Some(max), regions),
+        None => (None, vec![None; scene.runups.len()]),
     };
-    let Some((max, regions)) = scan(run_dir, scene) else {
-        return out;
-    };
-    out.max = Some(max);
-    for (slot, r) in out.regions.iter_mut().zip(regions) {
-        slot.1 = r;
+    let names = scene.runups.iter().map(|r| r.name.clone());
+    RunUps {
+        max,
+        regions: names.zip(regions).collect(),
     }
-    out
 }
 
 fn scan(run_dir: &Path, scene: &Scene) -> Option<(RunUp, Vec<Option<RunUp>>)> {
