@@ -262,8 +262,8 @@ impl Ridge {
 }
 
 /// The convex creases of a triangle mesh: each edge shared by two triangles whose far vertex
-/// lies below the other's plane by more than [`PEAK_SINE`] of its distance, with the two
-/// triangles' outward normals. Edges of one triangle only (the mesh's rim) are left out: a
+/// lies below the other's plane by more than [`PEAK_SINE`] of its distance (degenerate
+/// triangles left out). Edges of one triangle only (the mesh's rim) are left out: a
 /// block there is leaving the terrain. Sorted by vertex pair, so the order is the mesh's.
 fn ridges(mesh: &parry3d_f64::shape::TriMesh) -> Vec<Ridge> {
     let v = mesh.vertices();
@@ -277,10 +277,6 @@ fn ridges(mesh: &parry3d_f64::shape::TriMesh) -> Vec<Ridge> {
         }
     }
     edges.sort_unstable();
-    let normal = |t: &[u32; 3]| {
-        let (a, b, c) = (v[t[0] as usize], v[t[1] as usize], v[t[2] as usize]);
-        (b - a).cross(&(c - a)).try_normalize(1e-300)
-    };
     let far = |t: &[u32; 3], p: u32, q: u32| *t.iter().find(|&&w| w != p && w != q).unwrap();
     let mut out = Vec::new();
     for w in edges.windows(2) {
@@ -288,8 +284,8 @@ fn ridges(mesh: &parry3d_f64::shape::TriMesh) -> Vec<Ridge> {
         if (p, q) != (p2, q2) {
             continue;
         }
-        let (tri1, tri2) = (&tris[t1 as usize], &tris[t2 as usize]);
-        let (Some(n1), Some(_)) = (normal(tri1), normal(tri2)) else {
+        let tri2 = &tris[t2 as usize];
+        let (Some(n1), Some(_)) = (mesh.triangle(t1).normal(), mesh.triangle(t2).normal()) else {
             continue;
         };
         let o2 = v[far(tri2, p, q) as usize] - v[p as usize];
