@@ -9,9 +9,11 @@
 
 use crate::bodies::BodyParticles;
 use crate::kernel::Kernel;
+use crate::lanes::Packed;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
 use crate::walls::WallParticles;
+use rayon::prelude::*;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 
@@ -23,6 +25,11 @@ pub struct Boundary {
     /// Boundary neighbours of each fluid particle in the fixed and in the moving part.
     fixed_lists: NeighborLists,
     moving_lists: NeighborLists,
+    /// f32 records of the fixed and moving parts' active particles for the vectorised pair
+    /// loops ([`Self::pack`]; what the two scalars mean is the scheme's).
+    fixed_packed: Vec<Packed>,
+    moving_packed: Vec<Packed>,
+    packed_scratch: Vec<Packed>,
 }
 
 /// One boundary neighbour of a fluid particle: a wall point with its extrapolated pressure, the
@@ -101,6 +108,61 @@ impl Boundary {
                     velocity: Some(&b.velocity),
                 });
             }
+        }
+    }
+
+    /// Fills the f32 records of every active boundary particle, fixed and moving:
+    /// `record(position, velocity, pressure, density)` (the velocity zero on a fixed block),
+    /// after their pressures were extrapolated ([`Self::update`]).
+    pub fn pack(&mut self, record: impl Fn(&Vector, &Vector, Real, Real) -> Packed + Sync) {
+        fn fill(
+            set: &WallParticles,
+            velocity: Option<&[Vector]>,
+            out: &mut Vec<Packed>,
+            scratch: &mut Vec<Packed>,
+            record: &(impl Fn(&Vector, &Vector, Real, Real) -> Packed + Sync),
+        ) {
+            out.resize(set.len(), Packed::default());
+            let zero = Vector::zeros();
+            // Computed per active particle in parallel, then placed (the active list is short).
+            scratch.resize(set.active.len(), Packed::default());
+            scratch
+                .par_iter_mut()
+                .zip(set.active.par_iter())
+                .for_each(|(r, &w)| {
+                    let w = w as usize;
+                    let v = velocity.map_or(&zero, |v| &v[w]);
+                    *r = record(&set.position[w], v, set.pressure[w], set.density[w]);
+                });
+            for (&w, r) in set.active.iter().zip(scratch.iter()) {
+                out[w as usize] = *r;
+            }
+        }
+        let scratch = &mut self.packed_scratch;
+        if let Some(w) = &self.fixed {
+            fill(w, None, &mut self.fixed_packed, scratch, &record);
+        }
+        if let Some(b) = &self.moving {
+            fill(
+                &b.set,
+                Some(&b.velocity),
+                &mut self.moving_packed,
+                scratch,
+                &record,
+            );
+        }
+    }
+
+    /// Calls `f` with fluid particle `i`'s boundary neighbours and the records they index
+    /// ([`Self::pack`]), fixed part first, then moving (the order of
+    /// [`Self::for_each_neighbor`]).
+    #[inline(always)]
+    pub fn for_each_list(&self, i: usize, mut f: impl FnMut(&[u32], &[Packed])) {
+        if self.fixed.is_some() {
+            f(self.fixed_lists.of(i), &self.fixed_packed);
+        }
+        if self.moving.is_some() {
+            f(self.moving_lists.of(i), &self.moving_packed);
         }
     }
 

@@ -12,7 +12,7 @@
 //! They are listed once, in [`REGISTRY`], which the node binary, `fluid-validate`,
 //! `fluid-bench` and the coupler's sweeps read. The shared parts: [`kernel`]/[`kernels`]
 //! (smoothing kernels), [`particles`] (struct-of-arrays state), [`neighbors`] (cell grid,
-//! counting sort), [`fill`] (water volumes on a lattice), [`boundary`] (the blocks' boundary
+//! counting sort, neighbour lists; [`candidates`] their branch-free test), [`fill`] (water volumes on a lattice), [`boundary`] (the blocks' boundary
 //! particles, [`walls`] on fixed blocks and [`bodies`] on moving ones), [`penalty`] (paper Eq. 22
 //! both ways), [`terrain`] (the `[[terrain]]` ground: boundary
 //! particles under its surface and Eq. 22 against its triangles), [`dt`] (stable step), [`gauges`] (wave gauges and pressure probes) and
@@ -20,13 +20,16 @@
 
 pub mod bodies;
 pub mod boundary;
+pub mod candidates;
 pub mod dfsph;
 pub mod dt;
 pub mod fill;
 pub mod gauges;
 pub mod kernel;
 pub mod kernels;
+pub mod lanes;
 pub mod muller;
+pub mod muller_pairs;
 pub mod neighbors;
 pub mod particles;
 pub mod penalty;

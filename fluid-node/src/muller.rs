@@ -8,6 +8,8 @@
 use crate::dt::StepLimits;
 use crate::kernel::Kernel;
 use crate::kernels::{Poly6, Spiky, ViscosityKernel};
+use crate::lanes::Packed;
+use crate::muller_pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
 use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
 use rayon::prelude::*;
@@ -79,6 +81,10 @@ pub struct Muller {
     clamp: bool,
     limits: StepLimits,
     last_warning: Option<u64>,
+    /// What the pair loops read of each particle (scratch, rebuilt every evaluation; not
+    /// checkpointed).
+    #[serde(skip)]
+    records: Vec<Packed>,
 }
 
 /// The poly6 sum of Eq. 12 at a particle inside a full cubic lattice of spacing dx.
@@ -107,89 +113,85 @@ impl Muller {
         self.rest_density + p / self.stiffness
     }
 
-    /// Eq. 12 (fluid and boundary particles both carry mass), then Eq. 17.
-    fn density_and_pressure(&self, sys: &mut FluidSystem) {
+    /// Eq. 12 (fluid and boundary particles both carry mass), then Eq. 17; then the records
+    /// the force loop reads (muller_pairs.rs).
+    fn density_and_pressure(&mut self, sys: &mut FluidSystem) {
         let (m, k, rho_ref, clamp) = (sys.mass, self.stiffness, self.rest_density, self.clamp);
-        let h2 = self.poly6.support().powi(2);
-        let poly6 = &self.poly6;
-        let self_weight = poly6.value_r2(0.0);
-        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
+        let origin = sys.grid.centre();
+        let pc = self.pair_constants();
+        let self_weight = self.poly6.value_r2(0.0);
+        // Positions first: the density loop reads nothing else (the boundary's too, at the
+        // blocks' current pose).
         let p = &mut sys.particles;
-        let pos = &p.position;
+        let (pos, vel) = (&p.position, &p.velocity);
+        self.records.resize(p.len(), Packed::default());
+        self.records
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, r)| *r = record(&pos[i], &origin, &vel[i], 0.0, 1.0));
+        sys.boundary
+            .pack(|x, v, _, _| record(x, &origin, v, 0.0, 1.0));
+        let (lists, boundary, records) = (&sys.fluid_lists, &sys.boundary, &self.records);
         p.density
             .par_iter_mut()
             .zip(p.pressure.par_iter_mut())
             .enumerate()
             .for_each(|(i, (rho, pr))| {
-                let xi = pos[i];
-                let mut sum = self_weight;
-                for &j in lists.of(i) {
-                    let r2 = (xi - pos[j as usize]).norm_squared();
-                    if r2 < h2 {
-                        sum += poly6.value_r2(r2);
-                    }
-                }
-                boundary.for_each_neighbor(i, |b| {
-                    let r2 = (xi - b.position()).norm_squared();
-                    if r2 < h2 {
-                        sum += poly6.value_r2(r2);
-                    }
+                let me = &records[i];
+                let mut sum = self_weight + density_sum(me, lists.of(i), records, &pc);
+                boundary.for_each_list(i, |list, walls| {
+                    sum += density_sum(me, list, walls, &pc);
                 });
                 *rho = m * sum;
                 let pressure = k * (*rho - rho_ref);
                 *pr = if clamp { pressure.max(0.0) } else { pressure };
             });
+        let (rho, pre) = (&p.density, &p.pressure);
+        self.records
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, r)| *r = record(&pos[i], &origin, &vel[i], pre[i], rho[i]));
+        let this = &*self;
         sys.boundary
-            .update(poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
-                self.density_of(p)
+            .update(&this.poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
+                this.density_of(p)
             });
+        sys.boundary
+            .pack(|x, v, pw, rw| record(x, &origin, v, pw, rw));
+    }
+
+    /// The f32 constants of the pair loops.
+    fn pair_constants(&self) -> PairConstants {
+        PairConstants::new(
+            &self.poly6,
+            &self.spiky,
+            &self.viscosity_kernel,
+            self.viscosity,
+            self.poly6.support(),
+        )
     }
 
     /// Eqs. 14, 18 and 20: acceleration from pressure, viscosity, gravity and Eq. 22.
     fn accelerations(&self, sys: &mut FluidSystem) {
-        let (m, mu, g) = (sys.mass, self.viscosity, sys.gravity);
-        let h2 = self.spiky.support().powi(2);
-        let (spiky, visc) = (&self.spiky, &self.viscosity_kernel);
-        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
+        let (m, g) = (sys.mass, sys.gravity);
+        let pc = self.pair_constants();
+        let (lists, boundary, records) = (&sys.fluid_lists, &sys.boundary, &self.records);
         let p = &mut sys.particles;
-        let (pos, vel, rho, pre, pen) = (
-            &p.position,
-            &p.velocity,
-            &p.density,
-            &p.pressure,
-            &p.penalty,
-        );
+        let (rho, pen) = (&p.density, &p.penalty);
         p.acceleration
             .par_iter_mut()
             .enumerate()
             .for_each(|(i, a)| {
-                let (xi, vi, pi) = (pos[i], vel[i], pre[i]);
-                let mut f_pressure = Vector::zeros();
-                let mut f_visc = Vector::zeros();
-                for &j in lists.of(i) {
-                    let j = j as usize;
-                    let rij = xi - pos[j];
-                    let r2 = rij.norm_squared();
-                    if r2 >= h2 {
-                        continue;
-                    }
-                    let r = r2.sqrt();
-                    // Eq. 14 with Müller's symmetric (p_i + p_j)/2.
-                    f_pressure -= spiky.gradient(&rij, r) * (m * (pi + pre[j]) / (2.0 * rho[j]));
-                    // Eq. 18, Müller's sign: damps the velocity difference.
-                    f_visc += (vel[j] - vi) * (mu * m / rho[j] * visc.laplacian(r));
-                }
+                let me = &records[i];
+                // Fluid neighbours: Eq. 14 with Müller's symmetric (p_i + p_j)/2, Eq. 18 with
+                // Müller's sign (it damps the velocity difference).
+                let mut f = fluid_forces(me, lists.of(i), records, &pc);
                 // Boundary particles, fixed and moving (free slip); a moving block takes the
                 // reverse (`react`).
-                boundary.for_each_neighbor(i, |b| {
-                    let rij = xi - b.position();
-                    let r2 = rij.norm_squared();
-                    if r2 < h2 {
-                        f_pressure -= spiky.gradient(&rij, r2.sqrt())
-                            * (m * (pi + b.pressure()) / (2.0 * b.density()));
-                    }
+                boundary.for_each_list(i, |list, walls| {
+                    f += boundary_forces(me, list, walls, &pc);
                 });
-                *a = (f_pressure + f_visc) / rho[i] + g + pen[i] / m;
+                *a = f * (m / rho[i]) + g + pen[i] / m;
             });
     }
 
@@ -253,6 +255,7 @@ impl Scheme for Muller {
             clamp: spec.clamp_negative_pressure.unwrap_or(true),
             limits,
             last_warning: None,
+            records: Vec::new(),
         };
         let layout = Layout {
             density,

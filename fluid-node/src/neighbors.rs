@@ -7,9 +7,10 @@
 //! outside the domain are an instability, so every particle has a cell, and the static grid of
 //! boundary particles is built once with the same geometry.
 
-use multiversion::multiversion;
+use crate::candidates::Candidates;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
+use std::cell::RefCell;
 use std::ops::Range;
 
 /// Cell geometry and the cell-sorted index ranges of one particle set.
@@ -69,6 +70,17 @@ impl CellGrid {
     /// How far particles may have moved since the sort.
     pub fn stale_reach(&self) -> Real {
         self.stale_reach
+    }
+
+    /// The centre of the grid's box (the origin of the pair loops' f32 coordinates: halfway,
+    /// so their rounding is that of half the extent).
+    pub fn centre(&self) -> Vector {
+        self.origin
+            + Vector::new(
+                self.dims[0] as Real,
+                self.dims[1] as Real,
+                self.dims[2] as Real,
+            ) * (0.5 * self.cell)
     }
 
     /// The search radius the grid was made for.
@@ -261,10 +273,6 @@ struct ChunkLists {
     index: Vec<u32>,
 }
 
-/// Candidates tested per block (the distances of a block are computed together, then the
-/// block is compacted).
-const BLOCK: usize = 16;
-
 impl NeighborLists {
     /// Lists, for each point of `from`, the points of `to` (sorted in `to_grid`) closer than
     /// `radius`; with `same` the point itself is left out (`from` and `to` are the same set).
@@ -286,7 +294,8 @@ impl NeighborLists {
         self.chunks.resize_with(n_chunks, ChunkLists::default);
         let origin = to_grid.origin;
         for (k, axis) in self.near.iter_mut().enumerate() {
-            axis.resize(to.len(), 0.0);
+            // Padded by one block: the candidates are gathered a whole block at a time.
+            axis.resize(to.len() + crate::candidates::LANES, 0.0);
             axis.par_iter_mut()
                 .zip(to.par_iter())
                 .for_each(|(c, p)| *c = (p[k] - origin[k]) as f32);
@@ -363,10 +372,14 @@ pub struct PairValues<T> {
     chunks: Vec<Vec<T>>,
 }
 
-/// The lists of `from` (particles `lo..` of the listing set) into one chunk. Compiled also for
-/// AVX2 and NEON and chosen at run time (multiversion): eight f32 distances per instruction
-/// where the CPU has them, and the binary still runs on any x86-64.
-#[multiversion(targets("x86_64+avx2", "aarch64+neon"))]
+std::thread_local! {
+    /// Each worker's gathered candidates (scratch that keeps its capacity across builds).
+    static CANDIDATES: RefCell<Candidates> = RefCell::new(Candidates::default());
+}
+
+/// The lists of `from` (particles `lo..` of the listing set) into one chunk: for each point,
+/// the candidates of its cell (gathered once per cell, [`Candidates`]) tested and packed into
+/// the chunk's index buffer.
 fn fill_chunk(
     ch: &mut ChunkLists,
     from: &[Vector],
@@ -376,42 +389,25 @@ fn fill_chunk(
     r2: f32,
     same: bool,
 ) {
-    let [nx, ny, nz] = near;
     let origin = to_grid.origin;
     ch.start.clear();
     ch.index.clear();
     ch.start.push(0);
-    for (k, xi) in from.iter().enumerate() {
-        let px = (xi.x - origin.x) as f32;
-        let py = (xi.y - origin.y) as f32;
-        let pz = (xi.z - origin.z) as f32;
-        let skip = if same { lo + k } else { usize::MAX };
-        to_grid.neighbor_rows(xi, |range| {
-            // Distances a block at a time (vectorised) into a bit mask, then only the set bits
-            // are visited: about one candidate in six is a neighbour, and a branch per
-            // candidate mispredicts often.
-            let mut j0 = range.start;
-            while j0 < range.end {
-                let m = BLOCK.min(range.end - j0);
-                let (bx, by, bz) = (&nx[j0..j0 + m], &ny[j0..j0 + m], &nz[j0..j0 + m]);
-                let mut mask = 0u32;
-                for k in 0..m {
-                    let (dx, dy, dz) = (bx[k] - px, by[k] - py, bz[k] - pz);
-                    let d2 = dx * dx + dy * dy + dz * dz;
-                    mask |= ((d2 < r2) as u32) << k;
-                }
-                if skip.wrapping_sub(j0) < m {
-                    mask &= !(1 << (skip - j0));
-                }
-                while mask != 0 {
-                    ch.index.push(j0 as u32 + mask.trailing_zeros());
-                    mask &= mask - 1;
-                }
-                j0 += m;
-            }
-        });
-        ch.start.push(ch.index.len() as u32);
-    }
+    CANDIDATES.with_borrow_mut(|cand| {
+        // The coordinates were rewritten for this build.
+        cand.invalidate();
+        for (k, xi) in from.iter().enumerate() {
+            let p = [
+                (xi.x - origin.x) as f32,
+                (xi.y - origin.y) as f32,
+                (xi.z - origin.z) as f32,
+            ];
+            let skip = if same { (lo + k) as u32 } else { u32::MAX };
+            cand.gather(to_grid, xi, near);
+            cand.select(p, r2, skip, &mut ch.index);
+            ch.start.push(ch.index.len() as u32);
+        }
+    });
 }
 
 #[cfg(test)]

@@ -10,9 +10,10 @@
 use crate::dt::StepLimits;
 use crate::kernel::Kernel;
 use crate::kernels::WendlandC2;
+use crate::lanes::Packed;
 use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
-use crate::wcsph_pairs::{NearData, PairConstants, fluid_sums};
+use crate::wcsph_pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
 use rayon::prelude::*;
 use serde::Deserialize;
 use shared::math::Real;
@@ -140,7 +141,7 @@ pub struct Wcsph {
     /// particle, so the loop divides once per pair rather than five times, and a neighbour
     /// costs one line fetch rather than five. Not checkpointed: scratch.
     #[serde(skip)]
-    near: Vec<NearData>,
+    near: Vec<Packed>,
 }
 
 impl Wcsph {
@@ -150,13 +151,14 @@ impl Wcsph {
         self.rest_density * (1.0 + pw / prm.b).powf(1.0 / prm.gamma)
     }
 
-    /// Pressure of every fluid particle from its density (and p/ρ², 1/ρ for the pair loop),
-    /// then the boundary pressures (Adami).
+    /// Pressure of every fluid particle from its density (and the pair loop's f32 copy of its
+    /// state, with p/ρ²), then the boundary pressures (Adami).
     fn pressures(&mut self, sys: &mut FluidSystem) {
         let (prm, rho0) = (self.constants, self.rest_density);
+        let origin = sys.grid.centre();
         let p = &mut sys.particles;
         let n = p.len();
-        self.near.resize(n, NearData::default());
+        self.near.resize(n, Packed::default());
         let (pos, vel) = (&p.position, &p.velocity);
         p.pressure
             .par_iter_mut()
@@ -165,19 +167,15 @@ impl Wcsph {
             .enumerate()
             .for_each(|(i, ((pr, near), &r))| {
                 *pr = tait(&prm, rho0, r);
-                let inv = 1.0 / r;
-                *near = NearData {
-                    position: pos[i],
-                    density: r,
-                    velocity: vel[i],
-                    p_over_rho2: *pr * inv * inv,
-                };
+                *near = fluid_record(&pos[i], &origin, &vel[i], r, rho0, *pr);
             });
         let this = &*self;
         sys.boundary
             .update(&this.kernel, &sys.particles, &sys.gravity, rho0, |pw| {
                 this.density_of(pw)
             });
+        sys.boundary
+            .pack(|x, v, pw, rw| boundary_record(x, &origin, v, pw, rw));
     }
 
     /// Momentum and continuity: acceleration and dρ/dt of every particle at the current state.
@@ -187,16 +185,16 @@ impl Wcsph {
         let (m, g, rho0) = (sys.mass, sys.gravity, sys.rest_density);
         let kernel = &self.kernel;
         let near = &self.near;
-        let s2 = kernel.support().powi(2);
         let delta_coef = prm.delta * prm.h * prm.sound_speed;
         let inv_c2 = 1.0 / (prm.sound_speed * prm.sound_speed);
-        let pc = PairConstants {
-            kernel: *kernel,
-            s2,
-            eta2: 0.01 * prm.h * prm.h,
-            visc: -2.0 * prm.alpha * prm.sound_speed * prm.h,
-            hydro: g * (rho0 * inv_c2),
-        };
+        let pc = PairConstants::new(
+            kernel,
+            sys.grid.centre(),
+            rho0,
+            0.01 * prm.h * prm.h,
+            -2.0 * prm.alpha * prm.sound_speed * prm.h,
+            g * (rho0 * inv_c2),
+        );
         let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
         let p = &mut sys.particles;
         let pen = &p.penalty;
@@ -206,30 +204,23 @@ impl Wcsph {
             .enumerate()
             .for_each(|(i, (a, d))| {
                 let me = &near[i];
-                let (xi, vi, pi_term) = (me.position, me.velocity, me.p_over_rho2);
                 // Fluid neighbours (wcsph_pairs.rs): symmetric pressure gradient and artificial
                 // viscosity (Monaghan 1992), continuity, δ-SPH diffusion (Molteni & Colagrossi
                 // 2009) minus its hydrostatic part (Fourtakas et al. 2019), linearised:
                 // ρ0((1 + ρ0 g·r_ji/B)^(1/γ) − 1) ≈ ρ0 g·r_ji/c0², exact to O((ρ0gΔz/B)²).
                 let (mut ai, mut di, diffusion) = fluid_sums(me, lists.of(i), near, &pc);
-                ai *= m;
-                di = m * di + 2.0 * delta_coef * m * diffusion;
+                di += 2.0 * delta_coef * diffusion;
                 // Boundary particles, fixed and moving: the same pressure term (a moving block
                 // takes its reverse, see `react`) and continuity with the wall's velocity, zero
                 // on a fixed block (Adami 2012: free slip, the wall velocity enters through
                 // v_i − v_w only).
-                boundary.for_each_neighbor(i, |b| {
-                    let rij = xi - b.position();
-                    let r2 = rij.norm_squared();
-                    if r2 < s2 {
-                        let grad = rij * kernel.gradient_factor(r2.sqrt());
-                        let rw = b.density();
-                        ai -= grad * (m * (pi_term + b.pressure() / (rw * rw)));
-                        di += m * (vi - b.velocity()).dot(&grad);
-                    }
+                boundary.for_each_list(i, |list, walls| {
+                    let (ab, db) = boundary_sums(me, list, walls, &pc);
+                    ai += ab;
+                    di += db;
                 });
-                *a = ai + g + pen[i] / m;
-                *d = di;
+                *a = ai * m + g + pen[i] / m;
+                *d = di * m;
             });
     }
 

@@ -1,7 +1,9 @@
 //! `fluid-bench [--sizes 10000,100000,1000000] [--threads 1,2] [--solvers NAME,…]
-//! [--param 'KEY = VALUE']… [--from T]` (default: every solver of the registry; `--param` adds a
-//! line to each solver's own table, e.g. `--param 'integrator = "symplectic"'` for wcsph;
-//! `--from` times the steps after T simulated seconds of flow instead of from rest):
+//! [--param 'KEY = VALUE']… [--from T] [--steps N]` (default: every solver of the registry;
+//! `--param` adds a line to each solver's own table, e.g. `--param 'integrator = "symplectic"'`
+//! for wcsph; `--from` times the steps after T simulated seconds of flow instead of from rest;
+//! `--steps` sets the number of timed steps, by default about 3·10⁶ particle-steps' worth, so a
+//! profiler can be given a longer window):
 //! particle-steps per second on a 3D dam break (a water column a × a × 2a at one end of a
 //! 4a × a tank) at about the given particle counts, with each thread count. The timed steps are
 //! the full coupling step as the node runtime drives it (`write_loads` + `advance`), after
@@ -80,6 +82,11 @@ fn main() {
     // `--from T`: step (untimed) until the dam break has flowed for T simulated seconds, so the
     // timed steps see a developed flow (the lists are rebuilt more often than from rest).
     let from: f64 = list(&args, "--from", "0")[0].parse().expect("--from");
+    let timed: Option<usize> = args.iter().position(|a| a == "--steps").map(|i| {
+        args.get(i + 1)
+            .and_then(|v| v.parse().ok())
+            .expect("--steps N")
+    });
     println!(
         "| solver | particles | threads | from t [s] | steps timed | s/step | particle-steps/s | µs per particle-step | list rebuilds per step | listed pairs per particle (fluid + boundary) | peak RSS so far [MB] |"
     );
@@ -113,7 +120,7 @@ fn main() {
                     }
                     let sorts = s.system().sorts;
                     // About 3·10⁶ particle-steps per measurement, at least 3 steps.
-                    let steps = (3_000_000 / count).clamp(3, 200);
+                    let steps = timed.unwrap_or((3_000_000 / count).clamp(3, 200));
                     let start = Instant::now();
                     for _ in 0..steps {
                         step(&mut s);

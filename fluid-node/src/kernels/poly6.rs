@@ -21,6 +21,11 @@ impl Poly6 {
         }
     }
 
+    /// The normalisation c of W = c (h² − r²)³.
+    pub fn coefficient(&self) -> Real {
+        self.c
+    }
+
     /// W from the squared distance, saving the square root in the density loop.
     #[inline]
     pub fn value_r2(&self, r2: Real) -> Real {

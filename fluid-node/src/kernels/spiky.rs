@@ -20,6 +20,11 @@ impl Spiky {
             c: 15.0 / (PI * h.powi(6)),
         }
     }
+
+    /// The normalisation c of W = c (h − r)³ (so W'(r)/r = −3c (h − r)²/r).
+    pub fn coefficient(&self) -> Real {
+        self.c
+    }
 }
 
 impl Kernel for Spiky {

@@ -20,6 +20,11 @@ impl ViscosityKernel {
             lap: 45.0 / (PI * h.powi(6)),
         }
     }
+
+    /// The factor of ∇²W = lap·(h − r).
+    pub fn laplacian_coefficient(&self) -> Real {
+        self.lap
+    }
 }
 
 impl Kernel for ViscosityKernel {
