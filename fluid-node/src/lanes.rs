@@ -93,6 +93,49 @@ pub fn gather(records: &[Packed], idx: &[usize; L]) -> Fields {
     out
 }
 
+/// The positions (and s0) of the eight records `idx` as lanes: [`gather`]'s first four fields
+/// at less cost, for loops that read nothing else (with AVX2: the records' first halves paired
+/// into four registers and transposed by 8 shuffles instead of 24).
+#[inline(always)]
+pub fn gather_positions(records: &[Packed], idx: &[usize; L]) -> [[f32; L]; 4] {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { transpose_halves_avx2(records, idx) };
+    }
+    let [x, y, z, s0, ..] = gather(records, idx);
+    [x, y, z, s0]
+}
+
+/// The first 16 bytes of eight records, k and k + 4 paired in one register, transposed
+/// (a 4 × 4 transpose in each 128-bit half).
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn transpose_halves_avx2(records: &[Packed], idx: &[usize; L]) -> [[f32; L]; 4] {
+    use std::arch::x86_64::*;
+    // SAFETY: as `transpose_avx2`: AVX2 by the caller's contract, unaligned 16-byte reads of
+    // live records, register shuffles, same-size transmute.
+    unsafe {
+        let half = |k: usize| _mm_loadu_ps((&records[idx[k]] as *const Packed).cast());
+        let pair =
+            |k: usize| _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(half(k)), half(k + 4));
+        let a = [pair(0), pair(1), pair(2), pair(3)];
+        let t0 = _mm256_unpacklo_ps(a[0], a[1]);
+        let t1 = _mm256_unpackhi_ps(a[0], a[1]);
+        let t2 = _mm256_unpacklo_ps(a[2], a[3]);
+        let t3 = _mm256_unpackhi_ps(a[2], a[3]);
+        std::mem::transmute::<[__m256; 4], [[f32; L]; 4]>([
+            _mm256_shuffle_ps::<0x44>(t0, t2),
+            _mm256_shuffle_ps::<0xEE>(t0, t2),
+            _mm256_shuffle_ps::<0x44>(t1, t3),
+            _mm256_shuffle_ps::<0xEE>(t1, t3),
+        ])
+    }
+}
+
 /// Eight records loaded as rows and transposed to eight field vectors (unpack, shuffle,
 /// permute: the classic 8 × 8 f32 transpose).
 ///
@@ -185,6 +228,7 @@ mod tests {
                 assert_eq!(v, (10 * idx[k] + f) as f32, "field {f} lane {k}");
             }
         }
+        assert_eq!(gather_positions(&records, &idx), fields[..4]);
         let (ids, n) = block(&[4, 5, 6], 0);
         assert_eq!((ids, n), ([4, 5, 6, 4, 4, 4, 4, 4], 3));
     }

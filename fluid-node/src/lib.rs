@@ -35,6 +35,7 @@ pub mod particles;
 pub mod penalty;
 pub mod scheme;
 pub mod sph;
+pub mod survey;
 pub mod system;
 pub mod terrain;
 pub mod validation;

@@ -7,7 +7,7 @@
 //! the density it implies. The density loop reads positions only.
 
 use crate::kernels::{Poly6, Spiky, ViscosityKernel};
-use crate::lanes::{L, Packed, block, gather, sum};
+use crate::lanes::{L, Packed, block, gather, gather_positions, sum};
 use multiversion::multiversion;
 use shared::math::{Real, Vector};
 
@@ -61,7 +61,7 @@ pub fn density_sum(me: &Packed, list: &[u32], records: &[Packed], c: &PairConsta
     let mut k0 = 0;
     while k0 < list.len() {
         let (idx, n) = block(list, k0);
-        let [x, y, z, ..] = gather(records, &idx);
+        let [x, y, z, _] = gather_positions(records, &idx);
         for k in 0..L {
             let (rx, ry, rz) = (xi - x[k], yi - y[k], zi - z[k]);
             let d = c.h2 - (rx * rx + ry * ry + rz * rz);

@@ -63,9 +63,9 @@ impl<S: Scheme> Solver for Sph<S> {
     fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
         self.sys.begin_step();
         let report = self.scheme.step(&mut self.sys, dt)?;
-        let (v, a) = self.sys.extremes();
         let (low, reference) = self.scheme.density_check();
-        self.sys
+        let (v, a) = self
+            .sys
             .end_step(dt, self.scheme.kernel(), low, reference)?;
         self.dt_next = self.scheme.dt_proposal(v, a);
         Ok(report)

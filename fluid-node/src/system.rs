@@ -11,6 +11,7 @@ use crate::kernel::Kernel;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
 use crate::penalty::{Obstacle, Penalty, resting_state};
+use crate::survey::{Rules, Survey};
 use crate::terrain::TerrainPenalty;
 use crate::walls::WallParticles;
 use rayon::prelude::*;
@@ -398,7 +399,8 @@ impl FluidSystem {
         }
     }
 
-    /// After the particles moved by `dt`: re-sorts, checks stability and samples the instruments.
+    /// After the particles moved by `dt`: checks stability, re-sorts and samples the
+    /// instruments; returns the largest speed and acceleration (for the next step's proposal).
     /// `check_low_density` is false for summed densities, which are low at a free surface by
     /// construction: there only compression is an instability.
     pub fn end_step<K: Kernel>(
@@ -407,28 +409,56 @@ impl FluidSystem {
         kernel: &K,
         check_low_density: bool,
         reference_density: Real,
-    ) -> Result<(), SolverError> {
+    ) -> Result<(Real, Real), SolverError> {
         self.time += dt;
         self.steps += 1;
         self.penalty_fresh = false;
-        self.check_finite()?;
-        self.check_domain()?;
-        self.check_density(check_low_density, reference_density)?;
         // Keep the lists while every pair within the support at the next evaluation is surely
         // in them: a listed pair was closer than support + skin at the sort, so it suffices
         // that no particle moves half the skin from its sorted position before then. The next
         // step's move is bounded by twice this step's (|v|·dt, doubled for the speed-up and a
         // longer step).
-        let (pos, vel, at) = (
-            &self.particles.position,
-            &self.particles.velocity,
+        let p = &self.particles;
+        let survey = Survey::of(
+            &p.position,
+            &p.velocity,
+            &p.acceleration,
+            &p.density,
             &self.sorted_at,
+            &Rules {
+                domain: self.domain,
+                density_bound: self.density_bound,
+                reference_density,
+                check_low_density,
+                reach: 0.5 * self.skin,
+                dt,
+            },
         );
-        let reach = 0.5 * self.skin;
-        let moved = (0..pos.len())
-            .into_par_iter()
-            .any(|i| (pos[i] - at[i]).norm() + 2.0 * vel[i].norm() * dt >= reach);
-        if moved || self.skin == 0.0 {
+        if let Some(i) = survey.not_finite {
+            return Err(SolverError::Unstable(format!(
+                "{}: NaN/inf limit exceeded: particle {i} has position {:?}, velocity {:?}, density {}",
+                self.solver,
+                p.position[i].as_slice(),
+                p.velocity[i].as_slice(),
+                p.density[i]
+            )));
+        }
+        if let Some(i) = survey.outside {
+            return Err(self.outside_domain(i));
+        }
+        if let Some(i) = survey.density {
+            let (q, b) = (p.density[i] / reference_density, self.density_bound);
+            let (what, bound) = if q > b {
+                ("exceeds", b)
+            } else {
+                ("is below", 1.0 / b)
+            };
+            return Err(SolverError::Unstable(format!(
+                "{}: density ratio limit exceeded: ρ/ρ0 = {q:.4} {what} the bound {bound:.4} at particle {i}",
+                self.solver
+            )));
+        }
+        if survey.moved || self.skin == 0.0 {
             self.grid_valid = false;
         }
         self.bodies_valid = false;
@@ -442,88 +472,35 @@ impl FluidSystem {
             dx: self.dx,
         };
         self.recorder.sample(self.time, &view)?;
-        Ok(())
+        Ok((survey.v_max, survey.a_max))
     }
 
-    fn check_finite(&self) -> Result<(), SolverError> {
-        let p = &self.particles;
-        let bad = (0..p.len()).into_par_iter().find_any(|&i| {
-            !(p.position[i].iter().all(|x| x.is_finite())
-                && p.velocity[i].iter().all(|x| x.is_finite())
-                && p.density[i].is_finite())
-        });
-        match bad {
-            Some(i) => Err(SolverError::Unstable(format!(
-                "{}: NaN/inf limit exceeded: particle {i} has position {:?}, velocity {:?}, density {}",
-                self.solver,
-                p.position[i].as_slice(),
-                p.velocity[i].as_slice(),
-                p.density[i]
-            ))),
-            None => Ok(()),
-        }
-    }
-
+    /// The instability a particle outside the domain is (checked at set-up too).
     fn check_domain(&self) -> Result<(), SolverError> {
         let (lo, hi) = self.domain;
-        let pos = &self.particles.position;
-        match pos
+        match self
+            .particles
+            .position
             .par_iter()
-            .position_any(|x| (0..3).any(|k| x[k] < lo[k] || x[k] > hi[k]))
+            .position_first(|x| (0..3).any(|k| x[k] < lo[k] || x[k] > hi[k]))
         {
-            Some(i) => Err(SolverError::Unstable(format!(
-                "{}: domain limit exceeded: particle {i} at ({:.4}, {:.4}, {:.4}) m left the domain [{:?}, {:?}]",
-                self.solver,
-                pos[i].x,
-                pos[i].y,
-                pos[i].z,
-                lo.as_slice(),
-                hi.as_slice()
-            ))),
+            Some(i) => Err(self.outside_domain(i)),
             None => Ok(()),
         }
     }
 
-    fn check_density(&self, low: bool, reference: Real) -> Result<(), SolverError> {
-        let b = self.density_bound;
-        let rho = &self.particles.density;
-        let bad = rho.par_iter().position_any(|&r| {
-            let q = r / reference;
-            q > b || (low && q < 1.0 / b)
-        });
-        match bad {
-            Some(i) => {
-                let q = rho[i] / reference;
-                let (what, bound) = if q > b {
-                    ("exceeds", b)
-                } else {
-                    ("is below", 1.0 / b)
-                };
-                Err(SolverError::Unstable(format!(
-                    "{}: density ratio limit exceeded: ρ/ρ0 = {q:.4} {what} the bound {bound:.4} at particle {i}",
-                    self.solver
-                )))
-            }
-            None => Ok(()),
-        }
-    }
-
-    /// Largest speed and acceleration magnitude of the fluid particles.
-    pub fn extremes(&self) -> (Real, Real) {
-        let p = &self.particles;
-        let v = p
-            .velocity
-            .par_iter()
-            .map(|v| v.norm_squared())
-            .reduce(|| 0.0, Real::max)
-            .sqrt();
-        let a = p
-            .acceleration
-            .par_iter()
-            .map(|a| a.norm_squared())
-            .reduce(|| 0.0, Real::max)
-            .sqrt();
-        (v, a)
+    fn outside_domain(&self, i: usize) -> SolverError {
+        let (lo, hi) = self.domain;
+        let x = self.particles.position[i];
+        SolverError::Unstable(format!(
+            "{}: domain limit exceeded: particle {i} at ({:.4}, {:.4}, {:.4}) m left the domain [{:?}, {:?}]",
+            self.solver,
+            x.x,
+            x.y,
+            x.z,
+            lo.as_slice(),
+            hi.as_slice()
+        ))
     }
 
     /// `particles_{frame:05}.vtp` with density, pressure and velocity.

@@ -20,6 +20,7 @@ use crate::particles::Particles;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Point, Real, Vector};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Static boundary particles with their extrapolated pressure and the density it implies.
 #[derive(Debug, Clone)]
@@ -32,10 +33,26 @@ pub struct WallParticles {
     /// pressure (a tall side wall holds many particles no water reaches).
     pub active: Vec<u32>,
     active_position: Vec<Vector>,
-    mark: Vec<bool>,
+    /// Scratch of `activate`: whether each particle has a fluid neighbour (set in parallel).
+    mark: Marks,
     active_position_out: Vec<(Real, Real)>,
     /// Fluid neighbours of each active wall particle.
     pub lists: NeighborLists,
+}
+
+/// One flag per boundary particle, set from parallel tasks.
+#[derive(Debug, Default)]
+struct Marks(Vec<AtomicBool>);
+
+impl Clone for Marks {
+    fn clone(&self) -> Self {
+        Self(
+            self.0
+                .iter()
+                .map(|m| AtomicBool::new(m.load(Ordering::Relaxed)))
+                .collect(),
+        )
+    }
 }
 
 impl WallParticles {
@@ -93,7 +110,7 @@ impl WallParticles {
             grid,
             active: Vec::new(),
             active_position: Vec::new(),
-            mark: vec![false; n],
+            mark: Marks((0..n).map(|_| AtomicBool::new(false)).collect()),
             active_position_out: Vec::new(),
             lists: NeighborLists::default(),
         }
@@ -116,16 +133,20 @@ impl WallParticles {
         fluid_grid: &CellGrid,
         radius: Real,
     ) {
-        self.mark.iter_mut().for_each(|m| *m = false);
-        for i in 0..fluid.len() {
+        self.mark
+            .0
+            .par_iter()
+            .for_each(|m| m.store(false, Ordering::Relaxed));
+        let mark = &self.mark.0;
+        (0..fluid.len()).into_par_iter().for_each(|i| {
             for &w in fluid_to_wall.of(i) {
-                self.mark[w as usize] = true;
+                mark[w as usize].store(true, Ordering::Relaxed);
             }
-        }
+        });
         self.active.clear();
         self.active_position.clear();
-        for (w, &m) in self.mark.iter().enumerate() {
-            if m {
+        for (w, m) in self.mark.0.iter().enumerate() {
+            if m.load(Ordering::Relaxed) {
                 self.active.push(w as u32);
                 self.active_position.push(self.position[w]);
             }
