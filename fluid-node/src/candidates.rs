@@ -98,39 +98,100 @@ impl Candidates {
     /// `r2`, except `skip`, in candidate order.
     #[inline]
     pub fn select(&self, p: [f32; 3], r2: f32, skip: u32, out: &mut Vec<u32>) {
+        self.select_in::<false>(p, r2, skip, out, 0.0);
+    }
+
+    /// [`Self::select`], returning also Σ (h² − r²)³ over the selected candidates closer than
+    /// `h` (`h2` = h²): poly6's density sum (Müller et al. 2003, paper Eq. 12) without its
+    /// constant, from the distances the test computes anyway. Summed per lane in f32 over the
+    /// blocks, the eight lanes added in f64 in lane order: the same bits on every CPU.
+    #[inline]
+    pub fn select_weighed(
+        &self,
+        p: [f32; 3],
+        r2: f32,
+        skip: u32,
+        out: &mut Vec<u32>,
+        h2: f32,
+    ) -> f64 {
+        self.select_in::<true>(p, r2, skip, out, h2)
+    }
+
+    #[inline(always)]
+    fn select_in<const WEIGH: bool>(
+        &self,
+        p: [f32; 3],
+        r2: f32,
+        skip: u32,
+        out: &mut Vec<u32>,
+        h2: f32,
+    ) -> f64 {
         // Room for the whole block plus one vector: the packed stores write full vectors.
         out.reserve(self.index.len() + LANES);
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2 (checked just above).
-            unsafe { select_avx2(self, p, r2, skip, out) };
-            return;
+            let w = unsafe { select_avx2::<WEIGH>(self, p, r2, skip, out, h2) };
+            return lane_total(&w);
         }
-        select_portable(self, p, r2, skip, out);
+        lane_total(&select_portable::<WEIGH>(self, p, r2, skip, out, h2))
     }
 }
 
-/// The hit test of one candidate, as both versions compute it.
+/// The eight lanes' partial weights added in f64, lane by lane.
 #[inline(always)]
-fn inside(cx: f32, cy: f32, cz: f32, p: [f32; 3], r2: f32) -> bool {
+fn lane_total(w: &[f32; LANES]) -> f64 {
+    w.iter().map(|&x| x as f64).sum()
+}
+
+/// The poly6 weight (h² − d²)³ of a selected candidate (0 if it is not closer than h), as both
+/// versions compute it: the cube as (t·t)·t.
+#[inline(always)]
+fn weight(d2: f32, h2: f32, selected: bool) -> f32 {
+    let t = (h2 - d2).max(0.0);
+    if selected { t * t * t } else { 0.0 }
+}
+
+/// The squared distance of one candidate, as both versions compute it: ((dx² + dy²) + dz²).
+#[inline(always)]
+fn distance2(cx: f32, cy: f32, cz: f32, p: [f32; 3]) -> f32 {
     let (dx, dy, dz) = (cx - p[0], cy - p[1], cz - p[2]);
-    dx * dx + dy * dy + dz * dz < r2
+    dx * dx + dy * dy + dz * dz
+}
+
+/// The hit test of one candidate.
+#[cfg(test)]
+fn inside(cx: f32, cy: f32, cz: f32, p: [f32; 3], r2: f32) -> bool {
+    distance2(cx, cy, cz, p) < r2
 }
 
 /// The test for any CPU: a block of candidates into a bit mask (the compiler vectorises it),
-/// then its set bits.
-fn select_portable(c: &Candidates, p: [f32; 3], r2: f32, skip: u32, out: &mut Vec<u32>) {
+/// then its set bits; with `WEIGH`, the lanes' poly6 weights.
+fn select_portable<const WEIGH: bool>(
+    c: &Candidates,
+    p: [f32; 3],
+    r2: f32,
+    skip: u32,
+    out: &mut Vec<u32>,
+    h2: f32,
+) -> [f32; LANES] {
+    let mut w = [0.0f32; LANES];
     for b in (0..c.index.len()).step_by(LANES) {
         let mut mask = 0u32;
-        for k in 0..LANES {
-            let hit = inside(c.x[b + k], c.y[b + k], c.z[b + k], p, r2) & (c.index[b + k] != skip);
+        for (k, lane) in w.iter_mut().enumerate() {
+            let d2 = distance2(c.x[b + k], c.y[b + k], c.z[b + k], p);
+            let hit = (d2 < r2) & (c.index[b + k] != skip);
             mask |= (hit as u32) << k;
+            if WEIGH {
+                *lane += weight(d2, h2, hit);
+            }
         }
         while mask != 0 {
             out.push(c.index[b + mask.trailing_zeros() as usize]);
             mask &= mask - 1;
         }
     }
+    w
 }
 
 /// For each 8-bit hit mask, the lanes of its set bits in order (then zeros): the permutation
@@ -157,11 +218,20 @@ static PACK: [[u8; 8]; 256] = {
 /// [`PACK`] and stored eight at a time (the lanes past the hits are overwritten by the next
 /// store or left past the list's end).
 ///
+/// With `WEIGH`, each lane also sums the poly6 weights of its selected candidates.
+///
 /// # Safety
 /// The CPU must support AVX2, and `out` must have room for `c.index.len() + 8` more elements.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn select_avx2(c: &Candidates, p: [f32; 3], r2: f32, skip: u32, out: &mut Vec<u32>) {
+unsafe fn select_avx2<const WEIGH: bool>(
+    c: &Candidates,
+    p: [f32; 3],
+    r2: f32,
+    skip: u32,
+    out: &mut Vec<u32>,
+    h2: f32,
+) -> [f32; LANES] {
     use std::arch::x86_64::*;
     let len = c.index.len();
     debug_assert!(len.is_multiple_of(8) && out.capacity() - out.len() >= len + 8);
@@ -171,9 +241,11 @@ unsafe fn select_avx2(c: &Candidates, p: [f32; 3], r2: f32, skip: u32, out: &mut
         _mm256_set1_ps(p[2]),
     );
     let radius2 = _mm256_set1_ps(r2);
+    let support2 = _mm256_set1_ps(h2);
     let skipped = _mm256_set1_epi32(skip as i32);
     let base = out.len();
     let mut n = 0usize;
+    let mut w = _mm256_setzero_ps();
     // SAFETY: every load reads 8 elements at b < len, len a multiple of 8; every store writes
     // 8 elements at base + n with n ≤ b ≤ len − 8, inside the reserved capacity.
     unsafe {
@@ -189,8 +261,15 @@ unsafe fn select_avx2(c: &Candidates, p: [f32; 3], r2: f32, skip: u32, out: &mut
                 _mm256_mul_ps(dz, dz),
             );
             let ids = _mm256_loadu_si256(c.index.as_ptr().add(b).cast());
-            let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(d2, radius2))
-                & !_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(ids, skipped)));
+            let near = _mm256_cmp_ps::<_CMP_LT_OQ>(d2, radius2);
+            let itself = _mm256_castsi256_ps(_mm256_cmpeq_epi32(ids, skipped));
+            let hit = _mm256_movemask_ps(near) & !_mm256_movemask_ps(itself);
+            if WEIGH {
+                // (h² − d²)³ where selected, as `weight`: max(·, 0), then (t·t)·t.
+                let t = _mm256_max_ps(_mm256_sub_ps(support2, d2), _mm256_setzero_ps());
+                let t3 = _mm256_mul_ps(_mm256_mul_ps(t, t), t);
+                w = _mm256_add_ps(w, _mm256_and_ps(t3, _mm256_andnot_ps(itself, near)));
+            }
             let perm = _mm256_cvtepu8_epi32(_mm_loadl_epi64(
                 PACK[hit as usize].as_ptr().cast::<__m128i>(),
             ));
@@ -199,6 +278,9 @@ unsafe fn select_avx2(c: &Candidates, p: [f32; 3], r2: f32, skip: u32, out: &mut
             b += 8;
         }
         out.set_len(base + n);
+        let mut lanes = [0.0f32; LANES];
+        _mm256_storeu_ps(lanes.as_mut_ptr(), w);
+        lanes
     }
 }
 
@@ -231,7 +313,37 @@ mod tests {
             let mut fast = vec![9u32; 2];
             c.select(p, 0.1, skip, &mut fast);
             let mut portable = vec![9u32; 2];
-            select_portable(&c, p, 0.1, skip, &mut portable);
+            select_portable::<false>(&c, p, 0.1, skip, &mut portable, 0.0);
+            // With weights: the same lists, and the same bits on both paths; h below the list
+            // radius, so some listed candidates weigh nothing.
+            let h2 = 0.08;
+            let mut weighed = vec![9u32; 2];
+            let w_fast = c.select_weighed(p, 0.1, skip, &mut weighed, h2);
+            let mut weighed_portable = vec![9u32; 2];
+            let w_portable = lane_total(&select_portable::<true>(
+                &c,
+                p,
+                0.1,
+                skip,
+                &mut weighed_portable,
+                h2,
+            ));
+            assert_eq!(weighed, fast, "{n} candidates");
+            assert_eq!(weighed_portable, fast, "{n} candidates");
+            assert_eq!(w_fast.to_bits(), w_portable.to_bits(), "{n} candidates");
+            let exact: f64 = (0..n)
+                .filter(|&k| c.index[k] != skip)
+                .map(|k| {
+                    let d = [c.x[k] - p[0], c.y[k] - p[1], c.z[k] - p[2]].map(|v| v as f64);
+                    (h2 as f64 - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
+                        .max(0.0)
+                        .powi(3)
+                })
+                .sum();
+            assert!(
+                (w_fast - exact).abs() <= 1e-5 * exact.max(1e-12),
+                "{n} candidates: {w_fast} against {exact}"
+            );
             let expected: Vec<u32> = [9, 9]
                 .into_iter()
                 .chain((0..n).filter_map(|k| {

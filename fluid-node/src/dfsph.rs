@@ -653,6 +653,7 @@ impl Scheme for Dfsph {
             sound_speed: penalty_speed,
             // particles move ~0.4 dx per step: the lists could not be kept.
             skin_ratio: 0.0,
+            poly6_sums: false,
         };
         let scheme = Self {
             kernel,

@@ -119,34 +119,31 @@ impl Muller {
         let (m, k, rho_ref, clamp) = (sys.mass, self.stiffness, self.rest_density, self.clamp);
         let origin = sys.grid.centre();
         let pc = self.pair_constants();
-        let self_weight = self.poly6.value_r2(0.0);
-        // Positions first: the density loop reads nothing else (the boundary's too, at the
-        // blocks' current pose).
-        let p = &mut sys.particles;
-        let (pos, vel) = (&p.position, &p.velocity);
-        self.records.resize(p.len(), Packed::default());
-        self.records
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, r)| *r = record(&pos[i], &origin, &vel[i], 0.0, 1.0));
+        let (c, self_weight) = (self.poly6.coefficient(), self.poly6.value_r2(0.0));
+        // The boundary's positions at the blocks' current pose (the density reads nothing else).
         sys.boundary
             .pack(|x, v, _, _| record(x, &origin, v, 0.0, 1.0));
-        let (lists, boundary, records) = (&sys.fluid_lists, &sys.boundary, &self.records);
+        let p = &mut sys.particles;
+        let (pos, vel) = (&p.position, &p.velocity);
+        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
         p.density
             .par_iter_mut()
             .zip(p.pressure.par_iter_mut())
             .enumerate()
             .for_each(|(i, (rho, pr))| {
-                let me = &records[i];
-                let mut sum = self_weight + density_sum(me, lists.of(i), records, &pc);
+                // The fluid neighbours' sum came with this step's lists (rebuilt every step at
+                // these positions, `Layout::poly6_sums`); the boundary's is summed here.
+                let mut sum = self_weight + c * lists.poly6_sum(i);
+                let me = record(&pos[i], &origin, &vel[i], 0.0, 1.0);
                 boundary.for_each_list(i, |list, walls| {
-                    sum += density_sum(me, list, walls, &pc);
+                    sum += density_sum(&me, list, walls, &pc);
                 });
                 *rho = m * sum;
                 let pressure = k * (*rho - rho_ref);
                 *pr = if clamp { pressure.max(0.0) } else { pressure };
             });
         let (rho, pre) = (&p.density, &p.pressure);
+        self.records.resize(p.len(), Packed::default());
         self.records
             .par_iter_mut()
             .enumerate()
@@ -264,6 +261,7 @@ impl Scheme for Muller {
             // Lists rebuilt every step: Müller's step is long enough that a developed flow moves
             // a particle past half of any useful skin in one step (measured, docs/PERFORMANCE.md).
             skin_ratio: 0.0,
+            poly6_sums: true,
         };
         Ok((scheme, layout))
     }

@@ -23,6 +23,10 @@ pub struct Layout {
     /// the speed of sound bounds their step); a scheme stepping on the flow's CFL moves too far
     /// per step to keep lists.
     pub skin_ratio: Real,
+    /// The lists also sum poly6's (h² − r²)³ per particle at each build, h the support
+    /// (`NeighborLists::sum_poly6`; Müller's Eq. 12 density without a pass of its own). Only
+    /// with lists rebuilt every step (`skin_ratio` 0), so the sums are at the step's positions.
+    pub poly6_sums: bool,
 }
 
 /// One SPH method.

@@ -26,15 +26,7 @@ impl<S: Scheme> Sph<S> {
         let init = Initial::from_scene(ctx.scene)?;
         let params = solver_params::<S::Params>(&init.fluid.solvers, "fluid", S::NAME)?;
         let (mut scheme, layout) = S::new(params, &init)?;
-        let mut sys = FluidSystem::new(
-            ctx,
-            S::NAME,
-            &init,
-            layout.density,
-            layout.support,
-            layout.sound_speed,
-            layout.skin_ratio,
-        )?;
+        let mut sys = FluidSystem::new(ctx, S::NAME, &init, layout)?;
         scheme.start(&mut sys);
         let dt_next = scheme.dt_proposal(0.0, init.gravity.norm());
         Ok(Self {

@@ -11,6 +11,7 @@ use crate::kernel::Kernel;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
 use crate::penalty::{Obstacle, Penalty, resting_state};
+use crate::scheme::Layout;
 use crate::survey::{Rules, Survey};
 use crate::terrain::TerrainPenalty;
 use crate::walls::WallParticles;
@@ -124,18 +125,26 @@ pub struct FluidSystem {
 }
 
 impl FluidSystem {
-    /// Builds the system from the filled scene. `cell` is the kernel support (the neighbour
-    /// radius), `sound_speed` sets the default Eq. 22 stiffness, `skin_ratio` the Verlet skin
-    /// of the lists over the support.
+    /// Builds the system from the filled scene as the scheme's `layout` asks: its support is
+    /// the neighbour radius, its sound speed sets the default Eq. 22 stiffness, its skin ratio
+    /// the Verlet skin of the lists over the support.
     pub fn new(
         ctx: &SetupContext,
         solver: &'static str,
         init: &Initial,
-        density: Vec<Real>,
-        cell: Real,
-        sound_speed: Real,
-        skin_ratio: Real,
+        layout: Layout,
     ) -> Result<Self, SolverError> {
+        let Layout {
+            density,
+            support: cell,
+            sound_speed,
+            skin_ratio,
+            poly6_sums,
+        } = layout;
+        assert!(
+            !poly6_sums || skin_ratio == 0.0,
+            "poly6 sums need lists rebuilt every step"
+        );
         let scene = ctx.scene;
         let fluid = &init.fluid;
         let dx = fluid.dx;
@@ -270,7 +279,13 @@ impl FluidSystem {
             solver,
             particles: Particles::new(init.fill.positions.clone(), density),
             grid,
-            fluid_lists: NeighborLists::default(),
+            fluid_lists: {
+                let mut lists = NeighborLists::default();
+                if poly6_sums {
+                    lists.sum_poly6(cell);
+                }
+                lists
+            },
             boundary: Boundary::new(fixed, bodies),
             penalty,
             terrain,

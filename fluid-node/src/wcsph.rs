@@ -389,6 +389,7 @@ impl Scheme for Wcsph {
             support: kernel.support(),
             sound_speed: c0,
             skin_ratio: spec.skin.unwrap_or(WCSPH_SKIN),
+            poly6_sums: false,
         };
         let scheme = Self {
             kernel,
