@@ -29,14 +29,13 @@
 //!   A particle within a support of the free surface has a deficient sum, so nothing resists
 //!   gravity packing the top layers until their sums reach ρ0: the surface sinks slowly (0.15
 //!   spacings in 4 s of still water; a quarter spacing, 2.5 cm, in Example 1's first 6 s).
-//!   `continued_surface` (on by default since 25 Nov 2026; `false` gives the summed density of
-//!   the papers and SPlisHSPlasH) lets a particle with fewer than [`SURFACE_FRACTION`] of a
-//!   full lattice's neighbours keep the larger of its sum and the ρ* the last step predicted
-//!   for it (the continuity equation's density, which has no deficit): the surface then holds
-//!   (−0.016 spacings), Example 1's gauges follow WCSPH's within 3 mm in deep water, the
-//!   floating block's draft error goes from −3.5 % to −2.3 %, and on the default scene at
-//!   dx = 0.02 m the gauge crests agree with WCSPH's within 3 % where the summed density leaves
-//!   them 7–17 % low (docs/PERFORMANCE.md, docs/VALIDATION.md).
+//!   `continued_surface = true` (experimental, off by default) lets a particle with fewer than
+//!   [`SURFACE_FRACTION`] of a full lattice's neighbours keep the larger of its sum and the ρ*
+//!   the last step predicted for it (the continuity equation's density, which has no deficit):
+//!   the surface then holds (−0.016 spacings), Example 1's gauges follow WCSPH's within 3 mm in
+//!   deep water, and the floating block's draft error goes from −3.5 % to −2.3 %
+//!   (docs/PERFORMANCE.md, docs/VALIDATION.md). Not yet the default: the validation tables
+//!   have not been rerun with it.
 //! - Warm start: each solve starts from half the stiffness of the last step where the particle is
 //!   compressed (the papers' warm start; the ½ and the test on compression as SPlisHSPlasH).
 //! - Stopping: mean compression below `density_tolerance` (0.05 %, at least two iterations) and
@@ -122,10 +121,10 @@ pub struct DfsphParams {
     /// A particle with fewer neighbours than this fraction of a full lattice's is left out of
     /// the divergence solve (spray; [`DEFICIENT_FRACTION`]); default 0.6, 0 disables.
     pub deficient_fraction: Option<f64>,
-    /// A particle near the free surface (fewer neighbours than [`SURFACE_FRACTION`] of a full
-    /// lattice's) keeps the larger of its summed density and the density the last step
-    /// predicted for it (continuity), so gravity cannot pack the surface layers whose sums are
-    /// deficient; default true (false: the summed density, as the papers and SPlisHSPlasH).
+    /// Experimental: a particle near the free surface (fewer neighbours than
+    /// [`SURFACE_FRACTION`] of a full lattice's) keeps the larger of its summed density and the
+    /// density the last step predicted for it (continuity), so gravity cannot pack the surface
+    /// layers whose sums are deficient; default false (the summed density, as SPlisHSPlasH).
     pub continued_surface: Option<bool>,
 }
 
@@ -620,7 +619,7 @@ impl Scheme for Dfsph {
         let deficient_below = (spec.deficient_fraction.unwrap_or(DEFICIENT_FRACTION)
             * lattice_neighbours(kernel.support(), dx) as Real)
             .round() as usize;
-        let surface_below = if spec.continued_surface.unwrap_or(true) {
+        let surface_below = if spec.continued_surface.unwrap_or(false) {
             (SURFACE_FRACTION * lattice_neighbours(kernel.support(), dx) as Real).round() as usize
         } else {
             0

@@ -249,23 +249,16 @@ fn droplets_approaching(extra: &str) -> f64 {
 /// SPlisHSPlasH does): two droplets far below a full neighbourhood close in without the solve
 /// touching them. With the rule off (`deficient_fraction = 0`) the solve's large factor on
 /// sparse particles already pushes them apart before they meet; in the default scene at
-/// dx = 0.04 m that threw a 49 m/s jet out of the domain top. The rule is seen alone with the
-/// papers' summed density (`continued_surface = false`). With the default continued density
-/// every particle of such small droplets is a surface particle that keeps its continuity
-/// density, which rises as the droplets converge within a kernel support of each other, so the
-/// density solve pushes them apart a little before they meet, as WCSPH's continuity density
-/// does; no jet.
+/// dx = 0.04 m that threw a 49 m/s jet out of the domain top.
 #[test]
 fn dfsph_leaves_spray_out_of_the_divergence_solve() {
-    let with_rule = droplets_approaching("continued_surface = false");
-    let without = droplets_approaching("continued_surface = false\ndeficient_fraction = 0.0");
-    let default = droplets_approaching("");
+    let with_rule = droplets_approaching("");
+    let without = droplets_approaching("deficient_fraction = 0.0");
     eprintln!(
-        "droplets closing at 1 m/s each: fastest {with_rule:.4} m/s with the rule, {without:.4} m/s without, {default:.4} m/s with the defaults"
+        "droplets closing at 1 m/s each: fastest {with_rule:.4} m/s with the rule, {without:.4} m/s without"
     );
     assert!(with_rule < 1.001, "fastest {with_rule} m/s");
     assert!(without > 1.05, "without the rule: fastest {without} m/s");
-    assert!(default < 1.2, "with the defaults: fastest {default} m/s");
 }
 
 /// Still water run `end` seconds with `table` as its `[fluid.dfsph]`: the mean free surface
@@ -289,13 +282,12 @@ fn surface_settling(depth: f64, dx: f64, end: f64, table: &str) -> f64 {
 /// the free surface has a deficient sum: gravity packs the top layers (Example 1 lost 2.5 cm of
 /// level, a quarter spacing, in 6 s; docs/PERFORMANCE.md). With `continued_surface` such a
 /// particle keeps the density the last step predicted for it when that is larger, and the
-/// surface stays where it was. That is the default; `continued_surface = false` gives the
-/// papers' summed density.
+/// surface stays where it was.
 #[test]
 fn dfsph_free_surface_holds_its_level_with_the_continued_density() {
     let (depth, dx, end) = (0.2, 0.02, 4.0);
-    let summed = surface_settling(depth, dx, end, "continued_surface = false");
-    let continued = surface_settling(depth, dx, end, "");
+    let summed = surface_settling(depth, dx, end, "");
+    let continued = surface_settling(depth, dx, end, "continued_surface = true");
     eprintln!(
         "surface settling over {end} s: summed {summed:+.3} dx, continued {continued:+.3} dx"
     );
