@@ -53,40 +53,44 @@ fn peak_rss_mb() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
-fn list(args: &[String], flag: &str, default: &str) -> Vec<String> {
-    let v = args
-        .iter()
-        .position(|a| a == flag)
-        .and_then(|i| args.get(i + 1))
-        .map_or(default, |s| s.as_str());
-    v.split(',').map(str::to_string).collect()
+/// Particle-steps per second of the fluid solvers on a 3D dam break (module doc).
+#[derive(clap::Parser)]
+#[command(name = "fluid-bench")]
+struct Args {
+    /// Approximate particle counts, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
+    sizes: Vec<usize>,
+    /// Thread counts, comma-separated (a rayon pool per row).
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    threads: Vec<usize>,
+    /// Solvers of the registry, comma-separated (default: all).
+    #[arg(long, value_delimiter = ',')]
+    solvers: Vec<String>,
+    /// A line of each solver's own table, e.g. 'integrator = "symplectic"' (repeatable).
+    #[arg(long)]
+    param: Vec<String>,
+    /// Step (untimed) until the dam break has flowed this many simulated seconds, so the timed
+    /// steps see a developed flow (lists rebuilt more often than from rest).
+    #[arg(long, default_value_t = 0.0)]
+    from: f64,
+    /// Timed steps (default: about 3·10⁶ particle-steps' worth, at least 3).
+    #[arg(long)]
+    steps: Option<usize>,
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let sizes: Vec<usize> = list(&args, "--sizes", "10000,100000,1000000")
-        .iter()
-        .map(|s| s.parse().expect("--sizes"))
-        .collect();
-    let threads: Vec<usize> = list(&args, "--threads", "1,2")
-        .iter()
-        .map(|s| s.parse().expect("--threads"))
-        .collect();
-    let solvers = list(&args, "--solvers", &fluid_node::REGISTRY.names().join(","));
-    // `--param 'integrator = "symplectic"'` (repeatable): a line of each solver's own table.
-    let params: Vec<String> = args
-        .windows(2)
-        .filter(|w| w[0] == "--param")
-        .map(|w| w[1].clone())
-        .collect();
-    // `--from T`: step (untimed) until the dam break has flowed for T simulated seconds, so the
-    // timed steps see a developed flow (the lists are rebuilt more often than from rest).
-    let from: f64 = list(&args, "--from", "0")[0].parse().expect("--from");
-    let timed: Option<usize> = args.iter().position(|a| a == "--steps").map(|i| {
-        args.get(i + 1)
-            .and_then(|v| v.parse().ok())
-            .expect("--steps N")
-    });
+    let args = <Args as clap::Parser>::parse();
+    let (sizes, threads, params, from, timed) =
+        (args.sizes, args.threads, args.param, args.from, args.steps);
+    let solvers = if args.solvers.is_empty() {
+        fluid_node::REGISTRY
+            .names()
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        args.solvers
+    };
     println!(
         "| solver | particles | threads | from t [s] | steps timed | s/step | particle-steps/s | µs per particle-step | list rebuilds per step | listed pairs per particle (fluid + boundary) | peak RSS so far [MB] |"
     );
@@ -101,7 +105,11 @@ fn main() {
                 pool.install(|| {
                     let sc = scene(solver, n, &params);
                     let dir = TempRunDir::new("bench").expect("temp dir");
-                    let mut s: Box<dyn SphSolver> = build(solver, &sc, dir.path()).expect("solver");
+                    let mut s: Box<dyn SphSolver> =
+                        build(solver, &sc, dir.path()).unwrap_or_else(|e| {
+                            eprintln!("fluid-bench: {solver}: {e}");
+                            std::process::exit(2)
+                        });
                     let count = s.system().len();
                     let mut loads: Vec<BlockLoad> = Vec::new();
                     // Granted as the coupler grants it, towards the scene's end (never reached).
