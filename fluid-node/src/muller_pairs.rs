@@ -76,6 +76,13 @@ pub fn density_sum(me: &Packed, list: &[u32], records: &[Packed], c: &PairConsta
     sum(w)
 }
 
+/// Eq. 14's pair factor along r_ij, fluid or boundary neighbour alike:
+/// −(p_i + p_j)/(2ρ_j)·(−3c (h − r)²/r), with d = h − r.
+#[inline(always)]
+fn pressure_term(pi: f32, pj: f32, inv_rho_j: f32, d: f32, r: f32, c: &PairConstants) -> f32 {
+    -0.5 * (pi + pj) * inv_rho_j * (c.spiky * d * d / r)
+}
+
 /// Σ_j over fluid neighbours `list` of particle `me`, without the factor m: the pressure force
 /// of Eq. 14 with Müller's symmetric (p_i + p_j)/2 and the viscous force of Eq. 18 (which
 /// damps the velocity difference), −Σ (p_i + p_j)/(2ρ_j) ∇W_spiky + Σ μ (v_j − v_i)/ρ_j ∇²W_visc.
@@ -97,9 +104,9 @@ pub fn fluid_forces(me: &Packed, list: &[u32], records: &[Packed], c: &PairConst
             let r = r2.sqrt().max(c.r_min);
             let d = c.h - r;
             let inside = r2 < c.h2 && k < n;
-            // −(p_i + p_j)/(2ρ_j)·(−3c (h − r)²/r) along r_ij, and μ ∇²W/ρ_j along v_j − v_i.
+            // The pressure factor along r_ij, and μ ∇²W/ρ_j along v_j − v_i.
             let pressure = if inside {
-                -0.5 * (pi + pj[k]) * inv_rho[k] * (c.spiky * d * d / r)
+                pressure_term(pi, pj[k], inv_rho[k], d, r, c)
             } else {
                 0.0
             };
@@ -136,7 +143,7 @@ pub fn boundary_forces(me: &Packed, list: &[u32], records: &[Packed], c: &PairCo
             let r = r2.sqrt().max(c.r_min);
             let d = c.h - r;
             let pressure = if r2 < c.h2 && k < n {
-                -0.5 * (pi + pb[k]) * inv_rho[k] * (c.spiky * d * d / r)
+                pressure_term(pi, pb[k], inv_rho[k], d, r, c)
             } else {
                 0.0
             };
