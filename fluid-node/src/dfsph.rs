@@ -654,6 +654,7 @@ impl Scheme for Dfsph {
             // particles move ~0.4 dx per step: the lists could not be kept.
             skin_ratio: 0.0,
             poly6_sums: false,
+            carried: crate::particles::Carried::ALL,
         };
         let scheme = Self {
             kernel,

@@ -10,6 +10,7 @@ use crate::kernel::Kernel;
 use crate::kernels::{Poly6, Spiky, ViscosityKernel};
 use crate::lanes::Packed;
 use crate::muller_pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
+use crate::particles::Carried;
 use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
 use rayon::prelude::*;
@@ -113,9 +114,11 @@ impl Muller {
         self.rest_density + p / self.stiffness
     }
 
-    /// Eq. 12 (fluid and boundary particles both carry mass), then Eq. 17; then the records
-    /// the force loop reads (muller_pairs.rs).
-    fn density_and_pressure(&mut self, sys: &mut FluidSystem) {
+    /// Eq. 12 (fluid and boundary particles both carry mass), then Eq. 17, and in the same pass
+    /// the records the force loop reads (muller_pairs.rs); returns the mean compression, the
+    /// average of max(ρ/ρ0 − 1, 0) over all particles (a free surface's low summed densities do
+    /// not hide compression elsewhere).
+    fn density_and_pressure(&mut self, sys: &mut FluidSystem) -> Real {
         let (m, k, rho_ref, clamp) = (sys.mass, self.stiffness, self.rest_density, self.clamp);
         let origin = sys.grid.centre();
         let pc = self.pair_constants();
@@ -126,11 +129,14 @@ impl Muller {
         let p = &mut sys.particles;
         let (pos, vel) = (&p.position, &p.velocity);
         let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
-        p.density
+        self.records.resize(p.len(), Packed::default());
+        let compressed: Real = p
+            .density
             .par_iter_mut()
             .zip(p.pressure.par_iter_mut())
+            .zip(self.records.par_iter_mut())
             .enumerate()
-            .for_each(|(i, (rho, pr))| {
+            .map(|(i, ((rho, pr), rec))| {
                 // The fluid neighbours' sum came with this step's lists (rebuilt every step at
                 // these positions, `Layout::poly6_sums`); the boundary's is summed here.
                 let mut sum = self_weight + c * lists.poly6_sum(i);
@@ -141,13 +147,10 @@ impl Muller {
                 *rho = m * sum;
                 let pressure = k * (*rho - rho_ref);
                 *pr = if clamp { pressure.max(0.0) } else { pressure };
-            });
-        let (rho, pre) = (&p.density, &p.pressure);
-        self.records.resize(p.len(), Packed::default());
-        self.records
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, r)| *r = record(&pos[i], &origin, &vel[i], pre[i], rho[i]));
+                *rec = record(&pos[i], &origin, &vel[i], *pr, *rho);
+                ((*rho - rho_ref) / rho_ref).max(0.0)
+            })
+            .sum();
         let this = &*self;
         sys.boundary
             .update(&this.poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
@@ -155,6 +158,7 @@ impl Muller {
             });
         sys.boundary
             .pack(|x, v, pw, rw| record(x, &origin, v, pw, rw));
+        compressed / sys.particles.len().max(1) as Real
     }
 
     /// The f32 constants of the pair loops.
@@ -190,15 +194,6 @@ impl Muller {
                 });
                 *a = f * (m / rho[i]) + g + pen[i] / m;
             });
-    }
-
-    /// Mean compression: the average of max(ρ/ρ0 − 1, 0) over all particles (a free surface's
-    /// low summed densities do not hide compression elsewhere).
-    fn mean_compression(&self, sys: &FluidSystem) -> Real {
-        let rho = &sys.particles.density;
-        let r0 = self.rest_density;
-        let sum: Real = rho.par_iter().map(|&r| ((r - r0) / r0).max(0.0)).sum();
-        sum / rho.len().max(1) as Real
     }
 }
 
@@ -262,6 +257,13 @@ impl Scheme for Muller {
             // a particle past half of any useful skin in one step (measured, docs/PERFORMANCE.md).
             skin_ratio: 0.0,
             poly6_sums: true,
+            // Eq. 12 rewrites the densities and pressures too, but the frames and probes read
+            // them after the sort; accelerations are rewritten before they are read, and the
+            // symplectic Euler of Eq. 21 keeps no history.
+            carried: Carried {
+                rates: false,
+                history: false,
+            },
         };
         Ok((scheme, layout))
     }
@@ -278,7 +280,7 @@ impl Scheme for Muller {
     }
 
     fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError> {
-        self.density_and_pressure(sys);
+        let compression = self.density_and_pressure(sys);
         self.accelerations(sys);
         // Eq. 21: symplectic Euler, velocity first, then position with the new velocity.
         let p = &mut sys.particles;
@@ -291,7 +293,6 @@ impl Scheme for Muller {
                 *x += *v * dt;
             });
         let mut report = StepReport::default();
-        let compression = self.mean_compression(sys);
         let steps = sys.steps + 1;
         if compression > COMPRESSION_WARNING
             && self.last_warning.is_none_or(|s| steps >= s + WARNING_EVERY)

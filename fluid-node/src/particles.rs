@@ -54,9 +54,14 @@ impl Particles {
         self.position.is_empty()
     }
 
-    /// Reorders every array by `order` (new slot k takes old particle `order[k]`), through two
-    /// scratch buffers that are swapped in: no allocation.
-    pub fn permute(&mut self, order: &[u32]) {
+    /// Reorders the arrays a scheme `carries` by `order` (new slot k takes old particle
+    /// `order[k]`), through two scratch buffers that are swapped in: no allocation. The
+    /// positions' new order is also copied into `sorted_at` (the lists are those of these
+    /// positions), in the same pass.
+    ///
+    /// The arrays not carried keep their old order: the scheme rewrites them before it reads
+    /// them again. Eq. 22's forces are never carried: they are recomputed after every sort.
+    pub fn permute(&mut self, order: &[u32], carried: Carried, sorted_at: &mut Vec<Vector>) {
         fn gather<T: Copy + Send + Sync>(data: &mut Vec<T>, scratch: &mut Vec<T>, order: &[u32]) {
             scratch
                 .par_iter_mut()
@@ -65,25 +70,51 @@ impl Particles {
             std::mem::swap(data, scratch);
         }
         let (sv, ss) = (&mut self.scratch_v, &mut self.scratch_s);
-        for v in [
-            &mut self.position,
-            &mut self.velocity,
-            &mut self.acceleration,
-            &mut self.penalty,
-            &mut self.position0,
-            &mut self.velocity0,
-        ] {
-            gather(v, sv, order);
+        sorted_at.resize(order.len(), Vector::zeros());
+        let position = &self.position;
+        sv.par_iter_mut()
+            .zip(sorted_at.par_iter_mut())
+            .zip(order.par_iter())
+            .for_each(|((s, copy), &o)| {
+                *s = position[o as usize];
+                *copy = *s;
+            });
+        std::mem::swap(&mut self.position, sv);
+        gather(&mut self.velocity, sv, order);
+        gather(&mut self.density, ss, order);
+        gather(&mut self.pressure, ss, order);
+        if carried.rates {
+            gather(&mut self.acceleration, sv, order);
+            gather(&mut self.density_rate, ss, order);
         }
-        for s in [
-            &mut self.density,
-            &mut self.pressure,
-            &mut self.density_rate,
-            &mut self.density0,
-        ] {
-            gather(s, ss, order);
+        if carried.history {
+            gather(&mut self.position0, sv, order);
+            gather(&mut self.velocity0, sv, order);
+            gather(&mut self.density0, ss, order);
         }
     }
+}
+
+/// Which per-particle arrays a scheme reads after a sort before it writes them (positions,
+/// velocities, densities and pressures always are): only these are reordered at a sort. A
+/// scheme that rewrites the rest every step saves their gathers (Müller: five of nine arrays,
+/// a sort every step).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Carried {
+    /// `acceleration` and `density_rate`: the last evaluation's rates (WCSPH's predictor starts
+    /// from them; DFSPH warm-starts from its factors, which it keeps there).
+    pub rates: bool,
+    /// `position0`, `velocity0`, `density0`: the state one step back (WCSPH's Verlet; DFSPH
+    /// keeps a warm start in `density0`).
+    pub history: bool,
+}
+
+impl Carried {
+    /// Every array but Eq. 22's forces.
+    pub const ALL: Self = Self {
+        rates: true,
+        history: true,
+    };
 }
 
 #[cfg(test)]
@@ -99,7 +130,9 @@ mod tests {
             .iter_mut()
             .enumerate()
             .for_each(|(i, v)| v.y = i as f64);
-        p.permute(&[4, 2, 0, 1, 3]);
+        let mut sorted_at = Vec::new();
+        p.permute(&[4, 2, 0, 1, 3], Carried::ALL, &mut sorted_at);
+        assert_eq!(sorted_at, p.position);
         for k in 0..5 {
             let i = p.position[k].x;
             assert_eq!(p.velocity[k].y, i);
@@ -107,5 +140,14 @@ mod tests {
             assert_eq!(p.position0[k].x, i);
         }
         assert_eq!(p.position[0].x, 4.0);
+        // Without the history, the one-step-back state keeps its old order.
+        let carried = Carried {
+            rates: true,
+            history: false,
+        };
+        p.permute(&[4, 2, 0, 1, 3], carried, &mut sorted_at);
+        assert_eq!(p.position[0].x, 3.0);
+        assert_eq!(p.velocity[0].y, 3.0);
+        assert_eq!(p.position0[0].x, 4.0);
     }
 }

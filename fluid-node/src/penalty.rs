@@ -283,7 +283,7 @@ mod tests {
         p.velocity[0] = Vector::new(0.0, 0.0, -2.0);
         let mut grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(4.0), 0.1).unwrap();
         let order = grid.sort(&p.position).to_vec();
-        p.permute(&order);
+        p.permute(&order, crate::particles::Carried::ALL, &mut Vec::new());
         let mut loads = vec![BlockLoad::default()];
         pen.apply(&mut p, &grid, Some(&mut loads));
         let i = p
@@ -346,7 +346,7 @@ mod tests {
         let mut p = Particles::new(pos, vec![1000.0; 2]);
         let mut grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(4.0), 0.1).unwrap();
         let order = grid.sort(&p.position).to_vec();
-        p.permute(&order);
+        p.permute(&order, crate::particles::Carried::ALL, &mut Vec::new());
         let mut loads = vec![BlockLoad::default()];
         pen.apply(&mut p, &grid, Some(&mut loads));
         let i = p.position.iter().position(|x| x.z < 1.1).unwrap();
@@ -391,7 +391,7 @@ mod tests {
         let mut p = Particles::new(pos, vec![1000.0; 20_000]);
         let mut grid = CellGrid::new(Vector::zeros(), Vector::repeat(3.0), 0.1).unwrap();
         let order = grid.sort(&p.position).to_vec();
-        p.permute(&order);
+        p.permute(&order, crate::particles::Carried::ALL, &mut Vec::new());
         let mut loads = vec![BlockLoad::default()];
         pen.apply(&mut p, &grid, Some(&mut loads));
         let mut touched = 0;

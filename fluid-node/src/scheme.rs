@@ -5,6 +5,7 @@
 //! method is one file implementing this trait plus one line in [`crate::REGISTRY`].
 
 use crate::kernel::Kernel;
+use crate::particles::Carried;
 use crate::system::{FluidSystem, Initial};
 use shared::math::Real;
 use shared::registry::SolverParams;
@@ -27,6 +28,8 @@ pub struct Layout {
     /// (`NeighborLists::sum_poly6`; Müller's Eq. 12 density without a pass of its own). Only
     /// with lists rebuilt every step (`skin_ratio` 0), so the sums are at the step's positions.
     pub poly6_sums: bool,
+    /// The particle arrays the scheme reads across a sort ([`Carried`]).
+    pub carried: Carried,
 }
 
 /// One SPH method.

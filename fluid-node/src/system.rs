@@ -9,7 +9,7 @@ use crate::fill::{Fill, fill_water_with};
 use crate::gauges::{FluidView, Recorder};
 use crate::kernel::Kernel;
 use crate::neighbors::{CellGrid, NeighborLists};
-use crate::particles::Particles;
+use crate::particles::{Carried, Particles};
 use crate::penalty::{Obstacle, Penalty, resting_state};
 use crate::scheme::Layout;
 use crate::survey::{Rules, Survey};
@@ -119,6 +119,8 @@ pub struct FluidSystem {
     skin: Real,
     /// Positions at the last sort: the lists are those of these positions.
     sorted_at: Vec<Vector>,
+    /// The particle arrays the scheme reads across a sort.
+    carried: Carried,
     /// Sorts (list rebuilds) so far.
     pub sorts: u64,
     penalty_fresh: bool,
@@ -140,6 +142,7 @@ impl FluidSystem {
             sound_speed,
             skin_ratio,
             poly6_sums,
+            carried,
         } = layout;
         assert!(
             !poly6_sums || skin_ratio == 0.0,
@@ -304,6 +307,7 @@ impl FluidSystem {
             bodies_valid: false,
             skin,
             sorted_at: Vec::new(),
+            carried,
             sorts: 0,
             penalty_fresh: false,
         };
@@ -344,8 +348,8 @@ impl FluidSystem {
     pub fn prepare(&mut self) {
         if !self.grid_valid {
             let order = self.grid.sort(&self.particles.position);
-            self.particles.permute(order);
-            self.sorted_at.clone_from(&self.particles.position);
+            self.particles
+                .permute(order, self.carried, &mut self.sorted_at);
             self.sorts += 1;
             let (pos, radius) = (&self.particles.position, self.grid.radius());
             self.fluid_lists.build(pos, pos, &self.grid, radius, true);

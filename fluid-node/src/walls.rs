@@ -33,7 +33,8 @@ pub struct WallParticles {
     /// pressure (a tall side wall holds many particles no water reaches).
     pub active: Vec<u32>,
     active_position: Vec<Vector>,
-    /// Scratch of `activate`: whether each particle has a fluid neighbour (set in parallel).
+    /// Scratch of `activate`: whether each particle has a fluid neighbour (set in parallel;
+    /// all clear between calls).
     mark: Marks,
     active_position_out: Vec<(Real, Real)>,
     /// Fluid neighbours of each active wall particle.
@@ -133,10 +134,7 @@ impl WallParticles {
         fluid_grid: &CellGrid,
         radius: Real,
     ) {
-        self.mark
-            .0
-            .par_iter()
-            .for_each(|m| m.store(false, Ordering::Relaxed));
+        // The marks are all clear here: set below, cleared again as they are collected.
         let mark = &self.mark.0;
         (0..fluid.len()).into_par_iter().for_each(|i| {
             for &w in fluid_to_wall.of(i) {
@@ -145,8 +143,10 @@ impl WallParticles {
         });
         self.active.clear();
         self.active_position.clear();
-        for (w, m) in self.mark.0.iter().enumerate() {
-            if m.load(Ordering::Relaxed) {
+        for (w, m) in self.mark.0.iter_mut().enumerate() {
+            let m = m.get_mut();
+            if *m {
+                *m = false;
                 self.active.push(w as u32);
                 self.active_position.push(self.position[w]);
             }

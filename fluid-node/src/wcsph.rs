@@ -390,6 +390,7 @@ impl Scheme for Wcsph {
             sound_speed: c0,
             skin_ratio: spec.skin.unwrap_or(WCSPH_SKIN),
             poly6_sums: false,
+            carried: crate::particles::Carried::ALL,
         };
         let scheme = Self {
             kernel,
