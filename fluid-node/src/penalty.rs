@@ -229,8 +229,17 @@ impl Penalty {
             let (mut force, mut torque, mut strain) =
                 (Vector::zeros(), Vector::zeros(), Strain::zeros());
             let c = o.map.centroid;
+            let loaded = o.moving.is_some() && loads.is_some();
             for (&i, (f, at)) in self.candidates.iter().zip(&self.forces) {
+                // Most candidates are beyond the margin; a zero force changes no sum (none
+                // holds −0), so it is skipped, and a fixed block's reaction is not summed.
+                if *f == Vector::zeros() {
+                    continue;
+                }
                 particles.penalty[i as usize] += f;
+                if !loaded {
+                    continue;
+                }
                 force -= f;
                 torque -= (at - c).cross(f);
                 if o.map.deformable {
