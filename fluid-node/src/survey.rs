@@ -205,9 +205,7 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
-        let position: Vec<Vector> = (0..n)
-            .map(|_| Vector::new(rnd(), rnd(), rnd()))
-            .collect();
+        let position: Vec<Vector> = (0..n).map(|_| Vector::new(rnd(), rnd(), rnd())).collect();
         let velocity: Vec<Vector> = (0..n)
             .map(|_| Vector::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5))
             .collect();
@@ -264,6 +262,9 @@ mod tests {
         rho[2100] = 1300.0;
         assert_eq!(check(&position, &velocity, &rho, &r).density, Some(2049));
         let lenient = rules(1e-3, false);
-        assert_eq!(check(&position, &velocity, &rho, &lenient).density, Some(2100));
+        assert_eq!(
+            check(&position, &velocity, &rho, &lenient).density,
+            Some(2100)
+        );
     }
 }

@@ -36,10 +36,15 @@ pub struct WallParticles {
     /// Scratch of `activate`: whether each particle has a fluid neighbour (set in parallel;
     /// all clear between calls).
     mark: Marks,
+    /// Scratch of `activate`: the marked particles of each part of [`COLLECT`].
+    part_counts: Vec<usize>,
     active_position_out: Vec<(Real, Real)>,
     /// Fluid neighbours of each active wall particle.
     pub lists: NeighborLists,
 }
+
+/// Wall particles per part when the marked ones are collected.
+const COLLECT: usize = 4096;
 
 /// One flag per boundary particle, set from parallel tasks.
 #[derive(Debug, Default)]
@@ -112,6 +117,7 @@ impl WallParticles {
             active: Vec::new(),
             active_position: Vec::new(),
             mark: Marks((0..n).map(|_| AtomicBool::new(false)).collect()),
+            part_counts: Vec::new(),
             active_position_out: Vec::new(),
             lists: NeighborLists::default(),
         }
@@ -141,16 +147,45 @@ impl WallParticles {
                 mark[w as usize].store(true, Ordering::Relaxed);
             }
         });
-        self.active.clear();
-        self.active_position.clear();
-        for (w, m) in self.mark.0.iter_mut().enumerate() {
-            let m = m.get_mut();
-            if *m {
-                *m = false;
-                self.active.push(w as u32);
-                self.active_position.push(self.position[w]);
-            }
+        // Collected in wall order, in parallel (serial, this kept the second thread idle): each
+        // part of the marks counts its own, then writes them into its slice of the active list
+        // and clears them.
+        let counts = &mut self.part_counts;
+        counts.resize(self.mark.0.len().div_ceil(COLLECT), 0);
+        counts
+            .par_iter_mut()
+            .zip(self.mark.0.par_chunks(COLLECT))
+            .for_each(|(k, marks)| *k = marks.iter().filter(|m| m.load(Ordering::Relaxed)).count());
+        let total = counts.iter().sum();
+        self.active.resize(total, 0);
+        self.active_position.resize(total, Vector::zeros());
+        let mut slices = Vec::with_capacity(counts.len());
+        let (mut active, mut at) = (&mut self.active[..], &mut self.active_position[..]);
+        for &k in counts.iter() {
+            let (a, rest) = std::mem::take(&mut active).split_at_mut(k);
+            active = rest;
+            let (p, rest) = std::mem::take(&mut at).split_at_mut(k);
+            at = rest;
+            slices.push((a, p));
         }
+        let position = &self.position;
+        slices
+            .into_par_iter()
+            .zip(self.mark.0.par_chunks_mut(COLLECT))
+            .enumerate()
+            .for_each(|(part, ((active, at), marks))| {
+                let mut k = 0;
+                for (j, m) in marks.iter_mut().enumerate() {
+                    let m = m.get_mut();
+                    if *m {
+                        *m = false;
+                        let w = part * COLLECT + j;
+                        active[k] = w as u32;
+                        at[k] = position[w];
+                        k += 1;
+                    }
+                }
+            });
         self.lists
             .build(&self.active_position, fluid, fluid_grid, radius, false);
     }
