@@ -65,14 +65,11 @@ impl Boundary {
     /// `fixed`: the fixed blocks' particles (none for Eq. 22-only walls); `moving`: the moving
     /// blocks' (none when no block moves or walls are Eq. 22 only).
     pub fn new(fixed: Option<WallParticles>, moving: Option<BodyParticles>) -> Self {
-        let mut b = Self {
+        Self {
             fixed,
             moving,
             ..Self::default()
-        };
-        // The fixed part never moves: its candidates per cell are gathered once.
-        b.fixed_lists.fixed_targets();
-        b
+        }
     }
 
     /// Number of (fluid, boundary) pairs listed, fixed and moving parts together.

@@ -16,8 +16,7 @@
 //! the same order, no fused multiply–add), so outputs do not change.
 
 use crate::neighbors::CellGrid;
-use rayon::prelude::*;
-use shared::math::{Real, Vector};
+use shared::math::Vector;
 
 /// Candidates per block of the portable test (and the padding unit of the gathered block).
 pub const LANES: usize = 8;
@@ -98,126 +97,6 @@ impl Candidates {
         self.cell = None;
     }
 
-    /// The gathered block.
-    #[inline]
-    pub fn block(&self) -> Block<'_> {
-        Block {
-            x: &self.x,
-            y: &self.y,
-            z: &self.z,
-            index: &self.index,
-        }
-    }
-}
-
-/// The candidates of every cell of a grid whose points never move (the fixed walls), gathered
-/// once and trimmed to the points within reach of the cell.
-///
-/// Why: the 27 cells around a query cell hold 6.4 times the volume of a point's support, and a
-/// fluid particle near a wall gathers and tests every wall point in them at every build (9 % of
-/// a Müller step for 1.4 wall neighbours per particle). A wall point farther than the radius
-/// from every point of the cell (its distance to the cell's box) is no particle's neighbour
-/// there, so it is dropped once; what is left keeps its order, so the lists are the same, in
-/// the same order.
-#[derive(Debug, Default, Clone)]
-pub struct CellBlocks {
-    /// The number of points and the radius the blocks were made for.
-    points: usize,
-    radius: Real,
-    /// `start[c]..start[c + 1]`: cell c's block, padded to whole [`LANES`].
-    start: Vec<u32>,
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
-    index: Vec<u32>,
-}
-
-impl CellBlocks {
-    /// The blocks of `points` (sorted into `grid`) for queries of `radius`.
-    pub fn new(points: &[Vector], grid: &CellGrid, radius: Real) -> Self {
-        let origin = grid.origin();
-        // Kept: every point within the radius of the cell's box, with room for the list test's
-        // own padding and f32 rounding (both below 10⁻⁵ of the radius plus 10⁻⁶ of the grid).
-        let reach = radius * (1.0 + 1e-3) + 4e-6 * grid.extent();
-        let per_cell: Vec<Vec<u32>> = (0..grid.cell_count())
-            .into_par_iter()
-            .map(|c| {
-                let (lo, hi) = grid.cell_box(c);
-                let mut kept = Vec::new();
-                grid.cell_rows(c, |range| {
-                    for j in range {
-                        let p = &points[j];
-                        let d2: Real = (0..3)
-                            .map(|k| (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0).powi(2))
-                            .sum();
-                        if d2 <= reach * reach {
-                            kept.push(j as u32);
-                        }
-                    }
-                });
-                kept
-            })
-            .collect();
-        let mut b = Self {
-            points: points.len(),
-            radius,
-            start: Vec::with_capacity(per_cell.len() + 1),
-            ..Self::default()
-        };
-        b.start.push(0);
-        for kept in &per_cell {
-            for &j in kept {
-                let p = points[j as usize] - origin;
-                b.x.push(p.x as f32);
-                b.y.push(p.y as f32);
-                b.z.push(p.z as f32);
-                b.index.push(j);
-            }
-            let padded = b.index.len().next_multiple_of(LANES);
-            for v in [&mut b.x, &mut b.y, &mut b.z] {
-                v.resize(padded, FAR);
-            }
-            b.index.resize(padded, u32::MAX);
-            b.start.push(padded as u32);
-        }
-        b
-    }
-
-    /// Candidates stored over all cells, without the padding.
-    #[cfg(test)]
-    pub fn stored(&self) -> usize {
-        self.index.iter().filter(|&&j| j != u32::MAX).count()
-    }
-
-    /// Whether these are the blocks of `points` points for `radius`.
-    pub fn is_for(&self, points: usize, radius: Real) -> bool {
-        self.points == points && self.radius == radius && !self.start.is_empty()
-    }
-
-    /// The block of cell `c`.
-    #[inline]
-    pub fn block(&self, c: usize) -> Block<'_> {
-        let r = self.start[c] as usize..self.start[c + 1] as usize;
-        Block {
-            x: &self.x[r.clone()],
-            y: &self.y[r.clone()],
-            z: &self.z[r.clone()],
-            index: &self.index[r],
-        }
-    }
-}
-
-/// A block of candidates: f32 coordinates relative to the grid origin and indices, padded with
-/// [`FAR`] points to a whole number of [`LANES`].
-#[derive(Debug, Clone, Copy)]
-pub struct Block<'a> {
-    pub x: &'a [f32],
-    pub y: &'a [f32],
-    pub z: &'a [f32],
-    pub index: &'a [u32],
-}
-
-impl Block<'_> {
     /// Appends to `out` the indices of the candidates whose squared distance to `p` is below
     /// `r2`, except `skip`, in candidate order.
     #[inline]
@@ -302,7 +181,7 @@ fn inside(cx: f32, cy: f32, cz: f32, p: [f32; 3], r2: f32) -> bool {
 /// The test for any CPU: a block of candidates into a bit mask (the compiler vectorises it),
 /// then its set bits; with `WEIGH`, the lanes' poly6 weights.
 fn select_portable<const WEIGH: bool>(
-    c: &Block<'_>,
+    c: &Candidates,
     p: [f32; 3],
     r2: f32,
     skip: u32,
@@ -360,7 +239,7 @@ static PACK: [[u8; 8]; 256] = {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt")]
 unsafe fn select_avx2<const WEIGH: bool>(
-    c: &Block<'_>,
+    c: &Candidates,
     p: [f32; 3],
     r2: f32,
     skip: u32,
@@ -433,7 +312,7 @@ unsafe fn select_avx2<const WEIGH: bool>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,popcnt")]
 unsafe fn select_avx512<const WEIGH: bool>(
-    c: &Block<'_>,
+    c: &Candidates,
     p: [f32; 3],
     r2: f32,
     skip: u32,
@@ -520,17 +399,17 @@ mod tests {
             let p = [0.5, 0.5, 0.5];
             let skip = if n > 3 { c.index[3] } else { u32::MAX };
             let mut fast = vec![9u32; 2];
-            c.block().select(p, 0.1, skip, &mut fast);
+            c.select(p, 0.1, skip, &mut fast);
             let mut portable = vec![9u32; 2];
-            select_portable::<false>(&c.block(), p, 0.1, skip, &mut portable, 0.0);
+            select_portable::<false>(&c, p, 0.1, skip, &mut portable, 0.0);
             // With weights: the same lists, and the same bits on both paths; h below the list
             // radius, so some listed candidates weigh nothing.
             let h2 = 0.08;
             let mut weighed = vec![9u32; 2];
-            let w_fast = c.block().select_weighed(p, 0.1, skip, &mut weighed, h2);
+            let w_fast = c.select_weighed(p, 0.1, skip, &mut weighed, h2);
             let mut weighed_portable = vec![9u32; 2];
             let w_portable = lane_total(&select_portable::<true>(
-                &c.block(),
+                &c,
                 p,
                 0.1,
                 skip,
@@ -580,8 +459,8 @@ mod tests {
                 // SAFETY: the CPU has the feature (checked), `list` has the room.
                 let w = unsafe {
                     match path {
-                        "avx512f" => select_avx512::<true>(&c.block(), p, 0.1, skip, &mut list, h2),
-                        _ => select_avx2::<true>(&c.block(), p, 0.1, skip, &mut list, h2),
+                        "avx512f" => select_avx512::<true>(&c, p, 0.1, skip, &mut list, h2),
+                        _ => select_avx2::<true>(&c, p, 0.1, skip, &mut list, h2),
                     }
                 };
                 assert_eq!(list, expected, "{path}, {n} candidates");

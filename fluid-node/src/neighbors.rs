@@ -7,7 +7,7 @@
 //! outside the domain are an instability, so every particle has a cell, and the static grid of
 //! boundary particles is built once with the same geometry.
 
-use crate::candidates::{Candidates, CellBlocks};
+use crate::candidates::Candidates;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 use std::cell::RefCell;
@@ -84,11 +84,6 @@ impl CellGrid {
                 self.dims[1] as Real,
                 self.dims[2] as Real,
             ) * (0.5 * self.cell)
-    }
-
-    /// The corner the cells count from (the f32 coordinates of the list test are relative to it).
-    pub fn origin(&self) -> Vector {
-        self.origin
     }
 
     /// The search radius the grid was made for.
@@ -214,42 +209,8 @@ impl CellGrid {
     /// a square root and two conversions, cost more than it saved: measured slower for both
     /// WCSPH and Müller.)
     #[inline]
-    pub fn neighbor_rows(&self, p: &Vector, f: impl FnMut(Range<usize>)) {
-        self.rows_around(self.coords(p), f);
-    }
-
-    /// [`Self::neighbor_rows`] of any point in cell `index`.
-    pub fn cell_rows(&self, index: usize, f: impl FnMut(Range<usize>)) {
-        self.rows_around(self.unindex(index), f);
-    }
-
-    /// The box of cell `index` [m], its faces on the grid's border pushed out to infinity
-    /// (a point beyond the border is counted in the border's cells).
-    pub fn cell_box(&self, index: usize) -> (Vector, Vector) {
-        let c = self.unindex(index);
-        let (mut lo, mut hi) = (Vector::zeros(), Vector::zeros());
-        for k in 0..3 {
-            lo[k] = if c[k] == 0 {
-                Real::NEG_INFINITY
-            } else {
-                self.origin[k] + c[k] as Real * self.cell
-            };
-            hi[k] = if c[k] + 1 == self.dims[k] {
-                Real::INFINITY
-            } else {
-                self.origin[k] + (c[k] + 1) as Real * self.cell
-            };
-        }
-        (lo, hi)
-    }
-
-    fn unindex(&self, index: usize) -> [usize; 3] {
-        let (nx, ny) = (self.dims[0], self.dims[1]);
-        [index % nx, (index / nx) % ny, index / (nx * ny)]
-    }
-
-    #[inline]
-    fn rows_around(&self, [cx, cy, cz]: [usize; 3], mut f: impl FnMut(Range<usize>)) {
+    pub fn neighbor_rows(&self, p: &Vector, mut f: impl FnMut(Range<usize>)) {
+        let [cx, cy, cz] = self.coords(p);
         let x0 = cx.saturating_sub(1);
         let x1 = (cx + 1).min(self.dims[0] - 1);
         for z in cz.saturating_sub(1)..=(cz + 1).min(self.dims[2] - 1) {
@@ -366,10 +327,6 @@ pub struct NeighborLists {
     /// The candidates' coordinates relative to the grid origin in f32, one array per axis
     /// (scratch): the distance test then runs four or eight candidates per instruction.
     near: [Vec<f32>; 3],
-    /// Whether the listed set never moves ([`NeighborLists::fixed_targets`]), and then its
-    /// candidates per cell, gathered at the first build.
-    targets_fixed: bool,
-    blocks: Option<CellBlocks>,
 }
 
 #[derive(Debug, Default, Clone)]
@@ -388,13 +345,6 @@ impl NeighborLists {
     /// of its own: in a developed flow that pass was a fifth of its step.
     pub fn sum_poly6(&mut self, h: Real) {
         self.poly6_support = Some(h);
-    }
-
-    /// Declares that the points these lists list (`to` of [`NeighborLists::build`]) never move
-    /// and keep their grid: the fixed walls. Each cell's candidates are then gathered, and
-    /// trimmed to those within reach of the cell, once ([`CellBlocks`]).
-    pub fn fixed_targets(&mut self) {
-        self.targets_fixed = true;
     }
 
     /// Σ_j (h² − r_ij²)³ over the neighbours of particle `i` at the last build, in f32 with an
@@ -427,32 +377,6 @@ impl NeighborLists {
         let n_chunks = from.len().div_ceil(CHUNK);
         self.chunks.resize_with(n_chunks, ChunkLists::default);
         let origin = to_grid.origin;
-        let extent = to_grid.extent();
-        let padded = radius * (1.0 + 1e-5) + 1e-6 * extent;
-        let test = Test {
-            r2: (padded * padded) as f32,
-            h2: self.poly6_support.map(|h| {
-                debug_assert!(h <= radius);
-                (h * h) as f32
-            }),
-            same,
-        };
-        if self.targets_fixed {
-            if !self
-                .blocks
-                .as_ref()
-                .is_some_and(|b| b.is_for(to.len(), radius))
-            {
-                self.blocks = Some(CellBlocks::new(to, to_grid, radius));
-            }
-            let blocks = self.blocks.as_ref().expect("made just above");
-            self.chunks.par_iter_mut().enumerate().for_each(|(c, ch)| {
-                let lo = c * CHUNK;
-                let hi = (lo + CHUNK).min(from.len());
-                fill_chunk_stored(ch, &from[lo..hi], lo, to_grid, blocks, &test);
-            });
-            return;
-        }
         for axis in self.near.iter_mut() {
             // Padded by one block: the candidates are gathered a whole block at a time.
             axis.resize(to.len() + crate::candidates::LANES, 0.0);
@@ -466,6 +390,16 @@ impl NeighborLists {
                 *y = (p.y - origin.y) as f32;
                 *z = (p.z - origin.z) as f32;
             });
+        let extent = to_grid.extent();
+        let padded = radius * (1.0 + 1e-5) + 1e-6 * extent;
+        let test = Test {
+            r2: (padded * padded) as f32,
+            h2: self.poly6_support.map(|h| {
+                debug_assert!(h <= radius);
+                (h * h) as f32
+            }),
+            same,
+        };
         let near = &self.near;
         self.chunks.par_iter_mut().enumerate().for_each(|(c, ch)| {
             let lo = c * CHUNK;
@@ -548,46 +482,6 @@ struct Test {
     same: bool,
 }
 
-/// [`fill_chunk`] for a set that never moves: each point's candidates are its cell's stored
-/// block ([`CellBlocks`]); a point whose cell has none gets an empty list at once.
-fn fill_chunk_stored(
-    ch: &mut ChunkLists,
-    from: &[Vector],
-    lo: usize,
-    to_grid: &CellGrid,
-    blocks: &CellBlocks,
-    test: &Test,
-) {
-    let origin = to_grid.origin;
-    ch.start.clear();
-    ch.index.clear();
-    ch.poly6.clear();
-    ch.start.push(0);
-    for (k, xi) in from.iter().enumerate() {
-        let block = blocks.block(to_grid.cell_index(xi));
-        if block.index.is_empty() {
-            if test.h2.is_some() {
-                ch.poly6.push(0.0);
-            }
-        } else {
-            let p = [
-                (xi.x - origin.x) as f32,
-                (xi.y - origin.y) as f32,
-                (xi.z - origin.z) as f32,
-            ];
-            let skip = if test.same { (lo + k) as u32 } else { u32::MAX };
-            match test.h2 {
-                Some(h2) => {
-                    ch.poly6
-                        .push(block.select_weighed(p, test.r2, skip, &mut ch.index, h2))
-                }
-                None => block.select(p, test.r2, skip, &mut ch.index),
-            }
-        }
-        ch.start.push(ch.index.len() as u32);
-    }
-}
-
 /// The lists of `from` (particles `lo..` of the listing set) into one chunk: for each point,
 /// the candidates of its cell (gathered once per cell, [`Candidates`]) tested and packed into
 /// the chunk's index buffer.
@@ -615,13 +509,11 @@ fn fill_chunk(
             ];
             let skip = if test.same { (lo + k) as u32 } else { u32::MAX };
             cand.gather(to_grid, xi, near);
-            let block = cand.block();
             match test.h2 {
-                Some(h2) => {
-                    ch.poly6
-                        .push(block.select_weighed(p, test.r2, skip, &mut ch.index, h2))
-                }
-                None => block.select(p, test.r2, skip, &mut ch.index),
+                Some(h2) => ch
+                    .poly6
+                    .push(cand.select_weighed(p, test.r2, skip, &mut ch.index, h2)),
+                None => cand.select(p, test.r2, skip, &mut ch.index),
             }
             ch.start.push(ch.index.len() as u32);
         }
@@ -710,76 +602,5 @@ mod tests {
                 .collect();
             assert_eq!(found, brute, "particle {i}");
         }
-    }
-
-    /// Lists of a set declared fixed (candidates stored per cell, trimmed to the cell's reach)
-    /// are the lists of a gather per cell: the same neighbours in the same order, for query
-    /// points anywhere in the grid, its border cells included, and again at a second build.
-    #[test]
-    fn stored_cell_blocks_list_what_a_gather_lists() {
-        let mut seed = 11;
-        let h = 0.1;
-        let (lo, hi) = (Vector::zeros(), Vector::new(1.0, 0.6, 0.8));
-        // A floor slab and a side wall, on a lattice, as the fixed walls are.
-        let mut walls = Vec::new();
-        for i in 0..40 {
-            for j in 0..24 {
-                for k in 0..4 {
-                    walls.push(Vector::new(
-                        0.025 * i as f64,
-                        0.025 * j as f64,
-                        0.025 * k as f64,
-                    ));
-                    walls.push(Vector::new(
-                        0.025 * k as f64,
-                        0.025 * j as f64,
-                        0.02 * i as f64,
-                    ));
-                }
-            }
-        }
-        let mut wall_grid = CellGrid::new(lo, hi, h).unwrap();
-        let order = wall_grid.sort(&walls).to_vec();
-        let walls: Vec<Vector> = order.iter().map(|&i| walls[i as usize]).collect();
-        let mut fixed = NeighborLists::default();
-        fixed.fixed_targets();
-        for round in 0..2 {
-            let pts: Vec<Vector> = (0..3000)
-                .map(|_| {
-                    // Some beyond the domain, into the grid's padding and border cells.
-                    Vector::new(
-                        1.3 * lcg(&mut seed) - 0.15,
-                        0.8 * lcg(&mut seed) - 0.1,
-                        0.9 * lcg(&mut seed) - 0.05,
-                    )
-                })
-                .collect();
-            let mut grid = CellGrid::new(lo, hi, h).unwrap();
-            let order = grid.sort(&pts).to_vec();
-            let sorted: Vec<Vector> = order.iter().map(|&i| pts[i as usize]).collect();
-            let mut gathered = NeighborLists::default();
-            gathered.build(&sorted, &walls, &wall_grid, h, false);
-            fixed.build(&sorted, &walls, &wall_grid, h, false);
-            assert!(
-                gathered.pairs() > 1000,
-                "round {round}: {}",
-                gathered.pairs()
-            );
-            assert_eq!(fixed.pairs(), gathered.pairs(), "round {round}");
-            for i in 0..sorted.len() {
-                assert_eq!(fixed.of(i), gathered.of(i), "round {round}, point {i}");
-            }
-        }
-        // The blocks hold fewer candidates than the 27 cells around a cell.
-        let blocks = fixed.blocks.as_ref().unwrap();
-        let stored = blocks.stored();
-        let around: usize = (0..wall_grid.cell_count())
-            .map(|c| {
-                let mut n = 0;
-                wall_grid.cell_rows(c, |r| n += r.len());
-                n
-            })
-            .sum();
-        assert!(stored < around, "{stored} stored of {around}");
     }
 }
