@@ -159,33 +159,14 @@ impl WallParticles {
         let total = counts.iter().sum();
         self.active.resize(total, 0);
         self.active_position.resize(total, Vector::zeros());
-        let mut slices = Vec::with_capacity(counts.len());
-        let (mut active, mut at) = (&mut self.active[..], &mut self.active_position[..]);
-        for &k in counts.iter() {
-            let (a, rest) = std::mem::take(&mut active).split_at_mut(k);
-            active = rest;
-            let (p, rest) = std::mem::take(&mut at).split_at_mut(k);
-            at = rest;
-            slices.push((a, p));
-        }
-        let position = &self.position;
-        slices
-            .into_par_iter()
-            .zip(self.mark.0.par_chunks_mut(COLLECT))
-            .enumerate()
-            .for_each(|(part, ((active, at), marks))| {
-                let mut k = 0;
-                for (j, m) in marks.iter_mut().enumerate() {
-                    let m = m.get_mut();
-                    if *m {
-                        *m = false;
-                        let w = part * COLLECT + j;
-                        active[k] = w as u32;
-                        at[k] = position[w];
-                        k += 1;
-                    }
-                }
-            });
+        collect(
+            0,
+            counts,
+            &mut self.mark.0,
+            &mut self.active,
+            &mut self.active_position,
+            &self.position,
+        );
         self.lists
             .build(&self.active_position, fluid, fluid_grid, radius, false);
     }
@@ -238,6 +219,47 @@ impl WallParticles {
     }
 }
 
+/// Writes the marked wall particles of parts `first..` (their marks in `marks`, `counts[p]`
+/// marked in part p) and their positions into `active` and `at`, in wall order, clearing the
+/// marks: the parts split in halves by `rayon::join` down to one part each, each half taking
+/// its share of the output (no allocation, no shared writes).
+fn collect(
+    first: usize,
+    counts: &[usize],
+    marks: &mut [AtomicBool],
+    active: &mut [u32],
+    at: &mut [Vector],
+    position: &[Vector],
+) {
+    match counts.len() {
+        0 => {}
+        1 => {
+            let mut k = 0;
+            for (j, m) in marks.iter_mut().enumerate() {
+                let m = m.get_mut();
+                if *m {
+                    *m = false;
+                    let w = first * COLLECT + j;
+                    active[k] = w as u32;
+                    at[k] = position[w];
+                    k += 1;
+                }
+            }
+        }
+        n => {
+            let half = n / 2;
+            let taken = counts[..half].iter().sum();
+            let (m0, m1) = marks.split_at_mut(half * COLLECT);
+            let (a0, a1) = active.split_at_mut(taken);
+            let (p0, p1) = at.split_at_mut(taken);
+            rayon::join(
+                || collect(first, &counts[..half], m0, a0, p0, position),
+                || collect(first + half, &counts[half..], m1, a1, p1, position),
+            );
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -257,5 +279,24 @@ mod tests {
         // Three layers (z = -0.05, -0.15, -0.25) of 10 × 10.
         assert_eq!(pts.len(), 300);
         assert!(pts.iter().all(|p| p.z < 0.0 && p.z > -0.3));
+    }
+
+    #[test]
+    fn marked_walls_are_collected_in_order_and_cleared() {
+        let n = 3 * COLLECT + 123;
+        let position: Vec<Vector> = (0..n).map(|i| Vector::new(i as Real, 0.0, 0.0)).collect();
+        let marked = |w: usize| w % 7 == 3 || (COLLECT..COLLECT + 50).contains(&w) || w == n - 1;
+        let mut marks: Vec<AtomicBool> = (0..n).map(|w| AtomicBool::new(marked(w))).collect();
+        let counts: Vec<usize> = marks
+            .chunks(COLLECT)
+            .map(|c| c.iter().filter(|m| m.load(Ordering::Relaxed)).count())
+            .collect();
+        let total: usize = counts.iter().sum();
+        let (mut active, mut at) = (vec![0u32; total], vec![Vector::zeros(); total]);
+        collect(0, &counts, &mut marks, &mut active, &mut at, &position);
+        let expected: Vec<u32> = (0..n).filter(|&w| marked(w)).map(|w| w as u32).collect();
+        assert_eq!(active, expected);
+        assert!(at.iter().zip(&active).all(|(x, &w)| x.x == w as Real));
+        assert!(marks.iter().all(|m| !m.load(Ordering::Relaxed)));
     }
 }
