@@ -138,10 +138,19 @@ impl State<'_> {
             note(&mut s.density);
         }
         let speed2 = v.norm_squared();
-        s.moved |= (x - self.sorted_at[i]).norm() + 2.0 * speed2.sqrt() * rules.dt >= rules.reach;
+        s.moved |= self.may_pass_skin(i);
         s.v_max = s.v_max.max(speed2);
         s.a_max = s.a_max.max(self.acceleration[i].norm_squared());
         s
+    }
+
+    /// Whether particle `i` may move past half the skin before the next evaluation: its move
+    /// since the sort plus twice this step's |v|·dt.
+    #[inline]
+    fn may_pass_skin(&self, i: usize) -> bool {
+        let speed = self.velocity[i].norm_squared().sqrt();
+        (self.position[i] - self.sorted_at[i]).norm() + 2.0 * speed * self.rules.dt
+            >= self.rules.reach
     }
 
     /// [`Self::visit`] over `range` without a branch per particle, if no particle there breaks
@@ -174,12 +183,7 @@ impl State<'_> {
         if bad {
             return None;
         }
-        let moved = rules.reach <= 0.0
-            || range.into_iter().any(|i| {
-                let speed = self.velocity[i].norm_squared().sqrt();
-                (self.position[i] - self.sorted_at[i]).norm() + 2.0 * speed * rules.dt
-                    >= rules.reach
-            });
+        let moved = rules.reach <= 0.0 || range.into_iter().any(|i| self.may_pass_skin(i));
         Some(Survey {
             v_max: v2max,
             a_max: a2max,
