@@ -50,6 +50,8 @@ pub struct Config {
     pub solid_substeps: u32,
     /// Added-mass stabilisation, `[coupling] added_mass` (0: off).
     pub added_mass: f64,
+    /// DFSPH's `[fluid.dfsph] blocks_in_solve` (None: the solver's default, true).
+    pub blocks_in_solve: Option<bool>,
 }
 
 impl Config {
@@ -63,10 +65,12 @@ impl Config {
         } else {
             String::new()
         };
-        format!(
-            "{}+{}/{}{rate}{relaxed}",
-            self.fluid, self.solid, self.scheme
-        )
+        // The lagged rows keep the label they had before blocks could move in the solve.
+        let fluid = match self.blocks_in_solve {
+            Some(true) => format!("{} (blocks in solve)", self.fluid),
+            _ => self.fluid.clone(),
+        };
+        format!("{fluid}+{}/{}{rate}{relaxed}", self.solid, self.scheme)
     }
 }
 
@@ -104,6 +108,15 @@ pub fn floating(exe: Option<&Path>, scratch: &Scratch, config: &Config) -> Float
     }
     if let Some(k) = config.penalty_stiffness {
         scene.coupling.penalty_stiffness = Some(k);
+    }
+    if let (Some(on), Some(fluid)) = (config.blocks_in_solve, scene.fluid.as_mut()) {
+        let table = fluid
+            .solvers
+            .entry("dfsph".into())
+            .or_insert_with(|| toml::Value::Table(Default::default()));
+        if let toml::Value::Table(t) = table {
+            t.insert("blocks_in_solve".into(), toml::Value::Boolean(on));
+        }
     }
     let rho_b = scene
         .blocks

@@ -316,6 +316,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
                         end: plan.coupled_end,
                         solid_substeps: 1,
                         added_mass: 0.0,
+                        blocks_in_solve: None,
                     });
                 }
             }
@@ -333,6 +334,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
             end: plan.coupled_end,
             solid_substeps: 1,
             added_mass: 0.0,
+            blocks_in_solve: None,
         });
     }
     for config in &configs {

@@ -9,9 +9,10 @@
 //! - `stability_stiffness`: the contact spring over decades at a fixed dt = 1 ms (explicit DDA
 //!   must fail once ω·dt = dt·sqrt(4k/m) passes 2, i.e. k > m/dt²; the implicit scheme must not);
 //! - `stability_density`: block-to-water density ratio 0.001 … 3 under each coupling scheme and
-//!   solid solver with WCSPH, and with DFSPH single-rate and sub-cycled (the asked range
-//!   0.3 … 3, and below it down to where the added-mass instability of one-step-lagged loads
-//!   appears: `shared::added_mass`).
+//!   solid solver with WCSPH, and with DFSPH single-rate and sub-cycled, its blocks held over
+//!   its step (relaxed or not) and moved in its solve (the asked range 0.3 … 3, and below it
+//!   down to where the added-mass instability of one-step-lagged loads appears:
+//!   `shared::added_mass`).
 //!
 //! It also measures the numerical damping of Shi's scheme (restitution of an undamped bounce
 //! against exp(−πΩ/4)), written to `stability_implicit_damping.csv`.
@@ -112,7 +113,8 @@ const SUBSTEPS: u32 = 8;
 /// The coupled floating-block rows of the dt map: (fluid, scheme, solid substeps). WCSPH under
 /// both schemes, single-rate and sub-cycled (its own step binds, so sub-cycling changes
 /// nothing: the row says so); DFSPH single-rate and sub-cycled, where the fluid's longer step
-/// sets the coupling step and the solid sub-cycles.
+/// sets the coupling step and the solid sub-cycles, with the blocks held over DFSPH's step
+/// (`blocks_in_solve = false`, as the map was measured; the density map has both).
 const COUPLED_DT_ROWS: [(&str, Scheme, u32); 5] = [
     ("wcsph", Scheme::Parallel, 1),
     ("wcsph", Scheme::Serial, 1),
@@ -121,17 +123,21 @@ const COUPLED_DT_ROWS: [(&str, Scheme, u32); 5] = [
     ("dfsph", Scheme::Parallel, SUBSTEPS),
 ];
 
-/// The density map's DFSPH rows, (fluid, solid, scheme, substeps, added mass), beside
-/// WCSPH's with every solid solver and scheme: an incompressible fluid answers a block's
-/// acceleration within the same step at any dt, so the added-mass limit of explicit coupling
-/// is a density ratio that no smaller step moves (Causin, Gerbeau & Nobile 2005); the last
-/// rows relax the loads with an artificial added mass of ρ_w V (`[coupling] added_mass = 1`,
-/// `shared::load_relaxation`), which moves that limit.
-const DFSPH_DENSITY_ROWS: [(&str, &str, Scheme, u32, f64); 4] = [
-    ("dfsph", "explicit", Scheme::Parallel, 1, 0.0),
-    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 0.0),
-    ("dfsph", "explicit", Scheme::Parallel, 1, 1.0),
-    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 1.0),
+/// The density map's DFSPH rows, (fluid, solid, scheme, substeps, added mass, blocks in the
+/// solve), beside WCSPH's with every solid solver and scheme. With the blocks' velocities held
+/// over the fluid's step (`blocks_in_solve = false`) an incompressible fluid answers a block's
+/// acceleration one step late at any dt, so the added-mass limit of explicit coupling is a
+/// density ratio that no smaller step moves (Causin, Gerbeau & Nobile 2005); the next rows
+/// relax those loads with an artificial added mass of ρ_w V (`[coupling] added_mass = 1`,
+/// `shared::load_relaxation`), which moves that limit; the last rows move the blocks inside
+/// the pressure solve (DFSPH's default), which removes the lag.
+const DFSPH_DENSITY_ROWS: [(&str, &str, Scheme, u32, f64, bool); 6] = [
+    ("dfsph", "explicit", Scheme::Parallel, 1, 0.0, false),
+    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 0.0, false),
+    ("dfsph", "explicit", Scheme::Parallel, 1, 1.0, false),
+    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 1.0, false),
+    ("dfsph", "explicit", Scheme::Parallel, 1, 0.0, true),
+    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 0.0, true),
 ];
 
 /// Runs `coupler stability`; returns the exit code.
@@ -325,6 +331,8 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
                 end: plan.coupled_end,
                 solid_substeps,
                 added_mass: 0.0,
+                // As the map was measured: the blocks' velocities held over the fluid's step.
+                blocks_in_solve: (fluid == "dfsph").then_some(false),
             };
             let t = coupled_trial(
                 scratch,
@@ -377,9 +385,11 @@ fn density_map(
     );
     let mut trials = Vec::new();
     let wcsph = solid_node::REGISTRY.names().into_iter().flat_map(|solid| {
-        [Scheme::Parallel, Scheme::Serial].map(|scheme| ("wcsph", solid, scheme, 1, 0.0))
+        [Scheme::Parallel, Scheme::Serial].map(|scheme| ("wcsph", solid, scheme, 1, 0.0, false))
     });
-    for (fluid, solid, scheme, solid_substeps, added_mass) in wcsph.chain(DFSPH_DENSITY_ROWS) {
+    for (fluid, solid, scheme, solid_substeps, added_mass, in_solve) in
+        wcsph.chain(DFSPH_DENSITY_ROWS)
+    {
         for &ratio in plan.density {
             let config = Config {
                 fluid: fluid.into(),
@@ -392,6 +402,8 @@ fn density_map(
                 end: plan.coupled_end,
                 solid_substeps,
                 added_mass,
+                // WCSPH ignores the table; DFSPH's lagged rows ask for the lag.
+                blocks_in_solve: (fluid == "dfsph").then_some(in_solve),
             };
             if rows.is_some_and(|r| !config.label().contains(r)) {
                 continue;

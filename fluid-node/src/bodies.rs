@@ -50,6 +50,31 @@ pub struct BodyParticles {
     /// torque about the centroid, and the strain load of a deformable block.
     reaction: Vec<Vector>,
     pub loads: Vec<(Vector, Vector, Strain)>,
+    /// Each block's inertia and the rest of its forces, as the solid node sent them.
+    pub rigid: Vec<Rigid>,
+    /// `velocity` as the pose set it (a solver that moves the blocks within its step changes
+    /// `velocity` and puts this back after it: [`Self::nudge`], [`Self::settle`]).
+    placed_velocity: Vec<Vector>,
+}
+
+/// What a moving block's motion within a fluid step follows from: m Δv = Δt (F + R) and
+/// I Δω = Δt (τ + T) with F, τ the water's and R, T the rest
+/// ([`shared::protocol::BlockState::other_force`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Rigid {
+    /// 1/m; zero for a kinematic block.
+    pub inverse_mass: Real,
+    /// World inverse inertia about the centroid.
+    pub inverse_inertia: Matrix,
+    pub other_force: Vector,
+    pub other_torque: Vector,
+}
+
+impl Rigid {
+    /// (Δv, Δω) of force `f` and torque `t` over `dt`.
+    pub fn response(&self, f: &Vector, t: &Vector, dt: Real) -> (Vector, Vector) {
+        (f * (self.inverse_mass * dt), self.inverse_inertia * t * dt)
+    }
 }
 
 impl BodyParticles {
@@ -107,6 +132,16 @@ impl BodyParticles {
             maps,
             reaction: Vec::new(),
             loads: vec![(Vector::zeros(), Vector::zeros(), Strain::zeros()); moving.len()],
+            rigid: vec![
+                Rigid {
+                    inverse_mass: 0.0,
+                    inverse_inertia: Matrix::zeros(),
+                    other_force: Vector::zeros(),
+                    other_torque: Vector::zeros(),
+                };
+                moving.len()
+            ],
+            placed_velocity: vec![Vector::zeros(); n],
         };
         body.sort();
         body
@@ -135,8 +170,50 @@ impl BodyParticles {
         let (owner, local, maps) = (&self.owner_sorted, &self.local_sorted, &self.maps);
         self.velocity
             .par_iter_mut()
+            .zip(self.placed_velocity.par_iter_mut())
             .enumerate()
-            .for_each(|(i, v)| *v = maps[owner[i] as usize].velocity(&local[i]));
+            .for_each(|(i, (v, placed))| {
+                *v = maps[owner[i] as usize].velocity(&local[i]);
+                *placed = *v;
+            });
+        for (r, s) in self.rigid.iter_mut().zip(states) {
+            *r = Rigid {
+                inverse_mass: s.inverse_mass,
+                inverse_inertia: s.inverse_inertia(),
+                other_force: Vector::from(s.other_force),
+                other_torque: Vector::from(s.other_torque),
+            };
+        }
+    }
+
+    /// Block `k`'s centroid at its current pose.
+    pub fn centroid(&self, k: usize) -> Vector {
+        self.maps[k].centroid
+    }
+
+    /// Whether any block can be moved by forces (a free block: nonzero inverse mass).
+    pub fn any_free(&self) -> bool {
+        self.rigid.iter().any(|r| r.inverse_mass > 0.0)
+    }
+
+    /// Sets every particle's velocity to the placed one plus its block's rigid change
+    /// (Δv, Δω) from `change` (loads order): v = v_placed + Δv + Δω × (x − c).
+    pub fn nudge(&mut self, change: &[(Vector, Vector)]) {
+        let (owner, maps, pos) = (&self.owner_sorted, &self.maps, &self.set.position);
+        self.velocity
+            .par_iter_mut()
+            .zip(self.placed_velocity.par_iter())
+            .enumerate()
+            .for_each(|(i, (v, placed))| {
+                let k = owner[i] as usize;
+                let (dv, dw) = &change[k];
+                *v = placed + dv + dw.cross(&(pos[i] - maps[k].centroid));
+            });
+    }
+
+    /// Puts the placed velocities back (after a step that nudged them).
+    pub fn settle(&mut self) {
+        self.velocity.copy_from_slice(&self.placed_velocity);
     }
 
     /// Counting sort of the world positions into the set's grid.
@@ -286,5 +363,60 @@ mod tests {
             all.sort_by(key);
             assert_eq!(sorted, all, "every particle once");
         }
+    }
+
+    /// A block moved within a fluid step: its particles take v_placed + Δv + Δω × (x − c), the
+    /// response of a force and torque is Δt F/m and Δt I⁻¹τ, and `settle` puts the placed
+    /// velocities back.
+    #[test]
+    fn a_block_nudged_within_a_step_moves_its_particles_rigidly() {
+        let cube = Polyhedron::from_shape(&ShapeSpec::Box {
+            min: [0.0; 3],
+            max: [0.4; 3],
+        })
+        .unwrap();
+        let grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(2.0), 0.1).unwrap();
+        let mut body = BodyParticles::new(
+            std::slice::from_ref(&cube),
+            &Vector::repeat(0.025),
+            0.05,
+            0.1,
+            grid,
+        );
+        let state = BlockState {
+            centroid: [0.2, 0.2, 0.2],
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            velocity: [0.1, 0.0, -0.2],
+            angular_velocity: [0.0, 0.3, 0.0],
+            inverse_mass: 0.5,
+            inverse_inertia: [0.25, 0.5, 1.0, 0.0, 0.0, 0.0],
+            other_force: [0.0, 0.0, -19.62],
+            ..Default::default()
+        };
+        body.place(std::slice::from_ref(&state));
+        assert!(body.any_free());
+        let placed = body.velocity.clone();
+        let rigid = body.rigid[0];
+        assert_eq!(rigid.other_force, Vector::new(0.0, 0.0, -19.62));
+        let (dv, dw) = rigid.response(
+            &Vector::new(2.0, 0.0, 4.0),
+            &Vector::new(4.0, 2.0, 1.0),
+            0.1,
+        );
+        assert!((dv - Vector::new(0.1, 0.0, 0.2)).norm() < 1e-15);
+        assert!((dw - Vector::new(0.1, 0.1, 0.1)).norm() < 1e-15);
+        body.nudge(&[(dv, dw)]);
+        let c = Vector::from(state.centroid);
+        for ((v, p), x) in body.velocity.iter().zip(&placed).zip(&body.set.position) {
+            assert!((v - (p + dv + dw.cross(&(x - c)))).norm() < 1e-14);
+        }
+        body.settle();
+        assert_eq!(body.velocity, placed);
+        // A kinematic block (inverse mass 0) is not free.
+        body.place(&[BlockState {
+            inverse_mass: 0.0,
+            ..state
+        }]);
+        assert!(!body.any_free());
     }
 }

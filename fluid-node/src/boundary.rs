@@ -42,6 +42,11 @@ pub struct Near<'a> {
 }
 
 impl Near<'_> {
+    /// Index of the particle in its set (sorted order).
+    #[inline]
+    pub fn index(&self) -> usize {
+        self.index
+    }
     #[inline]
     pub fn position(&self) -> Vector {
         self.set.position[self.index]
@@ -109,6 +114,29 @@ impl Boundary {
                 });
             }
         }
+    }
+
+    /// Calls `f` on each boundary neighbour of fluid particle `i` on a moving block.
+    #[inline(always)]
+    pub fn for_each_moving_neighbor(&self, i: usize, mut f: impl FnMut(Near<'_>)) {
+        if let Some(b) = &self.moving {
+            for &j in self.moving_lists.of(i) {
+                f(Near {
+                    set: &b.set,
+                    index: j as usize,
+                    velocity: Some(&b.velocity),
+                });
+            }
+        }
+    }
+
+    /// The moving blocks' particles, if any.
+    pub fn bodies(&self) -> Option<&BodyParticles> {
+        self.moving.as_ref()
+    }
+
+    pub fn bodies_mut(&mut self) -> Option<&mut BodyParticles> {
+        self.moving.as_mut()
     }
 
     /// Fills the f32 records of every active boundary particle, fixed and moving:

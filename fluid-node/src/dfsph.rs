@@ -73,11 +73,39 @@
 //!   brought the wedge's landing at the toe into the added-mass instability below (t = 1.40 s),
 //!   where the same run without it completes. A block's load inherits the noise:
 //!   docs/VALIDATION.md.
-//! - An incompressible fluid answers a block's motion within the same step, at any dt. A block
-//!   closing on a wall through water (the sinking block landing, the wedge reaching the toe of
-//!   its slope) then meets the added-mass instability of one-step-lagged partitioned coupling
-//!   (Causin, Gerbeau & Nobile 2005), which no smaller step cures; the coupler's watch names it
-//!   (`shared::added_mass`). WCSPH's finite sound speed keeps those landings stable.
+//! - With `blocks_in_solve = false`: an incompressible fluid answers a block's motion within
+//!   the same step, at any dt. A block closing on a wall through water (the sinking block
+//!   landing, the wedge reaching the toe of its slope) or a light block then meets the
+//!   added-mass instability of one-step-lagged partitioned coupling (Causin, Gerbeau & Nobile
+//!   2005), which no smaller step cures; the coupler's watch names it (`shared::added_mass`).
+//!   The default moves the blocks in the solve instead (below).
+//!
+//! Blocks in the solve (`blocks_in_solve`, default true; Gissler et al. 2019 couple rigid
+//! bodies into the pressure solve the same way, here with the body's dynamics left to the
+//! solid node): every stiffness the two solves apply to the water also pushes the free
+//! blocks' boundary particles, the reverse pair by pair, and moves each block by
+//! Δv = Δt F/m, Δω = Δt I⁻¹τ ([`Dfsph::move_blocks`]); between the solves the block also
+//! takes its non-pressure part, the walls' explicit pressure, Eq. 22 and the rest of its forces
+//! (weight, contacts: `BlockState::other_force`, from the solid's last evaluation). The
+//! boundary's velocity in the continuity equation follows, so the water near a block sees it
+//! give way within the step, and the pressure the solve settles on is that of water and block
+//! moving together. The loads sent are the forces the block was moved with over the step
+//! (`loads_follow_step`: in the parallel scheme the solid waits for the fluid's step and then
+//! moves the block as the fluid predicted). What the prediction misses (the solid's contacts
+//! changing within the step, δR, and its central difference's half-step velocities) returns
+//! next step as a velocity mismatch Δt δR/m between block and water, which that step's solve
+//! shares out by the masses: it does not feed on itself, where the lagged scheme multiplies the
+//! block's acceleration by −M_A/m each step (docs/REFERENCES.md §4.1b). Two details keep the
+//! solve itself sound: a very light block joins it as a large rank-six term, so the increments
+//! next to a block are damped ([`Dfsph::block_damping`]); and a solve runs until the free
+//! blocks' loads have settled ([`BLOCK_TOLERANCE`]). Measured: the sinking block
+//! (ρ_b/ρ_w = 2.5) lands and rests as under WCSPH, the light block (0.1) floats unrelaxed, the
+//! floating-block tank is stable from ρ_b/ρ_w = 0.02 to 1.2 (0.005 sub-cycled; 0.3 held), and the
+//! default scene's wedge lands at the toe at 10 ms steps. Not cured: faster, heavier landings
+//! (ρ_b/ρ_w = 2 and 3 in that tank, Example 3's block), where the last layer of water squeezed
+//! under the block throws it back; the watch names them (docs/stability.md). Cost: two passes
+//! over the moving boundary per iteration, nothing measurable on the default scene
+//! (docs/PERFORMANCE.md).
 //!
 //! Speed: the kernel gradients and values of a step's fluid pairs are computed once, in f32,
 //! and streamed by every later pass (the `pairs` field), which made a step 1.7× faster.
@@ -94,8 +122,10 @@ use crate::system::{FluidSystem, Initial};
 use rayon::prelude::*;
 use serde::Deserialize;
 use shared::math::{Real, Vector};
+use shared::protocol::BlockLoad;
 use shared::registry::{ParamCheck, SolverParams};
 use shared::solver::{SolverError, StepReport};
+use shared::strain::Strain;
 
 /// `[fluid.dfsph]`: parameters of the divergence-free solver. Unset values take the defaults.
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
@@ -126,6 +156,11 @@ pub struct DfsphParams {
     /// density the last step predicted for it (continuity), so gravity cannot pack the surface
     /// layers whose sums are deficient; default false (the summed density, as SPlisHSPlasH).
     pub continued_surface: Option<bool>,
+    /// Free blocks move inside the two pressure solves (their inertia in the solve, Gissler et
+    /// al. 2019), so the water's answer to a block's motion is not one step late; default
+    /// true. False: the blocks keep the velocity the solid node sent over the step (the
+    /// explicit partitioned coupling, with its added-mass limit).
+    pub blocks_in_solve: Option<bool>,
 }
 
 impl SolverParams for DfsphParams {
@@ -219,6 +254,12 @@ pub const DEFICIENT_FRACTION: Real = 0.6;
 /// lattice's is taken to be within a support of the free surface (an interior particle of
 /// disordered water keeps ~95–105 %).
 pub const SURFACE_FRACTION: Real = 0.9;
+/// Blocks in the solve: a solve also runs until its last iteration changed every free block's
+/// load by less than this fraction of the block's weight (force, and torque over the block's
+/// radius of gyration), so the block's answer is converged where the mean density error alone
+/// would stop at two iterations with the block mode still moving. 1 % cost a quarter more
+/// time on the default scene for crests within ±3 % of these (docs/PERFORMANCE.md).
+pub const BLOCK_TOLERANCE: Real = 0.05;
 /// Mean compression after the density solve beyond which the step is reported as absurd.
 pub const ABSURD_DENSITY_ERROR: Real = 0.10;
 
@@ -292,6 +333,25 @@ pub struct Dfsph {
     #[serde(skip)]
     pairs: PairValues<[f32; 4]>,
     pub stats: SolveStats,
+    /// Whether free blocks move inside the solves (`blocks_in_solve`).
+    #[serde(default)]
+    blocks_in_solve: bool,
+    /// Each moving block's velocity change (Δv, Δω) so far in this step (loads order).
+    #[serde(skip)]
+    motion: Vec<(Vector, Vector)>,
+    /// The water's load on each moving block so far in this step (what moved it).
+    #[serde(skip)]
+    loads: Vec<BlockLoad>,
+    /// Jacobi damping of each particle's stiffness increment, 1/(1 + tr K) of the free block it
+    /// touches (1 elsewhere): [`Dfsph::block_damping`].
+    #[serde(skip)]
+    damping: Vec<Real>,
+    /// (block, m β_i uᵢᵀM⁻¹uᵢ) of each particle next to a free block (u32::MAX: none).
+    #[serde(skip)]
+    near: Vec<(u32, Real)>,
+    /// tr K of each moving block.
+    #[serde(skip)]
+    mobility: Vec<Real>,
 }
 
 /// The Wendland sum Σ m W at a particle inside a full cubic lattice of spacing dx: ρ0 of the
@@ -448,6 +508,174 @@ impl Dfsph {
         });
     }
 
+    /// Whether this step moves blocks inside its solves: asked for, a free block exists, and
+    /// the coupling scheme lets the loads follow the step (parallel; in the serial scheme the
+    /// blocks keep their velocities, the lagged coupling).
+    fn moves_blocks(&self, sys: &FluidSystem) -> bool {
+        self.blocks_in_solve
+            && sys.loads_may_follow_step
+            && sys.boundary.bodies().is_some_and(|b| b.any_free())
+    }
+
+    /// The free blocks answer a pressure within the solve (Gissler et al. 2019, rigid bodies
+    /// in the pressure solve; here with the block's own inertia and the rest of its forces
+    /// from the solid node): the force of stiffness `k(i, p_b, ρ_b)` on each block's boundary
+    /// particles, summed as [`Self::react`] sums the loads, moves the block by
+    /// Δv = Δt F/m, Δω = Δt I⁻¹τ (with `explicit`, also by the Eq. 22 load and the rest of
+    /// its forces R, T: the step's non-pressure part), and the boundary's part of Dρ/Dt,
+    /// `wall_flux`, follows the new velocities. The water near a block then sees it give way
+    /// within the step, so the pressure the solve converges to is that of the water and the
+    /// block moving together: the partitioned scheme's one-step lag no longer multiplies the
+    /// added mass (module doc, "Blocks in the solve").
+    ///
+    /// Returns how far the largest free block's load change was from converged: the change
+    /// over [`BLOCK_TOLERANCE`] times the block's weight (force; torque over its radius of
+    /// gyration).
+    fn move_blocks(
+        &mut self,
+        sys: &mut FluidSystem,
+        dt: Real,
+        explicit: bool,
+        k: impl Fn(usize, Real, Real) -> Real + Sync,
+    ) -> Real {
+        let (m, kernel) = (sys.mass, &self.kernel);
+        sys.boundary.react(
+            &sys.particles.position,
+            kernel.support(),
+            |i, pw, rw, r, len| r * (-m * m * k(i, pw, rw) * kernel.gradient_factor(len)),
+        );
+        let g = sys.gravity.norm().max(Real::MIN_POSITIVE);
+        let Some(bodies) = sys.boundary.bodies_mut() else {
+            return 0.0;
+        };
+        let mut left: Real = 0.0;
+        let n = bodies.rigid.len();
+        self.motion.resize(n, (Vector::zeros(), Vector::zeros()));
+        self.loads.resize(n, BlockLoad::default());
+        for (kb, ((f, t, e), rigid)) in bodies.loads.iter().zip(&bodies.rigid).enumerate() {
+            let (mut f, mut t, mut e) = (*f, *t, *e);
+            if explicit && let Some(p) = sys.penalty_loads.get(kb) {
+                f += Vector::from(p.force);
+                t += Vector::from(p.torque);
+                e += Strain::from(p.strain_load);
+            }
+            let load = &mut self.loads[kb];
+            load.force = (Vector::from(load.force) + f).into();
+            load.torque = (Vector::from(load.torque) + t).into();
+            load.strain_load = (Strain::from(load.strain_load) + e).into();
+            if explicit {
+                f += rigid.other_force;
+                t += rigid.other_torque;
+            }
+            if rigid.inverse_mass > 0.0 {
+                // Weight, and weight times the radius of gyration r² = 3/(m tr I⁻¹).
+                let weight = BLOCK_TOLERANCE * g / rigid.inverse_mass;
+                let r2 = 3.0 * rigid.inverse_mass
+                    / rigid.inverse_inertia.trace().max(Real::MIN_POSITIVE);
+                left = left
+                    .max(f.norm() / weight)
+                    .max(t.norm() / (weight * r2.sqrt()));
+            }
+            let (dv, dw) = rigid.response(&f, &t, dt);
+            self.motion[kb].0 += dv;
+            self.motion[kb].1 += dw;
+        }
+        bodies.nudge(&self.motion);
+        self.update_flux(sys);
+        left
+    }
+
+    /// The Jacobi damping near each free block. Each block joins the solve as a rank-six term
+    /// K = m M⁻¹ Σ_i β_i u_i u_iᵀ, u_i = (a_i, c_i), a_i = m Σ_b ∇W_ib and
+    /// c_i = m Σ_b (x_b − c) × ∇W_ib over its boundary neighbours b of particle i: a stiffness
+    /// increment on the particles next to it moves the block, which relieves all of them at
+    /// once, so their Jacobi update overshoots the block's mode by 1 + K (a light block, whose
+    /// K is large, made the solve diverge). Their increments are damped by 1/(1 + tr K) (tr K
+    /// bounds K's largest eigenvalue); the solution is unchanged, only the path to it. A
+    /// particle touching several blocks takes the first one's.
+    fn block_damping(&mut self, sys: &FluidSystem) {
+        let n = sys.len();
+        self.damping.resize(n, 1.0);
+        self.near.resize(n, (u32::MAX, 0.0));
+        let Some(bodies) = sys.boundary.bodies() else {
+            return;
+        };
+        let (m, kernel, boundary) = (sys.mass, &self.kernel, &sys.boundary);
+        let s2 = kernel.support().powi(2);
+        let (pos, beta, rigid) = (&sys.particles.position, &self.beta, &bodies.rigid);
+        let owner = &bodies.owner_sorted;
+        self.near.par_iter_mut().enumerate().for_each(|(i, near)| {
+            let xi = pos[i];
+            let (mut first, mut a, mut c) = (u32::MAX, Vector::zeros(), Vector::zeros());
+            boundary.for_each_moving_neighbor(i, |b| {
+                let o = owner[b.index()];
+                let rib = xi - b.position();
+                let r2 = rib.norm_squared();
+                if r2 < s2
+                    && rigid[o as usize].inverse_mass > 0.0
+                    && (first == u32::MAX || first == o)
+                {
+                    first = o;
+                    let g = rib * kernel.gradient_factor(r2.sqrt());
+                    a += g;
+                    c += (b.position() - bodies.centroid(o as usize)).cross(&g);
+                }
+            });
+            *near = if first == u32::MAX {
+                (u32::MAX, 0.0)
+            } else {
+                let r = &rigid[first as usize];
+                let (a, c) = (a * m, c * m);
+                let s = m
+                    * beta[i]
+                    * (r.inverse_mass * a.norm_squared() + c.dot(&(r.inverse_inertia * c)));
+                (first, s)
+            };
+        });
+        self.mobility.clear();
+        self.mobility.resize(rigid.len(), 0.0);
+        // In particle order: the sums are the same on any number of threads.
+        for &(o, s) in &self.near {
+            if o != u32::MAX {
+                self.mobility[o as usize] += s;
+            }
+        }
+        let mobility = &self.mobility;
+        self.damping
+            .par_iter_mut()
+            .zip(self.near.par_iter())
+            .for_each(|(d, &(o, _))| {
+                *d = if o == u32::MAX {
+                    1.0
+                } else {
+                    1.0 / (1.0 + mobility[o as usize])
+                };
+            });
+    }
+
+    /// `wall_flux` again at the moving boundary's current velocities (the fixed walls' part
+    /// is zero).
+    fn update_flux(&mut self, sys: &FluidSystem) {
+        let (m, kernel) = (sys.mass, &self.kernel);
+        let s2 = kernel.support().powi(2);
+        let (boundary, pos) = (&sys.boundary, &sys.particles.position);
+        self.wall_flux
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, flux)| {
+                let xi = pos[i];
+                let mut fl = 0.0;
+                boundary.for_each_moving_neighbor(i, |b| {
+                    let rib = xi - b.position();
+                    let r2 = rib.norm_squared();
+                    if r2 < s2 {
+                        fl += b.velocity().dot(&(rib * kernel.gradient_factor(r2.sqrt())));
+                    }
+                });
+                *flux = m * fl;
+            });
+    }
+
     /// Dρ_i/Dt = Σ_f m (v_i − v_j)·∇W_ij + Σ_b m (v_i − v_b)·∇W_ib (the SPH continuity equation) at
     /// the current velocities. `density`: the constant-density error max(ρ*_i − ρ0, 0) with
     /// ρ*_i = ρ_i + dt·Dρ_i/Dt (Algorithm 3's predicted density; only compression) into `error`,
@@ -514,6 +742,7 @@ impl Dfsph {
         };
         let mut change = Real::INFINITY;
         // Warm start (both papers): a fraction of the last step's stiffness where compressed.
+        let blocks = self.moves_blocks(sys);
         self.predict(sys, dt, density);
         let mut dk = std::mem::take(&mut self.dk);
         dk.par_iter_mut()
@@ -529,10 +758,18 @@ impl Dfsph {
             });
         if dk.par_iter().any(|&d| d != 0.0) {
             self.apply(sys, &dk, dt);
+            if blocks {
+                self.move_blocks(sys, dt, false, |i, _, _| dk[i]);
+            }
         }
         let mut err = self.predict(sys, dt, density);
         let mut it = 0;
-        while (it < min_iterations || err > tolerance || change > pressure_tolerance)
+        // How far the free blocks' loads are from converged (module doc, "Blocks in the solve").
+        let mut block_left = if blocks { Real::INFINITY } else { 0.0 };
+        while (it < min_iterations
+            || err > tolerance
+            || change > pressure_tolerance
+            || block_left > 1.0)
             && it < c.max_iterations
         {
             // κ_i = (ρ*_i − ρ0)·α_i/dt² (Algorithm 3) or (Dρ_i/Dt)·α_i/dt (Algorithm 2), here
@@ -544,6 +781,18 @@ impl Dfsph {
                     *d = e * b * scale;
                     *k += *d;
                 });
+            if blocks {
+                // Damped next to the free blocks (`block_damping`); k again.
+                dk.par_iter_mut()
+                    .zip(k.par_iter_mut())
+                    .zip(self.damping.par_iter())
+                    .for_each(|((d, k), &w)| {
+                        if w < 1.0 {
+                            *k -= *d * (1.0 - w);
+                            *d *= w;
+                        }
+                    });
+            }
             if pressure_tolerance.is_finite() {
                 // Σ|Δk| / Σ|k|: how much this iteration still moved the pressure field.
                 let (moved, total) = dk
@@ -554,6 +803,9 @@ impl Dfsph {
                 change = if total > 0.0 { moved / total } else { 0.0 };
             }
             self.apply(sys, &dk, dt);
+            if blocks {
+                block_left = self.move_blocks(sys, dt, false, |i, _, _| dk[i]);
+            }
             err = self.predict(sys, dt, density);
             it += 1;
         }
@@ -676,6 +928,12 @@ impl Scheme for Dfsph {
             v_old: Vec::new(),
             pairs: PairValues::default(),
             stats: SolveStats::default(),
+            blocks_in_solve: spec.blocks_in_solve.unwrap_or(true),
+            motion: Vec::new(),
+            loads: Vec::new(),
+            damping: Vec::new(),
+            near: Vec::new(),
+            mobility: Vec::new(),
         };
         Ok((scheme, layout))
     }
@@ -707,18 +965,33 @@ impl Scheme for Dfsph {
         let rho0 = self.rest_density;
         sys.boundary
             .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
+        let blocks = self.moves_blocks(sys);
+        self.motion.fill((Vector::zeros(), Vector::zeros()));
+        self.loads.fill(BlockLoad::default());
+        if blocks {
+            self.block_damping(sys);
+        }
         // Algorithm 1's divergence solve (Algorithm 2), rotated to the start on the current velocities.
         let kv = std::mem::take(&mut sys.particles.density_rate);
         let (div_it, div_err, kv) = self.solve(sys, dt, false, kv);
         sys.particles.density_rate = kv;
         // Non-pressure forces and predicted velocities.
         self.non_pressure(sys, dt);
+        if blocks {
+            // The blocks' non-pressure part: the walls' own (explicit) pressure, Eq. 22 and
+            // the rest of their forces.
+            self.move_blocks(sys, dt, true, |_, pw, rw| pw / (rw * rw));
+        }
         // The constant-density solve (Algorithm 3) on v*.
         let kd = std::mem::take(&mut sys.particles.density0);
         let (it, err, kd) = self.solve(sys, dt, true, kd);
         sys.particles.density0 = kd;
         // Positions. The pressure the step applied, p = (k_ρ + k_v)ρ², for output and
         // probes; the density the constant-density solve predicts at the new positions.
+        if blocks && let Some(bodies) = sys.boundary.bodies_mut() {
+            // The solid node moves the blocks; the next pose brings their velocities.
+            bodies.settle();
+        }
         let p = &mut sys.particles;
         p.position
             .par_iter_mut()
@@ -779,6 +1052,19 @@ impl Scheme for Dfsph {
                 let k = p.density0[i] + p.density_rate[i] + pw / (rw * rw);
                 r * (-m * m * k * kernel.gradient_factor(len))
             });
+    }
+
+    fn loads_follow_step(&self, sys: &FluidSystem) -> bool {
+        self.moves_blocks(sys)
+    }
+
+    fn step_loads(&self, sys: &FluidSystem, loads: &mut [BlockLoad]) {
+        for ((out, load), penalty) in loads.iter_mut().zip(&self.loads).zip(&sys.penalty_loads) {
+            *out = BlockLoad {
+                block: penalty.block,
+                ..*load
+            };
+        }
     }
 
     fn kernel(&self) -> &WendlandC2 {

@@ -8,6 +8,7 @@ use crate::kernel::Kernel;
 use crate::particles::Carried;
 use crate::system::{FluidSystem, Initial};
 use shared::math::Real;
+use shared::protocol::BlockLoad;
 use shared::registry::SolverParams;
 use shared::solver::{SolverError, StepReport};
 
@@ -62,6 +63,19 @@ pub trait Scheme: Sized + Send + 'static + serde::Serialize + serde::de::Deseria
     /// them, pair by pair the reverse of this scheme's pressure force on the fluid
     /// ([`crate::boundary::Boundary::react`]).
     fn react(&self, sys: &mut FluidSystem);
+
+    /// Whether this scheme moves the free blocks within its step, so that its loads are the
+    /// forces of the step just taken ([`shared::solver::FluidSolver::loads_follow_step`]).
+    fn loads_follow_step(&self, sys: &FluidSystem) -> bool {
+        let _ = sys;
+        false
+    }
+
+    /// The loads of the step just taken, when [`Self::loads_follow_step`] (the water's force on
+    /// each moving block over the step, Eq. 22 included), into `loads`.
+    fn step_loads(&self, sys: &FluidSystem, loads: &mut [BlockLoad]) {
+        let _ = (sys, loads);
+    }
 
     fn kernel(&self) -> &Self::Kernel;
 

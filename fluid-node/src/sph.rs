@@ -91,7 +91,16 @@ impl<S: Scheme> FluidSolver for Sph<S> {
         self.sys.read_geometry(blocks);
     }
 
+    fn loads_follow_step(&self) -> bool {
+        self.scheme.loads_follow_step(&self.sys)
+    }
+
     fn write_loads(&mut self, loads: &mut [BlockLoad]) {
+        if self.scheme.loads_follow_step(&self.sys) {
+            // Called after the step: the forces the scheme moved the blocks with.
+            self.scheme.step_loads(&self.sys, loads);
+            return;
+        }
         // The water's pressure on the moving blocks' boundary particles at the current state:
         // the fluid pressures of the last step's end, the wall pressures extrapolated at the new
         // pose. Then Eq. 22 for the coming step.

@@ -124,6 +124,14 @@ pub struct FluidSystem {
     /// Sorts (list rebuilds) so far.
     pub sorts: u64,
     penalty_fresh: bool,
+    /// The Eq. 22 load on each moving block for the step under way (what a scheme that moves
+    /// the blocks within its step adds to their motion).
+    pub penalty_loads: Vec<BlockLoad>,
+    /// Whether the loads may be those of the step just taken (the parallel scheme: the
+    /// runtime can send them after the step, and the solid then waits for them). In the serial
+    /// scheme the fluid's step starts from the solid's next pose: a scheme cannot move the
+    /// blocks within it.
+    pub loads_may_follow_step: bool,
 }
 
 impl FluidSystem {
@@ -310,6 +318,8 @@ impl FluidSystem {
             carried,
             sorts: 0,
             penalty_fresh: false,
+            penalty_loads: Vec::new(),
+            loads_may_follow_step: ctx.scheme == shared::scene::Scheme::Parallel,
         };
         sys.check_domain()?;
         sys.prepare();
@@ -391,6 +401,8 @@ impl FluidSystem {
     pub fn read_geometry(&mut self, blocks: &[BlockState]) {
         self.penalty.set_moving(blocks);
         self.boundary.place(blocks);
+        self.penalty_loads
+            .resize(blocks.len(), BlockLoad::default());
         self.bodies_valid = false;
         self.penalty_fresh = false;
     }
@@ -402,6 +414,7 @@ impl FluidSystem {
         self.prepare_bodies();
         self.penalty
             .apply(&mut self.particles, &self.grid, Some(loads));
+        self.penalty_loads.clone_from_slice(loads);
         self.terrain.apply(&mut self.particles, &self.grid);
         self.boundary.add_loads(loads);
         self.penalty_fresh = true;
@@ -412,7 +425,8 @@ impl FluidSystem {
     pub fn begin_step(&mut self) {
         self.prepare_bodies();
         if !self.penalty_fresh {
-            self.penalty.apply(&mut self.particles, &self.grid, None);
+            let loads = Some(&mut self.penalty_loads[..]).filter(|l| !l.is_empty());
+            self.penalty.apply(&mut self.particles, &self.grid, loads);
             self.terrain.apply(&mut self.particles, &self.grid);
             self.penalty_fresh = true;
         }

@@ -118,16 +118,16 @@ impl Watched {
         let grew = older > weight && newer > 2.0 * older;
         let ratio = self.density / water_density;
         // A light block is outweighed by the water that moves with it; a heavy one only by the
-        // film it squeezes against a wall or the floor (docs/REFERENCES.md §4.1–4.1a).
+        // film it squeezes against a wall or the floor (docs/REFERENCES.md §4.1–4.1b).
         let (cause, fix) = if ratio < 1.0 {
             (
                 "is too light for loads that lag one step",
-                "relax the loads with an artificial added mass ([coupling] added_mass = 1, or --added-mass 1), a heavier block, or (with WCSPH, whose limit falls with dt²) a smaller step ([time].dt_max or --dt-factor)",
+                "relax the loads (--added-mass 1, or [coupling] added_mass = 1); with DFSPH, move the blocks in its solve ([fluid.dfsph] blocks_in_solve = true, parallel scheme); with WCSPH, a smaller step (--dt-factor)",
             )
         } else {
             (
                 "is outweighed by the water it squeezes against a wall or the floor, answering loads that lag one step",
-                "with an incompressible fluid (DFSPH) use WCSPH for this scene, or relax the loads ([coupling] added_mass = 1 to 5, or --added-mass), which moves this limit but does not remove it; with WCSPH a smaller step ([time].dt_max or --dt-factor: the limit falls with dt²)",
+                "with DFSPH, move the blocks in its solve ([fluid.dfsph] blocks_in_solve = true, parallel scheme) or use WCSPH; relaxed loads (--added-mass 1 to 5) only move this limit; with WCSPH, a smaller step (--dt-factor)",
             )
         };
         (newer > SWING * weight && grew && reversals >= 2).then(|| {

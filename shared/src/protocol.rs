@@ -13,8 +13,9 @@ use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Version of every layout in this module. Checked at the handshake. 3: the checkpoint command
-/// and its answer, and a setup that may resume from a checkpoint.
-pub const PROTOCOL_VERSION: u32 = 3;
+/// and its answer, and a setup that may resume from a checkpoint. 4: a block's inertia and the
+/// rest of its forces in [`BlockState`], for a fluid that moves the blocks in its pressure solve.
+pub const PROTOCOL_VERSION: u32 = 4;
 
 /// Which side of the coupling a node plays.
 #[repr(u32)]
@@ -272,6 +273,18 @@ pub struct BlockState {
     pub strain: [f64; 6],
     /// Its rate [1/s].
     pub strain_rate: [f64; 6],
+    /// 1/m [1/kg]; zero for a kinematic block (its motion is prescribed: infinite mass).
+    pub inverse_mass: f64,
+    /// World-frame inverse inertia tensor about the centroid, (xx, yy, zz, yz, zx, xy)
+    /// [1/(kg m²)]; zero for a kinematic block.
+    pub inverse_inertia: [f64; 6],
+    /// The force on the block from everything but the water (its weight, contacts, joints)
+    /// at this state [N], as the solid's last force evaluation has it. With `inverse_mass`,
+    /// what a fluid needs to predict the block's motion within its own step (a solver that
+    /// moves the block in its pressure solve, Gissler et al. 2019); the others ignore it.
+    pub other_force: [f64; 3],
+    /// The same for the torque about the centroid [N m].
+    pub other_torque: [f64; 3],
 }
 
 impl BlockState {
@@ -297,6 +310,21 @@ impl BlockState {
     pub fn strain(&self) -> crate::strain::Strain {
         crate::strain::Strain::from(self.strain)
     }
+    /// The world-frame inverse inertia tensor ([`Self::inverse_inertia`]) as a matrix.
+    pub fn inverse_inertia(&self) -> crate::math::Matrix {
+        symmetric(&self.inverse_inertia)
+    }
+    /// Stores a symmetric matrix as (xx, yy, zz, yz, zx, xy).
+    pub fn pack_symmetric(m: &crate::math::Matrix) -> [f64; 6] {
+        [
+            m[(0, 0)],
+            m[(1, 1)],
+            m[(2, 2)],
+            m[(1, 2)],
+            m[(2, 0)],
+            m[(0, 1)],
+        ]
+    }
     /// The linear map of the block frame to the world, F = R (I + E) (R for a rigid block).
     pub fn deformation(&self) -> crate::math::Matrix {
         self.material_map().map
@@ -319,6 +347,12 @@ impl BlockState {
         let m = self.material_map();
         m.velocity(&m.material(&p.coords))
     }
+}
+
+/// The symmetric matrix stored as (xx, yy, zz, yz, zx, xy).
+fn symmetric(s: &[f64; 6]) -> crate::math::Matrix {
+    let [xx, yy, zz, yz, zx, xy] = *s;
+    crate::math::Matrix::new(xx, xy, zx, xy, yy, yz, zx, yz, zz)
 }
 
 /// Header of a loads message (fluid → solid).

@@ -96,6 +96,16 @@ pub trait FluidSolver: Solver {
     /// from the current particles and geometry, and writes the opposite force and its torque
     /// about the centroid, summed per moving block, into `loads` (same order as the geometry).
     fn write_loads(&mut self, loads: &mut [BlockLoad]);
+    /// Whether this solver's loads are those of the step it has just taken rather than of the
+    /// state it starts from: a solver that moves the blocks within its step (their inertia in
+    /// its pressure solve) hands the solid the forces it moved them with, so that the solid
+    /// moves them as the fluid predicted. Then, in the parallel scheme, the runtime calls
+    /// [`FluidSolver::write_loads`] after [`Solver::advance`] instead of before (the solid
+    /// waits for the fluid's step: fluid first, then solid). Asked after each
+    /// [`FluidSolver::read_geometry`].
+    fn loads_follow_step(&self) -> bool {
+        false
+    }
 }
 
 /// The rock side: reads loads from the water, writes block geometry.

@@ -8,6 +8,7 @@ use crate::output::{self, KinematicsCsv};
 use crate::world::World;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
+use shared::scene::BlockKind;
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError, StepReport};
 use shared::strain::Strain;
 use std::path::{Path, PathBuf};
@@ -245,7 +246,18 @@ impl SolidSolver for DdaSolver {
                 angular_velocity: b.angular_velocity.into(),
                 strain,
                 strain_rate,
+                ..BlockState::default()
             };
+            // The block's inertia and its forces besides the water's (weight, contacts,
+            // joints) as the last evaluation has them, for a fluid that moves it inside its
+            // pressure solve.
+            if b.kind == BlockKind::Free {
+                state.inverse_mass = 1.0 / b.mass;
+                state.inverse_inertia = BlockState::pack_symmetric(&b.world_inv_inertia());
+                state.other_force =
+                    (b.mass * self.world.gravity + self.world.contact_force[i]).into();
+                state.other_torque = self.world.contact_torque[i].into();
+            }
             for (dst, v) in vertices[first..first + n].iter_mut().zip(&b.world_vertices) {
                 *dst = [v.x, v.y, v.z];
             }

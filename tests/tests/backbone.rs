@@ -304,6 +304,12 @@ fn clean_removes_a_named_dead_run() {
     let child = cmd.stderr(Stdio::piped()).spawn().unwrap();
     let pid = child.id();
     let nodes = running_nodes(pid);
+    // Killed before they made their shared memory (a loaded machine), the nodes would leave
+    // nothing to clean: wait for it.
+    assert!(
+        eventually(Duration::from_secs(10), || !leftovers(&named).is_empty()),
+        "the run made no shared memory"
+    );
     for n in &nodes {
         unsafe_kill(*n, 9);
     }

@@ -1,10 +1,10 @@
 //! Determinism through all three processes: the same scene, run several times at once (each run
 //! with its own run id, shared memory and output directory), writes byte-identical results.
 //!
-//! Two configurations of the embedded default scene (the paper's sliding wedge), coarse:
-//! WCSPH + explicit DDA + parallel coupling three times, and Müller SPH + Shi's implicit DDA +
-//! serial coupling twice, all five runs at the same time on a machine with fewer cores than
-//! processes. Between the runs of one configuration, `gauges.csv`, `blocks.csv`, `probes.csv`,
+//! Three configurations of the embedded default scene (the paper's sliding wedge), coarse:
+//! WCSPH + explicit DDA + parallel coupling three times, Müller SPH + Shi's implicit DDA +
+//! serial coupling twice, and DFSPH moving the wedge in its solve with the solid sub-cycled
+//! twice, all seven runs at the same time on a machine with fewer cores than processes. Between the runs of one configuration, `gauges.csv`, `blocks.csv`, `probes.csv`,
 //! the `.pvd` collections and every `particles_*.vtp` / `blocks_*.vtp` frame must be identical
 //! to the byte; a difference names the first differing file, line and column.
 
@@ -24,7 +24,7 @@ struct Config {
     copies: usize,
 }
 
-const CONFIGS: [Config; 2] = [
+const CONFIGS: [Config; 3] = [
     Config {
         name: "wcsph-explicit-parallel",
         args: &[],
@@ -40,6 +40,13 @@ const CONFIGS: [Config; 2] = [
             "--scheme",
             "serial",
         ],
+        copies: 2,
+    },
+    // DFSPH moving the wedge inside its pressure solve, the solid sub-cycling: the loads follow
+    // the fluid's step, and the block sums run in a fixed order.
+    Config {
+        name: "dfsph-blocks-in-solve-multi-rate",
+        args: &["--fluid-solver", "dfsph", "--solid-substeps", "8"],
         copies: 2,
     },
 ];

@@ -4,6 +4,9 @@
 //! G_{n+1} (serial scheme), hand it to the solver, compute the loads straight into shared
 //! memory (or, over zenoh, into a reused buffer) and send them tagged for the solid step that consumes them (n, or n + 1), then
 //! advance. In the serial scheme the loads for solid step 0 are computed at set-up from G_0.
+//! A solver whose loads are those of the step it takes (it moves the blocks within it:
+//! `FluidSolver::loads_follow_step`) advances first and sends them after, in the parallel
+//! scheme; the solid waits for them, the tags are the same.
 //! Without a solid node the loads are still computed (on fixed walls only) through the same
 //! path, and nothing is sent.
 
@@ -223,6 +226,20 @@ impl Side for Fluid {
                     Scheme::Serial => cmd.step + 1,
                 };
                 compute += link.receive_geometry(control, self.solver.as_mut(), tag)?;
+                if self.scheme == Scheme::Parallel && self.solver.loads_follow_step() {
+                    // The loads of the step about to be taken: the solid waits for them.
+                    let t = Instant::now();
+                    let report = self.solver.advance(cmd.dt)?;
+                    compute += t.elapsed();
+                    compute += link.send_loads(
+                        self.solver.as_mut(),
+                        self.n_moving,
+                        tag,
+                        cmd.time,
+                        &mut self.sent,
+                    )?;
+                    return Ok((report, compute));
+                }
                 compute += link.send_loads(
                     self.solver.as_mut(),
                     self.n_moving,

@@ -15,7 +15,8 @@
 //! (zero-order hold): they are the loads of the fluid state the step starts from, which is all
 //! an explicit partitioned scheme has. Interpolating them would need the loads at the step's
 //! end, i.e. extrapolation in the parallel scheme, which feeds the added-mass instability
-//! rather than damping it.
+//! rather than damping it. (A fluid that moves the blocks in its own solve sends the mean
+//! load of the step itself, `FluidSolver::loads_follow_step`; holding it is then exact.)
 
 use super::SolidFactory;
 use super::args::NodeArgs;
