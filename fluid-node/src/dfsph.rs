@@ -774,25 +774,16 @@ impl Dfsph {
         {
             // κ_i = (ρ*_i − ρ0)·α_i/dt² (Algorithm 3) or (Dρ_i/Dt)·α_i/dt (Algorithm 2), here
             // divided by ρ_i: k_i = error_i·β_i·scale.
+            // Damped next to a free block in the solve (`block_damping`).
+            let damping = blocks.then_some(&self.damping[..]);
             dk.par_iter_mut()
                 .zip(k.par_iter_mut())
                 .zip(self.error.par_iter().zip(self.beta.par_iter()))
-                .for_each(|((d, k), (&e, &b))| {
-                    *d = e * b * scale;
+                .enumerate()
+                .for_each(|(i, ((d, k), (&e, &b)))| {
+                    *d = e * b * scale * damping.map_or(1.0, |w| w[i]);
                     *k += *d;
                 });
-            if blocks {
-                // Damped next to the free blocks (`block_damping`); k again.
-                dk.par_iter_mut()
-                    .zip(k.par_iter_mut())
-                    .zip(self.damping.par_iter())
-                    .for_each(|((d, k), &w)| {
-                        if w < 1.0 {
-                            *k -= *d * (1.0 - w);
-                            *d *= w;
-                        }
-                    });
-            }
             if pressure_tolerance.is_finite() {
                 // Σ|Δk| / Σ|k|: how much this iteration still moved the pressure field.
                 let (moved, total) = dk
