@@ -298,23 +298,28 @@ mod tests {
     use super::*;
     use shared::scene::ShapeSpec;
 
-    /// Boundary particles of a deformable block follow x = c + R(I + E)X with the material
-    /// velocity; with the rigid flag the same pose puts them where the rotation alone does.
-    #[test]
-    fn body_particles_follow_the_strain_of_a_deformable_block() {
+    /// A 0.4 m cube sampled at dx = 0.05 m, 0.1 m deep.
+    fn cube_body() -> BodyParticles {
         let cube = Polyhedron::from_shape(&ShapeSpec::Box {
             min: [0.0; 3],
             max: [0.4; 3],
         })
         .unwrap();
         let grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(2.0), 0.1).unwrap();
-        let mut body = BodyParticles::new(
+        BodyParticles::new(
             std::slice::from_ref(&cube),
             &Vector::repeat(0.025),
             0.05,
             0.1,
             grid,
-        );
+        )
+    }
+
+    /// Boundary particles of a deformable block follow x = c + R(I + E)X with the material
+    /// velocity; with the rigid flag the same pose puts them where the rotation alone does.
+    #[test]
+    fn body_particles_follow_the_strain_of_a_deformable_block() {
+        let mut body = cube_body();
         assert!(!body.is_empty());
         let rot = shared::math::Rotation::from_euler_angles(0.2, -0.1, 0.4);
         let mut state = BlockState {
@@ -370,19 +375,7 @@ mod tests {
     /// velocities back.
     #[test]
     fn a_block_nudged_within_a_step_moves_its_particles_rigidly() {
-        let cube = Polyhedron::from_shape(&ShapeSpec::Box {
-            min: [0.0; 3],
-            max: [0.4; 3],
-        })
-        .unwrap();
-        let grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(2.0), 0.1).unwrap();
-        let mut body = BodyParticles::new(
-            std::slice::from_ref(&cube),
-            &Vector::repeat(0.025),
-            0.05,
-            0.1,
-            grid,
-        );
+        let mut body = cube_body();
         let state = BlockState {
             centroid: [0.2, 0.2, 0.2],
             orientation: [0.0, 0.0, 0.0, 1.0],

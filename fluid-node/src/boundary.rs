@@ -105,15 +105,7 @@ impl Boundary {
                 });
             }
         }
-        if let Some(b) = &self.moving {
-            for &j in self.moving_lists.of(i) {
-                f(Near {
-                    set: &b.set,
-                    index: j as usize,
-                    velocity: Some(&b.velocity),
-                });
-            }
-        }
+        self.for_each_moving_neighbor(i, f);
     }
 
     /// Calls `f` on each boundary neighbour of fluid particle `i` on a moving block.

@@ -226,20 +226,17 @@ impl Side for Fluid {
                     Scheme::Serial => cmd.step + 1,
                 };
                 compute += link.receive_geometry(control, self.solver.as_mut(), tag)?;
-                if self.scheme == Scheme::Parallel && self.solver.loads_follow_step() {
-                    // The loads of the step about to be taken: the solid waits for them.
+                // The loads of the step about to be taken are sent after it (the solid waits
+                // for them); the others before.
+                let follow = self.scheme == Scheme::Parallel && self.solver.loads_follow_step();
+                let report = if follow {
                     let t = Instant::now();
                     let report = self.solver.advance(cmd.dt)?;
                     compute += t.elapsed();
-                    compute += link.send_loads(
-                        self.solver.as_mut(),
-                        self.n_moving,
-                        tag,
-                        cmd.time,
-                        &mut self.sent,
-                    )?;
-                    return Ok((report, compute));
-                }
+                    Some(report)
+                } else {
+                    None
+                };
                 compute += link.send_loads(
                     self.solver.as_mut(),
                     self.n_moving,
@@ -247,6 +244,9 @@ impl Side for Fluid {
                     cmd.time,
                     &mut self.sent,
                 )?;
+                if let Some(report) = report {
+                    return Ok((report, compute));
+                }
             }
             Solid::Absent => {
                 // Only fixed walls, still computed through the same path.
