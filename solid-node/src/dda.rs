@@ -8,7 +8,6 @@ use crate::output::{self, KinematicsCsv};
 use crate::world::World;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
-use shared::scene::BlockKind;
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError, StepReport};
 use shared::strain::Strain;
 use std::path::{Path, PathBuf};
@@ -251,7 +250,7 @@ impl SolidSolver for DdaSolver {
             // The block's inertia and its forces besides the water's (weight, contacts,
             // joints) as the last evaluation has them, for a fluid that moves it inside its
             // pressure solve.
-            if b.kind == BlockKind::Free {
+            if b.is_free() {
                 state.inverse_mass = 1.0 / b.mass;
                 state.inverse_inertia = BlockState::pack_symmetric(&b.world_inv_inertia());
                 state.other_force =
