@@ -243,6 +243,7 @@ fn draw_stability<DB: DrawingBackend>(
     title: &str,
     x_label: &str,
     trials: &[Trial],
+    label_width: u32,
 ) -> Result<(), String>
 where
     DB::ErrorType: 'static,
@@ -263,7 +264,7 @@ where
         .caption(title, ("sans-serif", 22))
         .margin(16)
         .x_label_area_size(48)
-        .y_label_area_size(300)
+        .y_label_area_size(label_width)
         // One empty row below the methods holds the legend.
         .build_cartesian_2d((vmin / 1.6..vmax * 1.6).log_scale(), -1.5..n - 0.5)
         .map_err(e)?;
@@ -350,20 +351,31 @@ pub fn stability_map(
             .map(|t| &t.method)
             .collect::<std::collections::BTreeSet<_>>()
             .len() as u32;
+    // Room for the longest row label (about 6 px a character at the labels' size), the plot
+    // keeping its 700 px.
+    let longest = trials
+        .iter()
+        .map(|t| t.method.chars().count())
+        .max()
+        .unwrap_or(0) as u32;
+    let label_width = (6 * longest + 24).max(300);
+    let w = 700 + label_width;
     ensure_font()?;
     let svg = stem.with_extension("svg");
     draw_stability(
-        SVGBackend::new(&svg, (1000, h)).into_drawing_area(),
+        SVGBackend::new(&svg, (w, h)).into_drawing_area(),
         title,
         x_label,
         trials,
+        label_width,
     )?;
     let png = stem.with_extension("png");
     draw_stability(
-        BitMapBackend::new(&png, (1000, h)).into_drawing_area(),
+        BitMapBackend::new(&png, (w, h)).into_drawing_area(),
         title,
         x_label,
         trials,
+        label_width,
     )
 }
 

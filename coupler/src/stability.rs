@@ -41,8 +41,9 @@ pub struct StabilityArgs {
     /// Redraw the maps from the CSV files already in --out, running nothing.
     #[arg(long)]
     pub replot: bool,
-    /// Rerun only the density map's rows whose label contains this text (e.g. "added mass");
-    /// the map's other rows are kept from its CSV in --out. Needs `--only density`.
+    /// Rerun only the rows whose label contains this text (e.g. "added mass", "blocks in
+    /// solve") of one map; its other rows are kept from its CSV in --out. Needs `--only density`
+    /// or `--only dt`.
     #[arg(long, value_name = "TEXT")]
     pub rows: Option<String>,
 }
@@ -110,17 +111,20 @@ pub const STIFFNESS_DT: f64 = 1e-3;
 /// explicit DDA sub-cycles inside each coupling step with the water's loads held.
 const SUBSTEPS: u32 = 8;
 
-/// The coupled floating-block rows of the dt map: (fluid, scheme, solid substeps). WCSPH under
-/// both schemes, single-rate and sub-cycled (its own step binds, so sub-cycling changes
-/// nothing: the row says so); DFSPH single-rate and sub-cycled, where the fluid's longer step
-/// sets the coupling step and the solid sub-cycles, with the blocks held over DFSPH's step
-/// (`blocks_in_solve = false`, as the map was measured; the density map has both).
-const COUPLED_DT_ROWS: [(&str, Scheme, u32); 5] = [
-    ("wcsph", Scheme::Parallel, 1),
-    ("wcsph", Scheme::Serial, 1),
-    ("wcsph", Scheme::Parallel, SUBSTEPS),
-    ("dfsph", Scheme::Parallel, 1),
-    ("dfsph", Scheme::Parallel, SUBSTEPS),
+/// The coupled floating-block rows of the dt map: (fluid, scheme, solid substeps, blocks in
+/// the solve). WCSPH under both schemes, single-rate and sub-cycled (its own step binds, so
+/// sub-cycling changes nothing: the row says so); DFSPH single-rate and sub-cycled, where the
+/// fluid's longer step sets the coupling step and the solid sub-cycles, first with the blocks
+/// held over DFSPH's step (`blocks_in_solve = false`, as those rows were first measured), then
+/// moved in its solve (its default).
+const COUPLED_DT_ROWS: [(&str, Scheme, u32, bool); 7] = [
+    ("wcsph", Scheme::Parallel, 1, false),
+    ("wcsph", Scheme::Serial, 1, false),
+    ("wcsph", Scheme::Parallel, SUBSTEPS, false),
+    ("dfsph", Scheme::Parallel, 1, false),
+    ("dfsph", Scheme::Parallel, SUBSTEPS, false),
+    ("dfsph", Scheme::Parallel, 1, true),
+    ("dfsph", Scheme::Parallel, SUBSTEPS, true),
 ];
 
 /// The density map's DFSPH rows, (fluid, solid, scheme, substeps, added mass, blocks in the
@@ -157,8 +161,11 @@ fn wanted(args: &StabilityArgs, what: &str) -> bool {
 
 fn run_inner(args: &StabilityArgs) -> Result<(), String> {
     let plan = if args.quick { &QUICK } else { &FULL };
-    if args.rows.is_some() && args.only != ["density"] {
-        return Err("--rows reruns rows of the density map only. Fix: add --only density".into());
+    if args.rows.is_some() && args.only != ["density"] && args.only != ["dt"] {
+        return Err(
+            "--rows reruns rows of one map, the density or the dt map. Fix: add --only density or --only dt"
+                .into(),
+        );
     }
     if args.replot {
         for map in [DT_MAP, STIFFNESS_MAP, DENSITY_MAP] {
@@ -172,7 +179,7 @@ fn run_inner(args: &StabilityArgs) -> Result<(), String> {
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let scratch = Scratch::new("stability")?;
     if wanted(args, "dt") {
-        dt_map(plan, &args.out, &scratch)?;
+        dt_map(plan, &args.out, &scratch, args.rows.as_deref())?;
     }
     if wanted(args, "stiffness") {
         stiffness_map(plan, &args.out)?;
@@ -278,10 +285,16 @@ fn coupled_trial(scratch: &Scratch, method: &str, value: f64, config: &Config) -
     }
 }
 
-fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
+/// The dt map; with `rows`, only the rows whose label contains it are run, and the other rows
+/// are kept from the map's CSV in `out` (as [`density_map`] does).
+fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch, rows: Option<&str>) -> Result<(), String> {
     println!("dt factor: every step × factor of the method's own proposal");
+    let skip = |label: &str| rows.is_some_and(|r| !label.contains(r));
     let mut trials = Vec::new();
     for solver in solid_node::REGISTRY.names() {
+        if skip(&format!("{solver} DDA, resting block")) {
+            continue;
+        }
         for &f in plan.dt_factors {
             // Undamped springs, k = 1e6 N/m: the explicit proposal is 0.5·2/ω_max, Ω = 1.
             let r = solid_sweep::resting(solver, 1e6, f, None, 1.0);
@@ -296,6 +309,9 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
         }
     }
     for solver in fluid_node::REGISTRY.names() {
+        if skip(&format!("{solver} SPH, dam break")) {
+            continue;
+        }
         for &f in plan.dt_factors {
             let r = fluid_sweep::dam_break(solver, plan.dam_per_a, f);
             let t = Trial {
@@ -318,7 +334,7 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
             trials.push(t);
         }
     }
-    for (fluid, scheme, solid_substeps) in COUPLED_DT_ROWS {
+    for (fluid, scheme, solid_substeps, in_solve) in COUPLED_DT_ROWS {
         for &f in plan.coupled_dt_factors {
             let config = Config {
                 fluid: fluid.into(),
@@ -331,18 +347,20 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch) -> Result<(), String> {
                 end: plan.coupled_end,
                 solid_substeps,
                 added_mass: 0.0,
-                // As the map was measured: the blocks' velocities held over the fluid's step.
-                blocks_in_solve: (fluid == "dfsph").then_some(false),
+                // WCSPH ignores the table; DFSPH's held rows ask for the lag.
+                blocks_in_solve: (fluid == "dfsph").then_some(in_solve),
             };
-            let t = coupled_trial(
-                scratch,
-                &format!("floating block, {}", config.label()),
-                f,
-                &config,
-            );
+            let label = format!("floating block, {}", config.label());
+            if skip(&label) {
+                continue;
+            }
+            let t = coupled_trial(scratch, &label, f, &config);
             report(&t);
             trials.push(t);
         }
+    }
+    if let Some(r) = rows {
+        trials = merge_rows(chart::read_trials(&out.join(DT_MAP.0))?, trials, r);
     }
     summarise(&trials);
     draw(out, DT_MAP, &trials)

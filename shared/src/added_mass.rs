@@ -119,20 +119,22 @@ impl Watched {
         let ratio = self.density / water_density;
         // A light block is outweighed by the water that moves with it; a heavy one only by the
         // film it squeezes against a wall or the floor (docs/REFERENCES.md §4.1–4.1b).
+        // The status message that carries this is 512 bytes: the cause and fix are kept short
+        // enough that the whole message fits (a test checks it with a long block name).
         let (cause, fix) = if ratio < 1.0 {
             (
-                "is too light for loads that lag one step",
-                "relax the loads (--added-mass 1, or [coupling] added_mass = 1); with DFSPH, move the blocks in its solve ([fluid.dfsph] blocks_in_solve = true, parallel scheme); with WCSPH, a smaller step (--dt-factor)",
+                "is too light for one-step-lagged loads",
+                "relax the loads (--added-mass 1); DFSPH: blocks in its solve (blocks_in_solve, default; parallel scheme); WCSPH: a smaller --dt-factor",
             )
         } else {
             (
-                "is outweighed by the water it squeezes against a wall or the floor, answering loads that lag one step",
-                "with DFSPH, move the blocks in its solve ([fluid.dfsph] blocks_in_solve = true, parallel scheme) or use WCSPH; relaxed loads (--added-mass 1 to 5) only move this limit; with WCSPH, a smaller step (--dt-factor)",
+                "squeezes water that outweighs it against a wall",
+                "use WCSPH (DFSPH's blocks in its solve, its default, hold slow landings only; relaxed loads only move this limit)",
             )
         };
         (newer > SWING * weight && grew && reversals >= 2).then(|| {
             format!(
-                "added-mass instability of the partitioned coupling: the water's load on block '{}' oscillates and grows (its step-to-step change rose ×{:.1} within {n} steps to {:.3e} N, {:.0} times the block's weight, reversing {reversals} times); the block (ρ_b/ρ_w = {ratio:.4}) {cause}; fix: {fix}",
+                "added-mass instability of the partitioned coupling: the water's load on block '{}' swings and grows (×{:.1} in {n} steps to {:.3e} N, {:.0} weights, {reversals} reversals); the block (ρ_b/ρ_w = {ratio:.4}) {cause}; fix: {fix}",
                 self.name,
                 newer / older.max(Real::MIN_POSITIVE),
                 newer,
@@ -180,6 +182,23 @@ mod tests {
             "{msg}"
         );
         assert!(spring(false, 2000).is_none());
+        // The whole report fits the 512-byte status message, with the runtime's prefix and a
+        // long block name, light or heavy: the fix is not cut off.
+        for density in [10.0, 3000.0] {
+            let name = "a_block_with_a_forty_character_long_name";
+            let mut mon = AddedMassMonitor::new(vec![(name.into(), 0.01, density)], 9.81, 1000.0);
+            let msg = (0..200)
+                .find_map(|n| {
+                    let f = if n % 2 == 0 { 1.0 } else { -1.0 } * 1.2f64.powi(n) * 1e-3;
+                    mon.observe(&[load(f)])
+                })
+                .expect("a growing swing is named");
+            let full = format!(
+                "solid node (explicit, pid 4194304) went unstable at step 123456, t = 12.345678 s: [explicit] unstable: {msg}"
+            );
+            assert!(full.len() <= 512, "{} bytes: {full}", full.len());
+            assert!(msg.contains(name) && msg.contains("fix: "), "{msg}");
+        }
 
         let g = 9.81;
         let mut heavy = AddedMassMonitor::new(vec![("heavy".into(), 1e6, 2500.0)], g, 1000.0);
