@@ -85,13 +85,21 @@ fn ensure_font() -> Result<(), String> {
     .clone()
 }
 
-const PALETTE: [RGBColor; 6] = [
+/// One colour per series (the coupled chart has 12: three fluids × two solids × two schemes):
+/// the ten of matplotlib's "tab10" and two darker ones.
+const PALETTE: [RGBColor; 12] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(148, 103, 189),
     RGBColor(255, 127, 14),
     RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(0, 0, 128),
+    RGBColor(0, 102, 102),
 ];
 
 fn draw_error_vs_time<DB: DrawingBackend>(
