@@ -471,6 +471,17 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         solid_solver.as_deref().unwrap_or("none (no moving blocks)"),
         out.display()
     );
+    if fluid_solver.as_deref()
+        == Some(<fluid_node::dfsph::Dfsph as fluid_node::scheme::Scheme>::NAME)
+        && scheme == Scheme::Parallel
+        && scene.coupling.added_mass > 0.0
+        && fluid_node::dfsph::blocks_in_solve(&scene)
+    {
+        eprintln!(
+            "coupler: warning: [coupling] added_mass = {} relaxes the loads of blocks that DFSPH already moves inside its pressure solve (its default in the parallel scheme): the solid then moves them otherwise than the water predicted (docs/REFERENCES.md §4.1b). Fix: drop --added-mass, or set [fluid.dfsph] blocks_in_solve = false to relax lagged loads instead",
+            scene.coupling.added_mass
+        );
+    }
     let opts = RunOptions {
         scene: scene.clone(),
         fluid_solver: args_fluid_solver,

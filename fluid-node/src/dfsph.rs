@@ -127,6 +127,22 @@ use shared::registry::{ParamCheck, SolverParams};
 use shared::solver::{SolverError, StepReport};
 use shared::strain::Strain;
 
+/// Default of `[fluid.dfsph] blocks_in_solve`: the free blocks move inside the pressure solves
+/// (module doc, "Blocks in the solve").
+pub const BLOCKS_IN_SOLVE: bool = true;
+
+/// Whether a scene's `[fluid.dfsph]` table asks for the blocks in the solve (the default when
+/// unset), for the coupler's checks of option combinations.
+pub fn blocks_in_solve(scene: &shared::scene::Scene) -> bool {
+    scene
+        .fluid
+        .as_ref()
+        .and_then(|f| f.solvers.get(<Dfsph as Scheme>::NAME))
+        .and_then(|t| t.get("blocks_in_solve"))
+        .and_then(|v| v.as_bool())
+        .unwrap_or(BLOCKS_IN_SOLVE)
+}
+
 /// `[fluid.dfsph]`: parameters of the divergence-free solver. Unset values take the defaults.
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -919,7 +935,7 @@ impl Scheme for Dfsph {
             v_old: Vec::new(),
             pairs: PairValues::default(),
             stats: SolveStats::default(),
-            blocks_in_solve: spec.blocks_in_solve.unwrap_or(true),
+            blocks_in_solve: spec.blocks_in_solve.unwrap_or(BLOCKS_IN_SOLVE),
             motion: Vec::new(),
             loads: Vec::new(),
             damping: Vec::new(),

@@ -292,6 +292,40 @@ fn light_block_under_dfsph_floats_in_the_solve_or_relaxed_and_stops_named_lagged
     }
 }
 
+/// Relaxed loads (`--added-mass`) on a block DFSPH already moves inside its solve make the
+/// solid move it otherwise than the water predicted: the coupler says so (a warning naming
+/// the fix) and runs; with the blocks held (`blocks_in_solve = false`), where relaxation is
+/// the cure, it says nothing.
+#[test]
+fn added_mass_with_the_blocks_in_dfsphs_solve_is_warned_about() {
+    for (lagged, warned) in [(false, true), (true, false)] {
+        let (id, out) = fresh(if lagged { "am-held" } else { "am-in-solve" });
+        let scene = scene_variant("floating_block.toml", 500.0, lagged, &out);
+        let args = [
+            scene.to_str().unwrap(),
+            "--fluid-solver",
+            "dfsph",
+            "--added-mass",
+            "1",
+            "--end",
+            "0.005",
+        ];
+        let o = run(coupler(&id, &out, &args));
+        let err = stderr(&o);
+        assert!(o.status.success(), "{err}");
+        assert_eq!(
+            err.contains("warning: [coupling] added_mass = 1 relaxes the loads of blocks that DFSPH already moves")
+                && err.contains("blocks_in_solve = false"),
+            warned,
+            "lagged = {lagged}: {err}"
+        );
+        let _ = std::fs::remove_dir_all(&out);
+        if lagged {
+            let _ = std::fs::remove_file(&scene);
+        }
+    }
+}
+
 /// The sinking block (ρ_b/ρ_w = 2.5) under coupler options `extra`, to t = 0.7 s: asserts that
 /// it reached the floor and rests there, and returns the time its bottom first came within
 /// one spacing of the floor.
