@@ -292,14 +292,15 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch, rows: Option<&str>) -> Res
     let skip = |label: &str| rows.is_some_and(|r| !label.contains(r));
     let mut trials = Vec::new();
     for solver in solid_node::REGISTRY.names() {
-        if skip(&format!("{solver} DDA, resting block")) {
+        let method = format!("{solver} DDA, resting block");
+        if skip(&method) {
             continue;
         }
         for &f in plan.dt_factors {
             // Undamped springs, k = 1e6 N/m: the explicit proposal is 0.5·2/ω_max, Ω = 1.
             let r = solid_sweep::resting(solver, 1e6, f, None, 1.0);
             let t = Trial {
-                method: format!("{solver} DDA, resting block"),
+                method: method.clone(),
                 value: f,
                 stable: r.stable,
                 detail: format!("ω·dt = {:.2}: {}", r.omega_dt, r.detail),
@@ -309,13 +310,14 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch, rows: Option<&str>) -> Res
         }
     }
     for solver in fluid_node::REGISTRY.names() {
-        if skip(&format!("{solver} SPH, dam break")) {
+        let method = format!("{solver} SPH, dam break");
+        if skip(&method) {
             continue;
         }
         for &f in plan.dt_factors {
             let r = fluid_sweep::dam_break(solver, plan.dam_per_a, f);
             let t = Trial {
-                method: format!("{solver} SPH, dam break"),
+                method: method.clone(),
                 value: f,
                 stable: r.result.is_ok(),
                 detail: match &r.result {
