@@ -91,11 +91,15 @@
 //! give way within the step, and the pressure the solve settles on is that of water and block
 //! moving together. The loads sent are the forces the block was moved with over the step
 //! (`loads_follow_step`: in the parallel scheme the solid waits for the fluid's step and then
-//! moves the block as the fluid predicted). What the prediction misses (the solid's contacts
-//! changing within the step, δR, and its central difference's half-step velocities) returns
-//! next step as a velocity mismatch Δt δR/m between block and water, which that step's solve
-//! shares out by the masses: it does not feed on itself, where the lagged scheme multiplies the
-//! block's acceleration by −M_A/m each step (docs/REFERENCES.md §4.1b). Two details keep the
+//! moves the block as the fluid predicted). What the prediction misses of the solid's other
+//! forces (contacts changing within the step, δR) returns next step as a velocity mismatch
+//! Δt δR/m between block and water, which that step's solve shares out by the masses: in open
+//! water it does not feed on itself, where the lagged scheme multiplies the block's
+//! acceleration by −M_A/m each step (docs/REFERENCES.md §4.1b). Against a layer of water the
+//! solve holds as stiffly as a contact it does: the central difference's reported velocity is
+//! half a step's acceleration off the one its next step kicks (×1.44 per step there), and the
+//! walls' explicit pressure repeats the last step's divergence impulse; attempts to remove
+//! both are recorded in §4.1b and were not adopted. Two details keep the
 //! solve itself sound: a very light block joins it as a large rank-six term, so the increments
 //! next to a block are damped ([`Dfsph::block_damping`]); and a solve runs until the free
 //! blocks' loads have settled ([`BLOCK_TOLERANCE`]). Measured: the sinking block
@@ -103,7 +107,8 @@
 //! floating-block tank is stable from ρ_b/ρ_w = 0.02 to 1.2 (0.005 sub-cycled; 0.3 held), and the
 //! default scene's wedge lands at the toe at 10 ms steps. Not cured: faster, heavier landings
 //! (ρ_b/ρ_w = 2 and 3 in that tank, Example 3's block), where the last layer of water squeezed
-//! under the block throws it back; the watch names them (docs/stability.md). Cost: two passes
+//! under the block throws it back (the two causes above); the watch names them
+//! (docs/stability.md). Cost: two passes
 //! over the moving boundary per iteration, nothing measurable on the default scene
 //! (docs/PERFORMANCE.md).
 //!
