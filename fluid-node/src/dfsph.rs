@@ -13,22 +13,41 @@
 //! - Factor α_i = ρ_i / (|Σ_j m_j ∇W_ij|² + Σ_j |m_j ∇W_ij|²) (the DFSPH factor) with the
 //!   boundary neighbours in the first sum. Here the pressure variable is k_i = κ_i/ρ_i = p_i/ρ_i²,
 //!   so the Jacobi diagonal is β_i = α_i/ρ_i = 1/(|G_i|² + Σ_f |m ∇W_ij|²) with
-//!   G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib).
+//!   G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib) (with mirrored walls, G_i·(G_i + B_i) for |G_i|²,
+//!   B_i = m Σ_b ∇W_ib: below).
 //! - Non-pressure forces: gravity, paper Eq. 22 (`particles.penalty / m`), and XSPH viscosity
 //!   (Monaghan 1989; Schechter & Bridson 2012), v_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij.
 //! - Pressure acceleration (the κ/ρ form of both solvers): a_i = −Σ_f m (k_i + k_j) ∇W_ij
-//!   − Σ_b m (k_i + p_b/ρ0²) ∇W_ib. At the walls the implicit part is one-sided, the fluid
-//!   particle's own k_i (as the 2017 paper's boundary term and SPlisHSPlasH), and the wall's own
-//!   pressure p_b is Adami's extrapolation from the last step's fluid pressures with its
-//!   hydrostatic term ([`crate::boundary::Boundary::update`]), held during the solves. Mirroring
-//!   k_i alone (Akinci et al. 2012) would give a block the pressure of the water ~1 dx below its
-//!   bottom: a floating block at dx = 0.02 m rode 2 cm (20 % of its draft) too high. A moving
-//!   block takes the reverse pair by pair ([`Dfsph::react`]).
+//!   − Σ_b m (k_i + k_b) ∇W_ib, where the wall's k_b is (`[fluid.dfsph] wall_pressure`):
+//!   - "mirrored" (the default): k̄_i + H_ib. The wall mirrors the pressure of the water it
+//!     faces (Akinci et al. 2012's pressure mirroring), taken as the Shepard mean k̄_i of the
+//!     stiffness over particle i and its fluid neighbours ([`Dfsph::smooth`]), inside both
+//!     solves, plus the hydrostatic difference H_ib = g·(x_b − x_i)/ρ0 between the wall point and
+//!     the particle (Adami et al. 2012, Eq. 27, pair by pair), held over the step. Nothing of
+//!     the last step's pressure is held, so a block closing on the floor through a film of water
+//!     meets that film's whole pressure within the step, from both walls (module doc, "Blocks
+//!     in the solve"). The mean, not k_i itself: mirroring each particle's own k_i makes the
+//!     wall push a particle by its own stiffness, which the Jacobi solve leaves noisy (a tank at
+//!     rest kept particles at 1–3 m/s next to its walls); k̄_i moves with the neighbourhood, so
+//!     a stiffness change on one particle leaves it balanced. The Jacobi diagonal counts k̄_i as
+//!     k_i, what it is for an increment shared by the neighbourhood (a film between two walls):
+//!     exact for that mode, under-relaxed for the others.
+//!   - "extrapolated": k_b = p_b/ρ0², Adami's extrapolation of the last step's fluid
+//!     pressures with its hydrostatic term ([`crate::boundary::Boundary::update`]), held during
+//!     the solves; the implicit part is one-sided, the fluid particle's own k_i (as the 2017
+//!     paper's boundary term and SPlisHSPlasH). Water at rest near walls is as quiet, but a
+//!     heavy block landing through water meets last step's pressure again in the held p_b
+//!     (docs/REFERENCES.md §4.1b) and is thrown back. Mirroring k_i alone, with nothing held
+//!     (Akinci et al. 2012), would give a block the pressure of the water ~1 dx below its bottom:
+//!     a floating block at dx = 0.02 m rode 2 cm (20 % of its draft) too high.
+//!
+//!   A moving block takes the reverse pair by pair ([`Dfsph::react`]).
 //! - Only compression is corrected: negative density errors (free surface) and negative
 //!   divergence are clamped to zero (2017 Algorithm 3 and Algorithm 2, the source terms).
 //!   A particle within a support of the free surface has a deficient sum, so nothing resists
-//!   gravity packing the top layers until their sums reach ρ0: the surface sinks slowly (0.15
-//!   spacings in 4 s of still water; a quarter spacing, 2.5 cm, in Example 1's first 6 s).
+//!   gravity packing the top layers until their sums reach ρ0: the surface sinks slowly (0.07
+//!   spacings in 4 s of still water with mirrored walls; 0.15 with the walls' pressure
+//!   extrapolated, which lost Example 1 a quarter spacing, 2.5 cm, in its first 6 s).
 //!   `continued_surface = true` (experimental, off by default) lets a particle with fewer than
 //!   [`SURFACE_FRACTION`] of a full lattice's neighbours keep the larger of its sum and the ρ*
 //!   the last step predicted for it (the continuity equation's density, which has no deficit):
@@ -85,7 +104,7 @@
 //! solid node): every stiffness the two solves apply to the water also pushes the free
 //! blocks' boundary particles, the reverse pair by pair, and moves each block by
 //! Δv = Δt F/m, Δω = Δt I⁻¹τ ([`Dfsph::move_blocks`]); between the solves the block also
-//! takes its non-pressure part, the walls' explicit pressure, Eq. 22 and the rest of its forces
+//! takes its non-pressure part, the walls' held pressure, Eq. 22 and the rest of its forces
 //! (weight, contacts: `BlockState::other_force`, from the solid's last evaluation). The
 //! boundary's velocity in the continuity equation follows, so the water near a block sees it
 //! give way within the step, and the pressure the solve settles on is that of water and block
@@ -96,21 +115,19 @@
 //! Δt δR/m between block and water, which that step's solve shares out by the masses: in open
 //! water it does not feed on itself, where the lagged scheme multiplies the block's
 //! acceleration by −M_A/m each step (docs/REFERENCES.md §4.1b). Against a layer of water the
-//! solve holds as stiffly as a contact it does: the central difference's reported velocity is
-//! half a step's acceleration off the one its next step kicks (×1.44 per step there), and the
-//! walls' explicit pressure repeats the last step's divergence impulse; attempts to remove
-//! both are recorded in §4.1b and were not adopted. Two details keep the
+//! solve holds as stiffly as a contact it does, and what the layer's pressure is matters: with
+//! the walls' pressure extrapolated from the last step, the held part repeats that step's
+//! divergence impulse, which the one-sided solve cannot take back, and heavy blocks landing
+//! fast were thrown back (with the central difference's half-step velocity, ×1.44 per step);
+//! with mirrored walls the film's pressure is all in the solve (§4.1b). Two details keep the
 //! solve itself sound: a very light block joins it as a large rank-six term, so the increments
 //! next to a block are damped ([`Dfsph::block_damping`]); and a solve runs until the free
 //! blocks' loads have settled ([`BLOCK_TOLERANCE`]). Measured: the sinking block
 //! (ρ_b/ρ_w = 2.5) lands and rests as under WCSPH, the light block (0.1) floats unrelaxed, the
-//! floating-block tank is stable from ρ_b/ρ_w = 0.02 to 1.2 (0.005 sub-cycled; 0.3 held), and the
-//! default scene's wedge lands at the toe at 10 ms steps. Not cured: faster, heavier landings
-//! (ρ_b/ρ_w = 2 and 3 in that tank, Example 3's block), where the last layer of water squeezed
-//! under the block throws it back (the two causes above); the watch names them
-//! (docs/stability.md). Cost: two passes
-//! over the moving boundary per iteration, nothing measurable on the default scene
-//! (docs/PERFORMANCE.md).
+//! default scene's wedge lands at the toe at 10 ms steps, and with mirrored walls the heavier,
+//! faster landings too (ρ_b/ρ_w = 2 and 3 in the floating-block tank, Example 3's block,
+//! docs/stability.md). Cost: two passes over the moving boundary per iteration, nothing
+//! measurable on the default scene (docs/PERFORMANCE.md).
 //!
 //! Speed: the kernel gradients and values of a step's fluid pairs are computed once, in f32,
 //! and streamed by every later pass (the `pairs` field), which made a step 1.7× faster.
@@ -182,6 +199,12 @@ pub struct DfsphParams {
     /// true. False: the blocks keep the velocity the solid node sent over the step (the
     /// explicit partitioned coupling, with its added-mass limit).
     pub blocks_in_solve: Option<bool>,
+    /// How the walls and blocks take part in the pressure: "mirrored" (default), each
+    /// boundary particle takes the stiffness of the fluid particle it faces inside the two
+    /// solves, with the hydrostatic difference between them held over the step; or
+    /// "extrapolated", Adami's extrapolation of the last step's pressure held over the step
+    /// (module doc, "Pressure acceleration").
+    pub wall_pressure: Option<String>,
 }
 
 impl SolverParams for DfsphParams {
@@ -216,6 +239,16 @@ impl SolverParams for DfsphParams {
                     &format!("e.g. {field} = {example} (per cent)"),
                 );
             }
+        }
+        if let Some(w) = &self.wall_pressure
+            && !WALL_PRESSURE.contains(&w.as_str())
+        {
+            c.fail(
+                "wall_pressure",
+                w,
+                "must be \"mirrored\" or \"extrapolated\"",
+                "e.g. wall_pressure = \"mirrored\" (the default)",
+            );
         }
         if let Some(n) = self.max_iterations
             && !(1..=10_000).contains(&n)
@@ -281,6 +314,22 @@ pub const SURFACE_FRACTION: Real = 0.9;
 /// would stop at two iterations with the block mode still moving. 1 % cost a quarter more
 /// time on the default scene for crests within ±3 % of these (docs/PERFORMANCE.md).
 pub const BLOCK_TOLERANCE: Real = 0.05;
+/// The values of `[fluid.dfsph] wall_pressure`; the first is the default.
+pub const WALL_PRESSURE: [&str; 2] = ["mirrored", "extrapolated"];
+/// Weight of a fluid particle's own stiffness k_i in its pairs with the walls when they
+/// mirror it: k_i + k_b with k_b = k_i (Akinci et al. 2012's pressure mirroring, here on a
+/// wall filled like the water, so both halves of the symmetric pair term are there).
+pub const MIRROR: Real = 2.0;
+
+/// The mirrored wall's held part in the pair (i, b), r = x_i − x_b: the hydrostatic
+/// difference p_b − p_i = ρ0 g·(x_b − x_i) (Adami et al. 2012, Eq. 27, pair by pair) as a
+/// stiffness, bounded below by −μ k_i of the last step, so that a wall above the water (a
+/// block's underside at the surface) never pulls it.
+#[inline]
+fn hydrostatic(g: &Vector, r: &Vector, rho0: Real, k_last: Real) -> Real {
+    (-g.dot(r) / rho0).max(-MIRROR * k_last)
+}
+
 /// Mean compression after the density solve beyond which the step is reported as absurd.
 pub const ABSURD_DENSITY_ERROR: Real = 0.10;
 
@@ -357,6 +406,21 @@ pub struct Dfsph {
     /// Whether free blocks move inside the solves (`blocks_in_solve`).
     #[serde(default)]
     blocks_in_solve: bool,
+    /// Whether the walls mirror the fluid's stiffness (`wall_pressure = "mirrored"`; a checkpoint
+    /// written before the option resumes as it ran, extrapolated).
+    #[serde(default)]
+    mirrored: bool,
+    /// B_i = m Σ_b ∇W_ib, the boundary's part of G_i.
+    #[serde(skip)]
+    wall_grad: Vec<Vector>,
+    /// k̄_i, the Shepard mean of the current stiffness increment over particle i and its fluid
+    /// neighbours, for the particles next to a wall ([`Dfsph::smooth`]).
+    #[serde(skip)]
+    kbar: Vec<Real>,
+    /// k_ρ + k_v of the last step, per particle (the mirrored walls' bound on their
+    /// hydrostatic term).
+    #[serde(skip)]
+    k_last: Vec<Real>,
     /// Each moving block's velocity change (Δv, Δω) so far in this step (loads order).
     #[serde(skip)]
     motion: Vec<(Vector, Vector)>,
@@ -422,6 +486,8 @@ impl Dfsph {
         let n = sys.len();
         self.beta.resize(n, 0.0);
         self.grad.resize(n, Vector::zeros());
+        self.wall_grad.resize(n, Vector::zeros());
+        self.kbar.resize(n, 0.0);
         self.wall_flux.resize(n, 0.0);
         self.deficient.resize(n, false);
         self.error.resize(n, 0.0);
@@ -434,6 +500,7 @@ impl Dfsph {
         let w0 = kernel.value(0.0);
         let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
         let (deficient_below, surface_below) = (self.deficient_below, self.surface_below);
+        let mirror = self.mirror();
         let p = &mut sys.particles;
         let pos = &p.position;
         lists.fill_pairs(&mut self.pairs, |i, js, out| {
@@ -454,71 +521,83 @@ impl Dfsph {
         p.density
             .par_iter_mut()
             .zip(self.beta.par_iter_mut())
-            .zip(self.grad.par_iter_mut())
+            .zip(self.grad.par_iter_mut().zip(self.wall_grad.par_iter_mut()))
             .zip(
                 self.wall_flux
                     .par_iter_mut()
                     .zip(self.deficient.par_iter_mut()),
             )
             .enumerate()
-            .for_each(|(i, (((rho, beta), grad), (flux, deficient)))| {
-                let xi = pos[i];
-                let mut sum_w = w0;
-                let mut gs = Vector::zeros();
-                let mut sq = 0.0;
-                let mut fl = 0.0;
-                let mut count = 0;
-                for o in lists.with_values(pairs, i).1 {
-                    // W > 0 exactly inside the support (Wendland's (1 − q/2)⁴ > 0 for q < 2).
-                    if o[3] > 0.0 {
-                        count += 1;
-                        sum_w += o[3] as Real;
-                        let g = gradient(o);
-                        gs += g;
-                        sq += g.norm_squared();
+            .for_each(
+                |(i, (((rho, beta), (grad, wall_grad)), (flux, deficient)))| {
+                    let xi = pos[i];
+                    let mut sum_w = w0;
+                    let mut bs = Vector::zeros();
+                    let mut gs = Vector::zeros();
+                    let mut sq = 0.0;
+                    let mut fl = 0.0;
+                    let mut count = 0;
+                    for o in lists.with_values(pairs, i).1 {
+                        // W > 0 exactly inside the support (Wendland's (1 − q/2)⁴ > 0 for q < 2).
+                        if o[3] > 0.0 {
+                            count += 1;
+                            sum_w += o[3] as Real;
+                            let g = gradient(o);
+                            gs += g;
+                            sq += g.norm_squared();
+                        }
                     }
-                }
-                boundary.for_each_neighbor(i, |b| {
-                    let rib = xi - b.position();
-                    let r2 = rib.norm_squared();
-                    if r2 < s2 {
-                        count += 1;
-                        let r = r2.sqrt();
-                        sum_w += kernel.value(r);
-                        let g = rib * kernel.gradient_factor(r);
-                        gs += g;
-                        fl += b.velocity().dot(&g);
-                    }
-                });
-                *deficient = count < deficient_below;
-                // `*rho` still holds the last step's prediction ρ* (the continued density).
-                *rho = if count < surface_below {
-                    (m * sum_w).max(*rho)
-                } else {
-                    m * sum_w
-                };
-                *grad = gs * m;
-                // The DFSPH factor α_i, divided by ρ_i for this scheme's variable k = κ/ρ (module doc).
-                let denom = grad.norm_squared() + m * m * sq;
-                *beta = if denom > 1e-9 * (m * m * sq).max(Real::MIN_POSITIVE) {
-                    1.0 / denom
-                } else {
-                    0.0
-                };
-                *flux = m * fl;
-            });
+                    boundary.for_each_neighbor(i, |b| {
+                        let rib = xi - b.position();
+                        let r2 = rib.norm_squared();
+                        if r2 < s2 {
+                            count += 1;
+                            let r = r2.sqrt();
+                            sum_w += kernel.value(r);
+                            let g = rib * kernel.gradient_factor(r);
+                            gs += g;
+                            bs += g;
+                            fl += b.velocity().dot(&g);
+                        }
+                    });
+                    *deficient = count < deficient_below;
+                    // `*rho` still holds the last step's prediction ρ* (the continued density).
+                    *rho = if count < surface_below {
+                        (m * sum_w).max(*rho)
+                    } else {
+                        m * sum_w
+                    };
+                    *grad = gs * m;
+                    *wall_grad = bs * m;
+                    // The DFSPH factor α_i, divided by ρ_i for this scheme's variable k = κ/ρ
+                    // (module doc). With mirrored walls it counts their k̄_i as k_i, what it is for
+                    // an increment shared by the particle's neighbourhood (module doc, "Pressure acceleration").
+                    let own = *grad + *wall_grad * mirror;
+                    let denom = grad.dot(&own).max(0.0) + m * m * sq;
+                    *beta = if denom > 1e-9 * (m * m * sq).max(Real::MIN_POSITIVE) {
+                        1.0 / denom
+                    } else {
+                        0.0
+                    };
+                    *flux = m * fl;
+                },
+            );
     }
 
-    /// v_i −= dt (dk_i G_i + m Σ_f dk_j ∇W_ij): the pressure velocity change of stiffness
-    /// increments `dk` (the velocity updates of 2017 Algorithms 2 and 3; the one-sided boundary
-    /// part is in G_i).
+    /// v_i −= dt (dk_i G_i + dk̄_i B_i + m Σ_f dk_j ∇W_ij): the pressure velocity change of
+    /// stiffness increments `dk` (the velocity updates of 2017 Algorithms 2 and 3; the
+    /// mirrored walls' k̄_i from [`Self::smooth`]).
     fn apply(&self, sys: &mut FluidSystem, dk: &[Real], dt: Real) {
         let m = sys.mass;
         let (lists, pairs) = (&sys.fluid_lists, &self.pairs);
         let p = &mut sys.particles;
-        let grad = &self.grad;
+        let (grad, wall_grad, kbar) = (&self.grad, &self.wall_grad, &self.kbar);
+        let mirrored = self.mirrored;
         p.velocity.par_iter_mut().enumerate().for_each(|(i, v)| {
             let mut acc = grad[i] * dk[i];
+            if mirrored {
+                acc += wall_grad[i] * kbar[i];
+            }
             let mut sum = Vector::zeros();
             let (js, gs) = lists.with_values(pairs, i);
             for (&j, o) in js.iter().zip(gs) {
@@ -527,6 +606,36 @@ impl Dfsph {
             acc += sum * m;
             *v -= acc * dt;
         });
+    }
+
+    /// k̄_i = (W_0 dk_i + Σ_f W_ij dk_j) / (W_0 + Σ_f W_ij): the stiffness increment the
+    /// mirrored walls give the pairs of a particle next to them, the Shepard mean over its
+    /// neighbourhood (module doc, "Pressure acceleration").
+    fn smooth(&mut self, sys: &FluidSystem, dk: &[Real]) {
+        if !self.mirrored {
+            return;
+        }
+        let (lists, pairs, wall_grad) = (&sys.fluid_lists, &self.pairs, &self.wall_grad);
+        let w0 = self.kernel.value(0.0);
+        self.kbar.par_iter_mut().enumerate().for_each(|(i, kb)| {
+            if wall_grad[i] == Vector::zeros() {
+                *kb = 0.0;
+                return;
+            }
+            let (mut sw, mut sk) = (w0, w0 * dk[i]);
+            let (js, gs) = lists.with_values(pairs, i);
+            for (&j, o) in js.iter().zip(gs) {
+                let w = o[3] as Real;
+                sw += w;
+                sk += w * dk[j as usize];
+            }
+            *kb = sk / sw;
+        });
+    }
+
+    /// 1 with mirrored walls (their pairs' second stiffness is solved for), else 0.
+    fn mirror(&self) -> Real {
+        if self.mirrored { 1.0 } else { 0.0 }
     }
 
     /// Whether this step moves blocks inside its solves: asked for, a free block exists, and
@@ -557,13 +666,13 @@ impl Dfsph {
         sys: &mut FluidSystem,
         dt: Real,
         explicit: bool,
-        k: impl Fn(usize, Real, Real) -> Real + Sync,
+        k: impl Fn(usize, Real, Real, &Vector) -> Real + Sync,
     ) -> Real {
         let (m, kernel) = (sys.mass, &self.kernel);
         sys.boundary.react(
             &sys.particles.position,
             kernel.support(),
-            |i, pw, rw, r, len| r * (-m * m * k(i, pw, rw) * kernel.gradient_factor(len)),
+            |i, pw, rw, r, len| r * (-m * m * k(i, pw, rw, r) * kernel.gradient_factor(len)),
         );
         let g = sys.gravity.norm().max(Real::MIN_POSITIVE);
         let Some(bodies) = sys.boundary.bodies_mut() else {
@@ -625,6 +734,8 @@ impl Dfsph {
         let s2 = kernel.support().powi(2);
         let (pos, beta, rigid) = (&sys.particles.position, &self.beta, &bodies.rigid);
         let owner = &bodies.owner_sorted;
+        // A coherent increment pushes a block through both halves of a mirrored pair.
+        let mu = 1.0 + self.mirror();
         self.near.par_iter_mut().enumerate().for_each(|(i, near)| {
             let xi = pos[i];
             let (mut first, mut a, mut c) = (u32::MAX, Vector::zeros(), Vector::zeros());
@@ -647,7 +758,8 @@ impl Dfsph {
             } else {
                 let r = &rigid[first as usize];
                 let (a, c) = (a * m, c * m);
-                let s = m
+                let s = mu
+                    * m
                     * beta[i]
                     * (r.inverse_mass * a.norm_squared() + c.dot(&(r.inverse_inertia * c)));
                 (first, s)
@@ -764,6 +876,7 @@ impl Dfsph {
         let mut change = Real::INFINITY;
         // Warm start (both papers): a fraction of the last step's stiffness where compressed.
         let blocks = self.moves_blocks(sys);
+        let mu = self.mirror();
         self.predict(sys, dt, density);
         let mut dk = std::mem::take(&mut self.dk);
         dk.par_iter_mut()
@@ -778,9 +891,12 @@ impl Dfsph {
                 *d = *k;
             });
         if dk.par_iter().any(|&d| d != 0.0) {
+            self.smooth(sys, &dk);
             self.apply(sys, &dk, dt);
             if blocks {
-                self.move_blocks(sys, dt, false, |i, _, _| dk[i]);
+                let kbar = std::mem::take(&mut self.kbar);
+                self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + mu * kbar[i]);
+                self.kbar = kbar;
             }
         }
         let mut err = self.predict(sys, dt, density);
@@ -814,9 +930,12 @@ impl Dfsph {
                     .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
                 change = if total > 0.0 { moved / total } else { 0.0 };
             }
+            self.smooth(sys, &dk);
             self.apply(sys, &dk, dt);
             if blocks {
-                block_left = self.move_blocks(sys, dt, false, |i, _, _| dk[i]);
+                let kbar = std::mem::take(&mut self.kbar);
+                block_left = self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + mu * kbar[i]);
+                self.kbar = kbar;
             }
             err = self.predict(sys, dt, density);
             it += 1;
@@ -826,10 +945,12 @@ impl Dfsph {
     }
 
     /// 2017 Algorithm 1, "non-pressure forces" and "predict velocities": v* = v + dt (g + F_Eq22/m) and XSPH viscosity
-    /// v*_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij over the fluid neighbours; with them the walls' own
-    /// (explicit) pressure, −dt Σ_b m (p_b/ρ_b²) ∇W_ib (module doc).
+    /// v*_i += ε Σ_j (m/ρ_j)(v_j − v_i) W_ij over the fluid neighbours; with them the walls'
+    /// held pressure, −dt Σ_b m k_b ∇W_ib with k_b the mirrored walls' H_ib or the extrapolated
+    /// walls' p_b/ρ_b² (module doc).
     fn non_pressure(&mut self, sys: &mut FluidSystem, dt: Real) {
         let (m, g, eps) = (sys.mass, sys.gravity, self.constants.viscosity);
+        let (mirrored, rho0, k_last) = (self.mirrored, self.rest_density, &self.k_last);
         let kernel = &self.kernel;
         let s2 = kernel.support().powi(2);
         let (lists, boundary, pairs) = (&sys.fluid_lists, &sys.boundary, &self.pairs);
@@ -855,9 +976,13 @@ impl Dfsph {
                     let rib = xi - b.position();
                     let r2 = rib.norm_squared();
                     if r2 < s2 {
-                        let rb = b.density();
-                        wall -= rib
-                            * (m * b.pressure() / (rb * rb) * kernel.gradient_factor(r2.sqrt()));
+                        let mk = if mirrored {
+                            m * hydrostatic(&g, &rib, rho0, k_last[i])
+                        } else {
+                            let rb = b.density();
+                            m * b.pressure() / (rb * rb)
+                        };
+                        wall -= rib * (mk * kernel.gradient_factor(r2.sqrt()));
                     }
                 });
                 // The non-pressure acceleration: what the step's force limit looks at.
@@ -941,6 +1066,10 @@ impl Scheme for Dfsph {
             pairs: PairValues::default(),
             stats: SolveStats::default(),
             blocks_in_solve: spec.blocks_in_solve.unwrap_or(BLOCKS_IN_SOLVE),
+            mirrored: spec.wall_pressure.as_deref().unwrap_or(WALL_PRESSURE[0]) == "mirrored",
+            wall_grad: Vec::new(),
+            kbar: Vec::new(),
+            k_last: Vec::new(),
             motion: Vec::new(),
             loads: Vec::new(),
             damping: Vec::new(),
@@ -971,12 +1100,23 @@ impl Scheme for Dfsph {
 
     fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError> {
         let c = self.constants;
-        // Algorithm 1's "update ρ and α" (rotated to the start): ρ_i and α_i at the current positions; the walls'
-        // pressure extrapolated from the last step's (Adami 2012, Eq. 27 at rest).
+        // Algorithm 1's "update ρ and α" (rotated to the start): ρ_i and α_i at the current
+        // positions; what the walls hold over the step (module doc): mirrored, the last
+        // step's stiffness that bounds H_ib; extrapolated, their pressure from the last step's
+        // (Adami 2012, Eq. 27 at rest).
         self.densities_and_factors(sys);
         let rho0 = self.rest_density;
-        sys.boundary
-            .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
+        if self.mirrored {
+            let p = &sys.particles;
+            self.k_last.resize(p.len(), 0.0);
+            self.k_last
+                .par_iter_mut()
+                .zip(p.density0.par_iter().zip(p.density_rate.par_iter()))
+                .for_each(|(k, (a, b))| *k = a + b);
+        } else {
+            sys.boundary
+                .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
+        }
         let blocks = self.moves_blocks(sys);
         self.motion.fill((Vector::zeros(), Vector::zeros()));
         self.loads.fill(BlockLoad::default());
@@ -990,9 +1130,18 @@ impl Scheme for Dfsph {
         // Non-pressure forces and predicted velocities.
         self.non_pressure(sys, dt);
         if blocks {
-            // The blocks' non-pressure part: the walls' own (explicit) pressure, Eq. 22 and
-            // the rest of their forces.
-            self.move_blocks(sys, dt, true, |_, pw, rw| pw / (rw * rw));
+            // The blocks' non-pressure part: the walls' held pressure, Eq. 22 and the rest of
+            // their forces.
+            if self.mirrored {
+                let (g, rho0) = (sys.gravity, self.rest_density);
+                let k_last = std::mem::take(&mut self.k_last);
+                self.move_blocks(sys, dt, true, |i, _, _, r| {
+                    hydrostatic(&g, r, rho0, k_last[i])
+                });
+                self.k_last = k_last;
+            } else {
+                self.move_blocks(sys, dt, true, |_, pw, rw, _| pw / (rw * rw));
+            }
         }
         // The constant-density solve (Algorithm 3) on v*.
         let kd = std::mem::take(&mut sys.particles.density0);
@@ -1053,15 +1202,24 @@ impl Scheme for Dfsph {
 
     fn react(&self, sys: &mut FluidSystem) {
         // The reverse of the pressure force the fluid takes from each moving boundary particle,
-        // m·(−m (k_i + p_b/ρ_b²) ∇W_ib) with k_i = k_ρ + k_v of the last step and p_b
-        // extrapolated at the new pose (module doc).
+        // m·(−m (k_i + k_b) ∇W_ib) with k_i = k_ρ + k_v of the last step and k_b the wall's
+        // at the new pose (module doc): mirrored, k_i + H_ib (k_i for k̄_i: summed over a
+        // block's pairs the two differ by the noise of single stiffnesses); extrapolated,
+        // p_b/ρ_b².
         let rho0 = self.rest_density;
-        sys.boundary
-            .update_moving(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
+        if !self.mirrored {
+            sys.boundary
+                .update_moving(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
+        }
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
         sys.boundary
             .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
-                let k = p.density0[i] + p.density_rate[i] + pw / (rw * rw);
+                let ki = p.density0[i] + p.density_rate[i];
+                let k = if self.mirrored {
+                    MIRROR * ki + hydrostatic(&sys.gravity, r, rho0, ki)
+                } else {
+                    ki + pw / (rw * rw)
+                };
                 r * (-m * m * k * kernel.gradient_factor(len))
             });
     }
@@ -1100,5 +1258,37 @@ impl Scheme for Dfsph {
             dt = dt.min((self.mass / self.penalty_stiffness).sqrt());
         }
         dt
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `[fluid.dfsph]` from TOML text, as the registry reads it.
+    fn params(text: &str) -> Result<DfsphParams, Vec<shared::scene::FieldError>> {
+        let mut tables = shared::scene::SolverTables::new();
+        tables.insert("dfsph".into(), toml::from_str(text).unwrap());
+        shared::registry::params::<DfsphParams>(&tables, "fluid", "dfsph")
+    }
+
+    /// `wall_pressure` takes "mirrored" (the default when unset) or "extrapolated"; anything
+    /// else is an error naming the field, the value and the fix.
+    #[test]
+    fn wall_pressure_is_mirrored_or_extrapolated_and_a_bad_value_is_named() {
+        assert_eq!(WALL_PRESSURE[0], "mirrored");
+        for ok in WALL_PRESSURE {
+            let p = params(&format!("wall_pressure = \"{ok}\"")).unwrap();
+            assert_eq!(p.wall_pressure.as_deref(), Some(ok));
+        }
+        assert_eq!(params("").unwrap().wall_pressure, None);
+        let errors = params("wall_pressure = \"mirror\"").unwrap_err();
+        let text = errors[0].to_string();
+        assert!(
+            text.contains("fluid.dfsph.wall_pressure")
+                && text.contains("\"mirror\"")
+                && text.contains("\"mirrored\" or \"extrapolated\""),
+            "{text}"
+        );
     }
 }

@@ -129,7 +129,7 @@ impl Watched {
         } else {
             (
                 "squeezes water that outweighs it against a wall",
-                "use WCSPH (DFSPH's blocks in its solve, its default, hold slow landings only; relaxed loads only move this limit)",
+                "DFSPH: blocks in its solve with wall_pressure = \"mirrored\" (its defaults); else WCSPH; relaxed loads only move this limit",
             )
         };
         (newer > SWING * weight && grew && reversals >= 2).then(|| {
