@@ -21,7 +21,7 @@
 //!   − Σ_b m (k_i + k_b) ∇W_ib, where the wall's k_b is (`[fluid.dfsph] wall_pressure`):
 //!   - "mirrored" (the default): k̄_i + H_ib. The wall mirrors the pressure of the water it
 //!     faces (Akinci et al. 2012's pressure mirroring), taken as the Shepard mean k̄_i of the
-//!     stiffness over particle i and its fluid neighbours ([`Dfsph::smooth`]), inside both
+//!     stiffness over particle i and its fluid neighbours ([`Dfsph::apply`]), inside both
 //!     solves, plus the hydrostatic difference H_ib = g·(x_b − x_i)/ρ0 between the wall point and
 //!     the particle (Adami et al. 2012, Eq. 27, pair by pair), held over the step. Nothing of
 //!     the last step's pressure is held, so a block closing on the floor through a film of water
@@ -414,7 +414,7 @@ pub struct Dfsph {
     #[serde(skip)]
     wall_grad: Vec<Vector>,
     /// k̄_i, the Shepard mean of the current stiffness increment over particle i and its fluid
-    /// neighbours, for the particles next to a wall ([`Dfsph::smooth`]).
+    /// neighbours, for the particles next to a wall ([`Dfsph::apply`]).
     #[serde(skip)]
     kbar: Vec<Real>,
     /// k_ρ + k_v of the last step, per particle (the mirrored walls' bound on their
@@ -586,51 +586,44 @@ impl Dfsph {
 
     /// v_i −= dt (dk_i G_i + dk̄_i B_i + m Σ_f dk_j ∇W_ij): the pressure velocity change of
     /// stiffness increments `dk` (the velocity updates of 2017 Algorithms 2 and 3; the
-    /// mirrored walls' k̄_i from [`Self::smooth`]).
-    fn apply(&self, sys: &mut FluidSystem, dk: &[Real], dt: Real) {
+    /// mirrored walls' k̄_i, left in `kbar` for the blocks' loads).
+    fn apply(&mut self, sys: &mut FluidSystem, dk: &[Real], dt: Real) {
         let m = sys.mass;
         let (lists, pairs) = (&sys.fluid_lists, &self.pairs);
         let p = &mut sys.particles;
-        let (grad, wall_grad, kbar) = (&self.grad, &self.wall_grad, &self.kbar);
+        let (grad, wall_grad) = (&self.grad, &self.wall_grad);
         let mirrored = self.mirrored;
-        p.velocity.par_iter_mut().enumerate().for_each(|(i, v)| {
-            let mut acc = grad[i] * dk[i];
-            if mirrored {
-                acc += wall_grad[i] * kbar[i];
-            }
-            let mut sum = Vector::zeros();
-            let (js, gs) = lists.with_values(pairs, i);
-            for (&j, o) in js.iter().zip(gs) {
-                sum += gradient(o) * dk[j as usize];
-            }
-            acc += sum * m;
-            *v -= acc * dt;
-        });
-    }
-
-    /// k̄_i = (W_0 dk_i + Σ_f W_ij dk_j) / (W_0 + Σ_f W_ij): the stiffness increment the
-    /// mirrored walls give the pairs of a particle next to them, the Shepard mean over its
-    /// neighbourhood (module doc, "Pressure acceleration").
-    fn smooth(&mut self, sys: &FluidSystem, dk: &[Real]) {
-        if !self.mirrored {
-            return;
-        }
-        let (lists, pairs, wall_grad) = (&sys.fluid_lists, &self.pairs, &self.wall_grad);
         let w0 = self.kernel.value(0.0);
-        self.kbar.par_iter_mut().enumerate().for_each(|(i, kb)| {
-            if wall_grad[i] == Vector::zeros() {
-                *kb = 0.0;
-                return;
-            }
-            let (mut sw, mut sk) = (w0, w0 * dk[i]);
-            let (js, gs) = lists.with_values(pairs, i);
-            for (&j, o) in js.iter().zip(gs) {
-                let w = o[3] as Real;
-                sw += w;
-                sk += w * dk[j as usize];
-            }
-            *kb = sk / sw;
-        });
+        p.velocity
+            .par_iter_mut()
+            .zip(self.kbar.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (v, kbar))| {
+                let mut acc = grad[i] * dk[i];
+                let mut sum = Vector::zeros();
+                let (js, gs) = lists.with_values(pairs, i);
+                if mirrored && wall_grad[i] != Vector::zeros() {
+                    // k̄_i = (W_0 dk_i + Σ_f W_ij dk_j) / (W_0 + Σ_f W_ij), the increment the
+                    // mirrored walls give this particle's pairs: the Shepard mean over its
+                    // neighbourhood (module doc, "Pressure acceleration"), from the same pairs.
+                    let (mut sw, mut sk) = (w0, w0 * dk[i]);
+                    for (&j, o) in js.iter().zip(gs) {
+                        let (dkj, w) = (dk[j as usize], o[3] as Real);
+                        sum += gradient(o) * dkj;
+                        sw += w;
+                        sk += w * dkj;
+                    }
+                    *kbar = sk / sw;
+                    acc += wall_grad[i] * *kbar;
+                } else {
+                    for (&j, o) in js.iter().zip(gs) {
+                        sum += gradient(o) * dk[j as usize];
+                    }
+                    *kbar = 0.0;
+                }
+                acc += sum * m;
+                *v -= acc * dt;
+            });
     }
 
     /// 1 with mirrored walls (their pairs' second stiffness is solved for), else 0.
@@ -891,7 +884,6 @@ impl Dfsph {
                 *d = *k;
             });
         if dk.par_iter().any(|&d| d != 0.0) {
-            self.smooth(sys, &dk);
             self.apply(sys, &dk, dt);
             if blocks {
                 let kbar = std::mem::take(&mut self.kbar);
@@ -930,7 +922,6 @@ impl Dfsph {
                     .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
                 change = if total > 0.0 { moved / total } else { 0.0 };
             }
-            self.smooth(sys, &dk);
             self.apply(sys, &dk, dt);
             if blocks {
                 let kbar = std::mem::take(&mut self.kbar);
