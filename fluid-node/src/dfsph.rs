@@ -200,8 +200,9 @@ pub struct DfsphParams {
     /// explicit partitioned coupling, with its added-mass limit).
     pub blocks_in_solve: Option<bool>,
     /// How the walls and blocks take part in the pressure: "mirrored" (default), each
-    /// boundary particle takes the stiffness of the fluid particle it faces inside the two
-    /// solves, with the hydrostatic difference between them held over the step; or
+    /// boundary particle takes the pressure around the fluid particle it faces (the Shepard
+    /// mean of its neighbourhood's) inside the two solves, with the hydrostatic difference
+    /// between them held over the step; or
     /// "extrapolated", Adami's extrapolation of the last step's pressure held over the step
     /// (module doc, "Pressure acceleration").
     pub wall_pressure: Option<String>,
@@ -316,9 +317,10 @@ pub const SURFACE_FRACTION: Real = 0.9;
 pub const BLOCK_TOLERANCE: Real = 0.05;
 /// The values of `[fluid.dfsph] wall_pressure`; the first is the default.
 pub const WALL_PRESSURE: [&str; 2] = ["mirrored", "extrapolated"];
-/// Weight of a fluid particle's own stiffness k_i in its pairs with the walls when they
-/// mirror it: k_i + k_b with k_b = k_i (Akinci et al. 2012's pressure mirroring, here on a
-/// wall filled like the water, so both halves of the symmetric pair term are there).
+/// Weight of a fluid particle's stiffness k_i in its pairs with mirrored walls, k_i + k_b with
+/// k_b ≈ k_i (Akinci et al. 2012's pressure mirroring, here on a wall filled like the water, so
+/// both halves of the symmetric pair term are there): the bound of [`hydrostatic`] and the
+/// lagged loads of [`Dfsph::react`], where k̄_i is not at hand.
 pub const MIRROR: Real = 2.0;
 
 /// The mirrored wall's held part in the pair (i, b), r = x_i − x_b: the hydrostatic
@@ -570,8 +572,9 @@ impl Dfsph {
                     *grad = gs * m;
                     *wall_grad = bs * m;
                     // The DFSPH factor α_i, divided by ρ_i for this scheme's variable k = κ/ρ
-                    // (module doc). With mirrored walls it counts their k̄_i as k_i, what it is for
-                    // an increment shared by the particle's neighbourhood (module doc, "Pressure acceleration").
+                    // (module doc). With mirrored walls it counts their k̄_i as k_i, what it
+                    // is for an increment the neighbourhood shares (module doc, "Pressure
+                    // acceleration").
                     let own = *grad + *wall_grad * mirror;
                     let denom = grad.dot(&own).max(0.0) + m * m * sq;
                     *beta = if denom > 1e-9 * (m * m * sq).max(Real::MIN_POSITIVE) {
@@ -869,7 +872,6 @@ impl Dfsph {
         let mut change = Real::INFINITY;
         // Warm start (both papers): a fraction of the last step's stiffness where compressed.
         let blocks = self.moves_blocks(sys);
-        let mu = self.mirror();
         self.predict(sys, dt, density);
         let mut dk = std::mem::take(&mut self.dk);
         dk.par_iter_mut()
@@ -887,7 +889,8 @@ impl Dfsph {
             self.apply(sys, &dk, dt);
             if blocks {
                 let kbar = std::mem::take(&mut self.kbar);
-                self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + mu * kbar[i]);
+                // The walls' k̄_i (zero unless mirrored) is the second half of each pair.
+                self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + kbar[i]);
                 self.kbar = kbar;
             }
         }
@@ -925,7 +928,7 @@ impl Dfsph {
             self.apply(sys, &dk, dt);
             if blocks {
                 let kbar = std::mem::take(&mut self.kbar);
-                block_left = self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + mu * kbar[i]);
+                block_left = self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + kbar[i]);
                 self.kbar = kbar;
             }
             err = self.predict(sys, dt, density);
