@@ -89,6 +89,8 @@ pub(crate) fn restore<S: serde::de::DeserializeOwned>(
     sys.sorted_at = r.sorted_at;
     sys.time = r.time;
     sys.steps = r.steps;
+    // Counted again from the positions: as the step the checkpoint followed ended.
+    sys.aloft = sys.count_aloft();
     *scheme = r.scheme;
     sys.run_dir = run_dir.to_path_buf();
     sys.recorder.resume(run_dir, r.recorder)?;

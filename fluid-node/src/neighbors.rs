@@ -5,7 +5,10 @@
 //!
 //! The grid covers the scene domain (plus one radius of padding), which never changes: particles
 //! outside the domain are an instability, so every particle has a cell, and the static grid of
-//! boundary particles is built once with the same geometry.
+//! boundary particles is built once with the same geometry. The one exception, water above an
+//! open top (`[domain] open_top`), is clamped into the top layer of cells: every particle closer
+//! than a radius to one up there is above the grid's top less one cell, so in that layer too, and
+//! the pair loops measure true distances.
 
 use crate::candidates::Candidates;
 use rayon::prelude::*;

@@ -54,12 +54,18 @@ impl<S: Scheme> Solver for Sph<S> {
 
     fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
         self.sys.begin_step();
-        let report = self.scheme.step(&mut self.sys, dt)?;
+        let mut report = self.scheme.step(&mut self.sys, dt)?;
         let (low, reference) = self.scheme.density_check();
         let (v, a) = self
             .sys
             .end_step(dt, self.scheme.kernel(), low, reference)?;
         self.dt_next = self.scheme.dt_proposal(v, a);
+        if let Some(w) = self.sys.take_warning() {
+            report.warning = Some(match report.warning {
+                Some(scheme) => format!("{scheme}; {w}"),
+                None => w,
+            });
+        }
         Ok(report)
     }
 

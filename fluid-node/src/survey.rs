@@ -15,8 +15,10 @@ pub struct Survey {
     pub a_max: Real,
     /// The first particle with a non-finite position, velocity or density.
     pub not_finite: Option<usize>,
-    /// The first particle outside the domain.
+    /// The first particle outside the domain (above an open top is not outside).
     pub outside: Option<usize>,
+    /// Particles above the domain's top (counted whether it is open or not).
+    pub aloft: usize,
     /// The first particle whose density ratio ρ/ρ_ref passes the bound (above it, or below its
     /// inverse when low densities count).
     pub density: Option<usize>,
@@ -27,6 +29,8 @@ pub struct Survey {
 /// The rules the pass applies.
 pub struct Rules {
     pub domain: (Vector, Vector),
+    /// Whether the domain's top is open air (`[domain] open_top`).
+    pub open_top: bool,
     /// Density ratio bound, the reference density, and whether a low density is a violation.
     pub density_bound: Real,
     pub reference_density: Real,
@@ -43,6 +47,7 @@ impl Survey {
         a_max: 0.0,
         not_finite: None,
         outside: None,
+        aloft: 0,
         density: None,
         moved: false,
     };
@@ -58,6 +63,7 @@ impl Survey {
             a_max: a.a_max.max(b.a_max),
             not_finite: first(a.not_finite, b.not_finite),
             outside: first(a.outside, b.outside),
+            aloft: a.aloft + b.aloft,
             density: first(a.density, b.density),
             moved: a.moved || b.moved,
         }
@@ -130,9 +136,15 @@ impl State<'_> {
         {
             note(&mut s.not_finite);
         }
-        if (0..3).any(|k| x[k] < lo[k] || x[k] > hi[k]) {
+        let above = x[2] > hi[2];
+        if (0..3).any(|k| x[k] < lo[k])
+            || x[0] > hi[0]
+            || x[1] > hi[1]
+            || (above && !rules.open_top)
+        {
             note(&mut s.outside);
         }
+        s.aloft += above as usize;
         let q = rho / rules.reference_density;
         if q > rules.density_bound || (rules.check_low_density && q < 1.0 / rules.density_bound) {
             note(&mut s.density);
@@ -162,16 +174,19 @@ impl State<'_> {
         let (lo, hi) = rules.domain;
         let (bound, low) = (rules.density_bound, rules.check_low_density);
         let (mut v2max, mut a2max, mut bad) = (0.0 as Real, 0.0 as Real, false);
+        let (open, mut aloft) = (rules.open_top, 0usize);
         for i in range.clone() {
             let (x, v, rho) = (&self.position[i], &self.velocity[i], self.density[i]);
             // Zero times the sum is zero unless some term is infinite or NaN.
             let finite = (x.x + x.y + x.z + v.x + v.y + v.z + rho) * 0.0 == 0.0;
+            let above = x.z > hi.z;
             let outside = (x.x < lo.x)
                 | (x.x > hi.x)
                 | (x.y < lo.y)
                 | (x.y > hi.y)
                 | (x.z < lo.z)
-                | (x.z > hi.z);
+                | (above & !open);
+            aloft += above as usize;
             let q = rho / rules.reference_density;
             let dense = (q > bound) | (low & (q < 1.0 / bound));
             bad |= !finite | outside | dense;
@@ -187,6 +202,7 @@ impl State<'_> {
         Some(Survey {
             v_max: v2max,
             a_max: a2max,
+            aloft,
             moved,
             ..Survey::EMPTY
         })
@@ -223,6 +239,7 @@ mod tests {
             .collect();
         let rules = |reach: Real, low: bool| Rules {
             domain: (Vector::repeat(-0.1), Vector::repeat(1.1)),
+            open_top: false,
             density_bound: 1.2,
             reference_density: 1000.0,
             check_low_density: low,
@@ -261,6 +278,24 @@ mod tests {
         let mut x = position.clone();
         x[4999].x = 1.2;
         assert_eq!(check(&x, &velocity, &density, &r).outside, Some(4999));
+        // Above the top: outside when it is closed, counted aloft either way; an open top
+        // still closes the sides and the floor.
+        let mut x = position.clone();
+        x[100].z = 1.5;
+        x[4000].z = 7.0;
+        let closed = check(&x, &velocity, &density, &r);
+        assert_eq!((closed.outside, closed.aloft), (Some(100), 2));
+        let open = Rules {
+            open_top: true,
+            ..rules(1e-3, true)
+        };
+        let aloft = check(&x, &velocity, &density, &open);
+        assert_eq!((aloft.outside, aloft.aloft), (None, 2));
+        x[4500].x = -0.2;
+        assert_eq!(check(&x, &velocity, &density, &open).outside, Some(4500));
+        x[4500].x = 0.5;
+        x[4600].z = -0.2;
+        assert_eq!(check(&x, &velocity, &density, &open).outside, Some(4600));
         let mut rho = density.clone();
         rho[2049] = 700.0;
         rho[2100] = 1300.0;

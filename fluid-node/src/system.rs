@@ -108,6 +108,12 @@ pub struct FluidSystem {
     pub gravity: Vector,
     pub density_bound: Real,
     domain: (Vector, Vector),
+    /// `[domain] open_top`: water above the top flies on (see [`Self::end_step`]).
+    open_top: bool,
+    /// Particles above the domain's top at the end of the last step.
+    aloft: usize,
+    /// A warning of the last step for the step's report ([`Self::take_warning`]).
+    warning: Option<String>,
     run_dir: PathBuf,
     /// Encoding of the particle frames (`output.vtk_format`).
     vtk_format: VtkFormat,
@@ -307,6 +313,9 @@ impl FluidSystem {
             gravity: init.gravity,
             density_bound: fluid.density_ratio_bound,
             domain: (lo, hi),
+            open_top: scene.domain.open_top,
+            aloft: 0,
+            warning: None,
             run_dir: ctx.run_dir.to_path_buf(),
             vtk_format: scene.output.vtk_format,
             time: 0.0,
@@ -460,6 +469,7 @@ impl FluidSystem {
             &self.sorted_at,
             &Rules {
                 domain: self.domain,
+                open_top: self.open_top,
                 density_bound: self.density_bound,
                 reference_density,
                 check_low_density,
@@ -479,6 +489,21 @@ impl FluidSystem {
         if let Some(i) = survey.outside {
             return Err(self.outside_domain(i));
         }
+        // Water above an open top is a splash's spray: it stays SPH water (the grid keeps it in
+        // its top layer of cells, where the pair loops measure true distances), meets no wall
+        // (validation refuses blocks and terrain above an open top), and falls back. Said when
+        // water rises there after none was.
+        if survey.aloft > 0 && self.aloft == 0 {
+            self.warning = Some(format!(
+                "{}: {} particle(s) ({:.3} % of the water) thrown above the open domain top z = {} m at t = {:.4} s: spray that meets no wall up there until it falls back",
+                self.solver,
+                survey.aloft,
+                100.0 * survey.aloft as Real / p.len() as Real,
+                self.domain.1.z,
+                self.time
+            ));
+        }
+        self.aloft = survey.aloft;
         if let Some(i) = survey.density {
             let (q, b) = (p.density[i] / reference_density, self.density_bound);
             let (what, bound) = if q > b {
@@ -506,6 +531,21 @@ impl FluidSystem {
         };
         self.recorder.sample(self.time, &view)?;
         Ok((survey.v_max, survey.a_max))
+    }
+
+    /// The last step's warning, if any (taken: said once).
+    pub fn take_warning(&mut self) -> Option<String> {
+        self.warning.take()
+    }
+
+    /// Particles above the domain's top now.
+    pub fn count_aloft(&self) -> usize {
+        let top = self.domain.1.z;
+        self.particles
+            .position
+            .par_iter()
+            .filter(|x| x.z > top)
+            .count()
     }
 
     /// The instability a particle outside the domain is (checked at set-up too).

@@ -269,6 +269,7 @@ mod tests {
             &DomainSpec {
                 min: [0.0; 3],
                 max: [1.0; 3],
+                open_top: false,
             },
         )
         .unwrap()

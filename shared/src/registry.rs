@@ -67,7 +67,9 @@ pub fn params<P: SolverParams>(
                 &[role, name],
                 "{…}".into(),
                 e.message().trim(),
-                &format!("see the fields of [{role}.{name}] in `{role}-node --list` or docs/ARCHITECTURE.md"),
+                &format!(
+                    "see the fields of [{role}.{name}]: the doc comments of its parameter type in {role}-node/src/{name}.rs"
+                ),
             )]
         })?,
     };

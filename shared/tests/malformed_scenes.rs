@@ -542,6 +542,12 @@ fn cases() -> Vec<Case> {
             "1.55",
         ),
         case(
+            "fixed block above an open top",
+            edit("max = [5.2, 1.0, 1.6] }", "max = [5.2, 1.0, 1.8] }"),
+            "block[1].shape",
+            "max = [5.2, 1.0, 1.8]",
+        ),
+        case(
             "gauge outside the domain",
             edit("\nx = 1.5\n", "\nx = 15.0\n"),
             "gauge[0].x",

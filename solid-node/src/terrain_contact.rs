@@ -421,6 +421,7 @@ mod tests {
         let domain = DomainSpec {
             min: [-2.0, -2.0, -2.0],
             max: [2.0, 2.0, 2.0],
+            open_top: false,
         };
         TerrainBody::new(Terrain::load(&spec, &domain).unwrap())
     }

@@ -110,7 +110,7 @@ pub fn run(
 }
 
 /// A slab tank: floor, end walls at x = 0 and x = length, free-slip side walls at y = 0 and y = width.
-pub(crate) fn tank(length: f64, width: f64, height: f64, t: f64) -> String {
+pub fn tank(length: f64, width: f64, height: f64, t: f64) -> String {
     let blk = |name: &str, min: [f64; 3], max: [f64; 3]| {
         format!(
             "[[block]]\nname = \"{name}\"\nkind = \"fixed\"\nshape = {{ type = \"box\", min = {min:?}, max = {max:?} }}\n\n"
@@ -127,7 +127,7 @@ pub(crate) fn tank(length: f64, width: f64, height: f64, t: f64) -> String {
     .concat()
 }
 
-pub(crate) fn fluid_table(solver: &str, dx: f64, walls: Option<Walls>) -> String {
+pub fn fluid_table(solver: &str, dx: f64, walls: Option<Walls>) -> String {
     let walls = walls
         .map(|w| format!("walls = \"{}\"\n", w.as_str()))
         .unwrap_or_default();

@@ -96,6 +96,15 @@ fn default_dt_min() -> f64 {
 pub struct DomainSpec {
     pub min: [f64; 3],
     pub max: [f64; 3],
+    /// Whether the top face is open air: water thrown above `max[2]` (a splash's spray) flies
+    /// on as SPH water and falls back, instead of stopping the run as a particle leaving the
+    /// domain. Up there the spray meets only itself: the walls' boundary particles end at the
+    /// top, and a fixed block or terrain reaching above it is refused (the spray would pass
+    /// through it). The sides and the floor stay closed. The step that first lifts water above
+    /// the top, after none was, carries a warning with the count. Off by default: a particle
+    /// above a closed top is an instability, named.
+    #[serde(default)]
+    pub open_top: bool,
 }
 
 /// `[fluid]`: the water and the SPH solver settings.

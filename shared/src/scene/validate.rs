@@ -185,6 +185,22 @@ impl Checker {
                     );
                 }
             }
+            Ok(p) if domain.open_top => {
+                // Above an open top the water meets no wall (boundary particles end there): a
+                // fixed block reaching higher would let the spray pass through it.
+                let top = p.world_aabb().1[2];
+                if top > domain.max[2] {
+                    c.fail(
+                        "",
+                        shape_summary(shape),
+                        &format!(
+                            "reaches z = {top} m, above the open domain top (max[2] = {} m), where the spray would pass through it",
+                            domain.max[2]
+                        ),
+                        "raise [domain] max[2] to the block's top, or cut the block at the top",
+                    );
+                }
+            }
             Ok(_) => {}
         });
     }

@@ -188,6 +188,7 @@ mod tests {
         let domain = crate::scene::DomainSpec {
             min: [1005.0, 2005.0, -10.0],
             max: [1035.0, 2025.0, 10.0],
+            open_top: false,
         };
         let load = |p: &Path| {
             let spec = toml::from_str(&format!("file = {:?}", p.display().to_string())).unwrap();

@@ -435,6 +435,19 @@ fn check_bounds(vertices: &[[Real; 3]], domain: &DomainSpec) -> Result<(), Terra
             "check offset, scale (the file's units: metres?) and rotation, or move [domain] over the terrain",
         ));
     }
+    // Above an open top the water meets no wall (boundary particles end at the top): ground
+    // rising higher would let the spray pass through it.
+    if domain.open_top && hi[2] > domain.max[2] {
+        return Err(fail(
+            "offset",
+            format!("terrain top z = {} m", hi[2]),
+            format!(
+                "rises above the open domain top (max[2] = {} m), where the spray would pass through it",
+                domain.max[2]
+            ),
+            "raise [domain] max[2] over the terrain's highest point, or crop the terrain below the top",
+        ));
+    }
     Ok(())
 }
 

@@ -15,7 +15,11 @@ fn spec(file: &Path) -> TerrainSpec {
 }
 
 fn domain(min: [f64; 3], max: [f64; 3]) -> DomainSpec {
-    DomainSpec { min, max }
+    DomainSpec {
+        min,
+        max,
+        open_top: false,
+    }
 }
 
 /// The eight corners and twelve outward triangles of the box [lo, hi].
@@ -231,7 +235,7 @@ fn dem_holes_are_refused_or_filled_as_asked() {
 }
 
 #[test]
-fn a_terrain_outside_the_domain_is_refused() {
+fn a_terrain_outside_the_domain_or_above_an_open_top_is_refused() {
     let tmp = dir("outside");
     let d = tmp.path();
     let p = d.join("far.obj");
@@ -242,6 +246,17 @@ fn a_terrain_outside_the_domain_is_refused() {
         e.problem.contains("outside [domain]") && e.fix.contains("units"),
         "{e:?}"
     );
+    // A closed box reaching 0.5 m above an open top: the spray would pass through it.
+    let p = d.join("tall.obj");
+    write_obj(&p, &box_mesh([0.2, 0.2, 0.0], [0.4, 0.4, 1.5]));
+    let open = DomainSpec {
+        open_top: true,
+        ..domain([0.0; 3], [1.0; 3])
+    };
+    let e = Terrain::load(&spec(&p), &open).unwrap_err();
+    assert_eq!(e.field, "offset");
+    assert!(e.problem.contains("above the open domain top"), "{e:?}");
+    assert!(Terrain::load(&spec(&p), &domain([0.0; 3], [1.0; 3])).is_ok());
     let missing =
         Terrain::load(&spec(&d.join("none.stl")), &domain([0.0; 3], [1.0; 3])).unwrap_err();
     assert_eq!(missing.field, "file");

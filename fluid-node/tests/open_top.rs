@@ -1,0 +1,124 @@
+//! `[domain] open_top`: a jet thrown up from the middle of a tank whose walls, and the domain,
+//! end 10 cm above the water. Closed, the top stops the run, named; open, the jet flies on above
+//! it, is said once, and falls back into the tank when a ballistic column would.
+
+use fluid_node::dfsph::Dfsph;
+use fluid_node::scheme::Scheme;
+use fluid_node::sph::{Sph, SphSolver};
+use fluid_node::validation::*;
+use fluid_node::wcsph::Wcsph;
+use shared::scene::{Scene, Scheme as Coupling};
+use shared::solver::{SetupContext, SolverError};
+use shared::step::StepRule;
+
+/// Water 0.1 m deep in a 0.6 m square tank whose walls and domain end at z = 0.2 m
+/// (dx = 0.02 m).
+fn tank_scene(solver: &str, open_top: bool) -> Scene {
+    let (l, dx, top, end) = (0.6, 0.02, 0.2, 0.7);
+    let text = format!(
+        "name = \"jet\"\n[time]\nend = {end}\ndt_max = 1e-3\n[domain]\nmin = [0.0, 0.0, 0.0]\nmax = [{l}, {l}, {top}]\nopen_top = {open_top}\n\
+         [output]\ninterval = {end}\n{fluid}\n[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [{l}, {l}, 0.1] }}\n\n{tank}",
+        fluid = fluid_table(solver, dx, None),
+        tank = tank(l, l, top, 0.02),
+    );
+    Scene::parse(&text, "jet").expect("valid scene")
+}
+
+/// What a run of the tank with a jet did: the most particles above the top at once, the
+/// highest one, when the first flight ended (none above the top again), and the steps'
+/// warnings.
+struct Flight {
+    most: usize,
+    highest: f64,
+    landed: Option<f64>,
+    warnings: Vec<String>,
+}
+
+/// The tank's water within 6 cm of the middle thrown up at 2.5 m/s (a column rising 0.32 m, to
+/// 0.22 m above the top), run to the scene's end.
+fn jet<S: Scheme>(open_top: bool) -> Result<Flight, SolverError> {
+    let scene = tank_scene(S::NAME, open_top);
+    let top = scene.domain.max[2];
+    let dir = TempRunDir::new("open-top").unwrap();
+    let ctx = SetupContext {
+        scene: &scene,
+        run_dir: dir.path(),
+        scheme: Coupling::Parallel,
+        peer_present: false,
+    };
+    let mut s = Sph::<S>::new(&ctx)?;
+    let p = &mut s.sys.particles;
+    for ((x, v), v0) in p.position.iter().zip(&mut p.velocity).zip(&mut p.velocity0) {
+        if (x.x - 0.3).hypot(x.y - 0.3) < 0.06 {
+            v.z = 2.5;
+            *v0 = *v;
+        }
+    }
+    let rule = StepRule::new(scene.time.dt_max, scene.time.dt_min);
+    let (mut t, mut most, mut highest, mut warnings) = (0.0, 0, 0.0f64, Vec::new());
+    let mut landed = None;
+    while t < scene.time.end {
+        let (reached, report) = step(&mut s, &rule, t, scene.time.end, &mut [])?;
+        t = reached;
+        warnings.extend(report.warning);
+        let z = s.system().particles.position.iter().map(|x| x.z);
+        let aloft = z.clone().filter(|&z| z > top).count();
+        if aloft == 0 && most > 0 && landed.is_none() {
+            landed = Some(t);
+        }
+        most = most.max(aloft);
+        highest = z.fold(highest, f64::max);
+    }
+    Ok(Flight {
+        most,
+        highest,
+        landed,
+        warnings,
+    })
+}
+
+fn check<S: Scheme>() {
+    let solver = S::NAME;
+    let err = jet::<S>(false)
+        .err()
+        .expect("the jet leaves a closed top")
+        .to_string();
+    assert!(
+        err.contains("domain limit exceeded") && err.contains("left the domain"),
+        "{solver}: {err}"
+    );
+    let f = jet::<S>(true).unwrap();
+    eprintln!(
+        "{solver}: at most {} particles above the top, the highest at z = {:.3} m; all back under it at t = {:?} s; warnings {:?}",
+        f.most, f.highest, f.landed, f.warnings
+    );
+    // The jet rose well above the top (ballistically to 0.22 m above it).
+    assert!(
+        f.most > 50 && f.highest > 0.3,
+        "{solver}: the jet stayed low"
+    );
+    // Said once for each flight above the top (a drop that falls back and is thrown up again
+    // is a second flight), naming the top.
+    assert!(
+        !f.warnings.is_empty()
+            && f.warnings.len() <= 3
+            && f.warnings
+                .iter()
+                .all(|w| w.contains("above the open domain top z = 0.2 m")),
+        "{solver}: {:?}",
+        f.warnings
+    );
+    // Back in the tank about when a ballistic column would be (up and down from the top at
+    // 2.06 m/s: 0.42 s, plus its rise to the top, 0.04 s).
+    assert!(
+        f.landed.is_some_and(|t| (0.38..0.6).contains(&t)),
+        "{solver}: first flight ended at {:?} s",
+        f.landed
+    );
+}
+
+#[test]
+fn a_jet_above_an_open_top_falls_back_and_a_closed_top_stops_the_run() {
+    check::<Wcsph>();
+    check::<Dfsph>();
+}
