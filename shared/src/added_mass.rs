@@ -129,7 +129,7 @@ impl Watched {
         } else {
             (
                 "squeezes water that outweighs it against a wall",
-                "DFSPH: blocks in its solve with wall_pressure = \"mirrored\" (its defaults); else WCSPH; relaxed loads only move this limit",
+                "DFSPH's defaults (blocks in solve, mirrored walls) hold most landings, not all; WCSPH holds them; relaxing loads only moves it",
             )
         };
         (newer > SWING * weight && grew && reversals >= 2).then(|| {
