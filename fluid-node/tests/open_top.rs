@@ -8,7 +8,7 @@ use fluid_node::sph::{Sph, SphSolver};
 use fluid_node::validation::*;
 use fluid_node::wcsph::Wcsph;
 use shared::scene::{Scene, Scheme as Coupling};
-use shared::solver::{SetupContext, SolverError};
+use shared::solver::{SetupContext, Solver, SolverError};
 use shared::step::StepRule;
 
 /// Water 0.1 m deep in a 0.6 m square tank whose walls and domain end at z = 0.2 m
@@ -22,6 +22,16 @@ fn tank_scene(solver: &str, open_top: bool) -> Scene {
         tank = tank(l, l, top, 0.02),
     );
     Scene::parse(&text, "jet").expect("valid scene")
+}
+
+/// A solver alone (parallel scheme, no solid node) for `scene`, writing into `dir`.
+fn ctx<'a>(scene: &'a Scene, dir: &'a TempRunDir) -> SetupContext<'a> {
+    SetupContext {
+        scene,
+        run_dir: dir.path(),
+        scheme: Coupling::Parallel,
+        peer_present: false,
+    }
 }
 
 /// What a run of the tank with a jet did: the most particles above the top at once, the
@@ -40,20 +50,8 @@ fn jet<S: Scheme>(open_top: bool) -> Result<Flight, SolverError> {
     let scene = tank_scene(S::NAME, open_top);
     let top = scene.domain.max[2];
     let dir = TempRunDir::new("open-top").unwrap();
-    let ctx = SetupContext {
-        scene: &scene,
-        run_dir: dir.path(),
-        scheme: Coupling::Parallel,
-        peer_present: false,
-    };
-    let mut s = Sph::<S>::new(&ctx)?;
-    let p = &mut s.sys.particles;
-    for ((x, v), v0) in p.position.iter().zip(&mut p.velocity).zip(&mut p.velocity0) {
-        if (x.x - 0.3).hypot(x.y - 0.3) < 0.06 {
-            v.z = 2.5;
-            *v0 = *v;
-        }
-    }
+    let mut s = Sph::<S>::new(&ctx(&scene, &dir))?;
+    throw_jet(&mut s);
     let rule = StepRule::new(scene.time.dt_max, scene.time.dt_min);
     let (mut t, mut most, mut highest, mut warnings) = (0.0, 0, 0.0f64, Vec::new());
     let mut landed = None;
@@ -75,6 +73,17 @@ fn jet<S: Scheme>(open_top: bool) -> Result<Flight, SolverError> {
         landed,
         warnings,
     })
+}
+
+/// The tank's water within 6 cm of the middle given 2.5 m/s upwards.
+fn throw_jet<S: Scheme>(s: &mut Sph<S>) {
+    let p = &mut s.sys.particles;
+    for ((x, v), v0) in p.position.iter().zip(&mut p.velocity).zip(&mut p.velocity0) {
+        if (x.x - 0.3).hypot(x.y - 0.3) < 0.06 {
+            v.z = 2.5;
+            *v0 = *v;
+        }
+    }
 }
 
 fn check<S: Scheme>() {
@@ -121,4 +130,66 @@ fn check<S: Scheme>() {
 fn a_jet_above_an_open_top_falls_back_and_a_closed_top_stops_the_run() {
     check::<Wcsph>();
     check::<Dfsph>();
+}
+
+/// A checkpoint taken while the jet is above the top resumes as the run goes on: the same
+/// particles to the bit, and no second warning for the flight under way (the count above the
+/// top is taken again from the restored positions).
+#[test]
+fn a_resume_mid_flight_continues_exactly_and_warns_no_more() {
+    let scene = tank_scene("dfsph", true);
+    let top = scene.domain.max[2];
+    let (da, db, scratch) = (
+        TempRunDir::new("open-top-a").unwrap(),
+        TempRunDir::new("open-top-b").unwrap(),
+        TempRunDir::new("open-top-scratch").unwrap(),
+    );
+    let mut a = Sph::<Dfsph>::new(&ctx(&scene, &da)).unwrap();
+    throw_jet(&mut a);
+    let rule = StepRule::new(scene.time.dt_max, scene.time.dt_min);
+    let steps = |s: &mut Sph<Dfsph>, t: &mut f64, n: usize| -> Vec<String> {
+        let mut warnings = Vec::new();
+        for _ in 0..n {
+            let (reached, report) = step(s, &rule, *t, scene.time.end, &mut []).unwrap();
+            *t = reached;
+            warnings.extend(report.warning);
+        }
+        warnings
+    };
+    let mut t = 0.0;
+    while a.system().particles.position.iter().all(|x| x.z <= top) {
+        assert!(steps(&mut a, &mut t, 1).len() <= 1);
+    }
+    steps(&mut a, &mut t, 5);
+    let aloft = |s: &Sph<Dfsph>| {
+        s.system()
+            .particles
+            .position
+            .iter()
+            .filter(|x| x.z > top)
+            .count()
+    };
+    assert!(aloft(&a) > 0, "the jet is not above the top at t = {t} s");
+    let state = a.save_state().unwrap();
+    let mut b = Sph::<Dfsph>::new(&ctx(&scene, &scratch)).unwrap();
+    b.restore_state(&state, db.path()).unwrap();
+    let (mut ta, mut tb) = (t, t);
+    let (wa, wb) = (steps(&mut a, &mut ta, 20), steps(&mut b, &mut tb, 20));
+    assert!(
+        aloft(&a) > 0,
+        "the jet landed within the 20 steps: take fewer"
+    );
+    assert_eq!((wa.len(), wb.len()), (0, 0), "{wa:?} {wb:?}");
+    assert_eq!(ta.to_bits(), tb.to_bits());
+    let bits = |s: &Sph<Dfsph>| {
+        let p = &s.system().particles;
+        let v: Vec<u64> = p
+            .position
+            .iter()
+            .chain(&p.velocity)
+            .flat_map(|v| v.iter().map(|x| x.to_bits()))
+            .collect();
+        v
+    };
+    assert!(bits(&a) == bits(&b), "the resumed run's particles differ");
 }
