@@ -69,13 +69,18 @@ fn main() -> ExitCode {
             match loaded {
                 Ok(s) => {
                     println!(
-                        "scene '{}' is valid: {} blocks ({} moving), {} terrain(s), water: {}, gauges: {}",
+                        "scene '{}' is valid: {} blocks ({} moving), {} terrain(s), water: {}, gauges: {}, domain top: {}",
                         s.name,
                         s.blocks.len(),
                         s.moving_blocks().len(),
                         s.terrain.len(),
                         if s.has_fluid() { "yes" } else { "no" },
-                        s.gauges.len()
+                        s.gauges.len(),
+                        if s.domain.open_top {
+                            "open (spray may fly above it)"
+                        } else {
+                            "closed"
+                        }
                     );
                     match shared::terrain::Terrain::load_all(&s) {
                         Ok(terrain) => terrain.iter().for_each(|t| println!("{}", t.summary())),
