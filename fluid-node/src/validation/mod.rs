@@ -127,6 +127,7 @@ pub fn tank(length: f64, width: f64, height: f64, t: f64) -> String {
     .concat()
 }
 
+/// The `[fluid]` table of a generated scene: `solver`, `dx` and, if given, the walls.
 pub fn fluid_table(solver: &str, dx: f64, walls: Option<Walls>) -> String {
     let walls = walls
         .map(|w| format!("walls = \"{}\"\n", w.as_str()))
