@@ -384,6 +384,9 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     // Before anything of the run exists: a second coupler on a live run's id would stop that
     // run and remove its files.
     let _lock = crate::lock::RunLock::acquire(&run_id)?;
+    // A coupler killed by SIGKILL could not remove its lock file (its nodes remove the run's
+    // shared memory, not the lock): the next run sweeps such free locks, so they do not pile up.
+    crate::lock::remove_stale_locks();
     // The id is ours; files a killed run of the same id left behind would confuse the services.
     if !shared::transport::run_has_live_nodes(&run_id)
         && shared::transport::remove_run_files(&run_id) > 0

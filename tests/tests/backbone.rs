@@ -291,7 +291,28 @@ fn killed_coupler_takes_its_nodes_down_and_they_tidy_up() {
         "{:?}",
         leftovers(&id)
     );
+    // The killed coupler could not remove its run lock; the next run sweeps it (a lock held by
+    // a live coupler, its own included, is left alone).
+    let lock =
+        std::path::Path::new(shared::transport::SHM_ROOT).join(format!("rockwave.{id}.lock"));
+    let (next_id, next) = fresh("after-kill");
+    let o = run(coupler(
+        &next_id,
+        &next,
+        &[
+            scene("toy_hover.toml").to_str().unwrap(),
+            "--end",
+            "0.01",
+            "--fluid-cmd",
+            &toy_fluid("hover"),
+            "--solid-cmd",
+            &toy_solid(),
+        ],
+    ));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!lock.exists(), "{} outlived the next run", lock.display());
     std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_dir_all(&next).unwrap();
 }
 
 #[test]
