@@ -252,22 +252,28 @@ fn coupled_trial(scratch: &Scratch, method: &str, value: f64, config: &Config) -
     let r = coupled_sweep::floating(None, scratch, config);
     let stable = r.outcome.completed();
     let sinks = config.density.is_some_and(|rho| rho > 1000.0);
+    // A completed run that warned (a heavy block's landing burst, a solve short of its
+    // tolerance) says so in the map: stable is not the same as clean.
+    let warned = match (&r.outcome.last_warning, r.outcome.warnings) {
+        (Some(w), n) => format!("; {n} warning(s), the last: {w}"),
+        (None, _) => String::new(),
+    };
     let detail = if stable && sinks {
         let h = coupled_sweep::block_height(&coupled_sweep::floating_scene());
         match crate::runner::final_block(&r.outcome.dir, coupled_sweep::BLOCK, h) {
             Ok((bottom, v)) => format!(
-                "completed; sank: block bottom at z = {bottom:.4} m, speed {v:.3} m/s at t = {}",
+                "completed; sank: block bottom at z = {bottom:.4} m, speed {v:.3} m/s at t = {}{warned}",
                 config.end
             ),
-            Err(e) => format!("completed; {e}"),
+            Err(e) => format!("completed; {e}{warned}"),
         }
     } else if stable {
         match &r.draft {
             Ok((d, v)) => format!(
-                "completed; mean draft {d:.4} m (reference {:.4}), |vz| ≤ {v:.3} m/s",
+                "completed; mean draft {d:.4} m (reference {:.4}), |vz| ≤ {v:.3} m/s{warned}",
                 r.reference
             ),
-            Err(e) => format!("completed; {e}"),
+            Err(e) => format!("completed; {e}{warned}"),
         }
     } else {
         format!(

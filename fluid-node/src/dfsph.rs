@@ -89,15 +89,18 @@
 //!   416 Pa) and brings the particles' to 23 % for about a fifth more time per step; their time
 //!   means are hydrostatic either way. It stays off by default because a pressure solved
 //!   further also answers a block's motion more fully: in the default scene at 1 ms steps it
-//!   brought the wedge's landing at the toe into the added-mass instability below (t = 1.40 s),
-//!   where the same run without it completes. A block's load inherits the noise:
+//!   brought the wedge's landing at the toe into the added-mass instability below (t = 1.40 s,
+//!   before the watch told a heavy block's landing burst from growth), where the same run
+//!   without it completes. A block's load inherits the noise:
 //!   docs/VALIDATION.md.
 //! - With `blocks_in_solve = false`: an incompressible fluid answers a block's motion within
-//!   the same step, at any dt. A block closing on a wall through water (the sinking block
-//!   landing, the wedge reaching the toe of its slope) or a light block then meets the
-//!   added-mass instability of one-step-lagged partitioned coupling (Causin, Gerbeau & Nobile
-//!   2005), which no smaller step cures; the coupler's watch names it (`shared::added_mass`).
-//!   The default moves the blocks in the solve instead (below).
+//!   the same step, at any dt. A light block then meets the added-mass instability of
+//!   one-step-lagged partitioned coupling (Causin, Gerbeau & Nobile 2005), which no smaller
+//!   step cures, and the watch stops the run (`shared::added_mass`); a heavy block closing on
+//!   a wall through water (the sinking block landing, the wedge reaching the toe of its slope)
+//!   meets it while the squeezed film lasts: a burst of the loads, which the watch names as a
+//!   warning (the block's motion over it is unreliable) and stops only past 1 000 weights per
+//!   step. The default moves the blocks in the solve instead (below).
 //!
 //! Blocks in the solve (`blocks_in_solve`, default true; Gissler et al. 2019 couple rigid
 //! bodies into the pressure solve the same way, here with the body's dynamics left to the

@@ -348,11 +348,22 @@ fn added_mass_with_the_blocks_in_dfsphs_solve_is_warned_about() {
 fn sinks_and_rests(label: &str, extra: &[&str]) -> f64 {
     let (id, out) = fresh(label);
     let scene = validation_scene("sinking_block.toml");
+    sinks_and_rests_in(label, &id, &out, &scene, extra).0
+}
+
+/// [`sinks_and_rests`] of `scene`, run as `id` into `out`: also the run's log.
+fn sinks_and_rests_in(
+    label: &str,
+    id: &shared::transport::RunId,
+    out: &Path,
+    scene: &Path,
+    extra: &[&str],
+) -> (f64, String) {
     let mut args = vec![scene.to_str().unwrap(), "--end", "0.7"];
     args.extend(extra);
-    let o = run(coupler(&id, &out, &args));
+    let o = run(coupler(id, out, &args));
     assert!(o.status.success(), "{label}: run failed: {}", stderr(&o));
-    assert_eq!(summary(&out)["status"], "completed");
+    assert_eq!(summary(out)["status"], "completed");
     let (bh, b, cells) = csv(&out.join("blocks.csv"));
     let (z, vx, vz) = (col(&bh, "z"), col(&bh, "vx"), col(&bh, "vz"));
     let name = col(&bh, "block");
@@ -394,9 +405,9 @@ fn sinks_and_rests(label: &str, extra: &[&str]) -> f64 {
         late_vz < 0.05,
         "{label}: still bouncing: |vz| up to {late_vz} m/s"
     );
-    assert!(leftovers(&id).is_empty());
-    let _ = std::fs::remove_dir_all(&out);
-    landed
+    assert!(leftovers(id).is_empty());
+    let _ = std::fs::remove_dir_all(out);
+    (landed, stderr(&o))
 }
 
 /// The sinking block (ρ_b/ρ_w = 2.5) reaches the floor and stops there, under WCSPH and under
@@ -416,15 +427,18 @@ fn sinking_block_comes_to_rest_on_the_bottom() {
     );
 }
 
-/// Where DFSPH fails under explicit partitioned coupling: the sinking block (ρ_b/ρ_w = 2.5)
-/// landing through incompressible water with its velocity held over the fluid's step
-/// (`[fluid.dfsph] blocks_in_solve = false`). The water in the closing gap answers the block's
-/// motion within the same step, at any dt, so its added mass outweighs the block and the
-/// one-step-lagged loads oscillate and grow (Causin, Gerbeau & Nobile 2005). The run stops with
-/// the cause named, exit code 2, and what it wrote kept; WCSPH's finite sound speed keeps the
-/// same landing stable, and so does DFSPH with the block in the solve (the tests above).
+/// Where DFSPH's landing is rough under explicit partitioned coupling: the sinking block
+/// (ρ_b/ρ_w = 2.5) landing through incompressible water with its velocity held over the fluid's
+/// step (`[fluid.dfsph] blocks_in_solve = false`). The water in the closing gap answers the
+/// block's motion within the same step, so as the gap closes its added mass outweighs the
+/// block and the one-step-lagged loads burst (Causin, Gerbeau & Nobile 2005); once the block
+/// rests on the floor the film is gone and the burst decays (measured: up to 29 weights per
+/// step, then under 2). The run goes on with the burst named as a warning, and the block comes
+/// to rest on the floor as in the tests above (a burst past 1 000 weights would stop it: the
+/// watch's unit tests). WCSPH's finite sound speed lands the same block without a burst, and
+/// so does DFSPH with the block in the solve.
 #[test]
-fn sinking_block_under_dfsph_stops_with_the_added_mass_instability_named() {
+fn sinking_block_under_dfsph_with_lagged_loads_lands_through_a_named_burst() {
     let (id, out) = fresh("sinking-dfsph-lagged");
     let text = std::fs::read_to_string(validation_scene("sinking_block.toml")).unwrap();
     let scene = out.with_extension("toml");
@@ -433,29 +447,22 @@ fn sinking_block_under_dfsph_stops_with_the_added_mass_instability_named() {
         format!("{text}\n[fluid.dfsph]\nblocks_in_solve = false\n"),
     )
     .unwrap();
-    let args = [
-        scene.to_str().unwrap(),
-        "--fluid-solver",
-        "dfsph",
-        "--end",
-        "0.4",
-    ];
-    let o = run(coupler(&id, &out, &args));
-    let err = stderr(&o);
-    eprintln!("{err}");
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let (landed, err) = sinks_and_rests_in(
+        "sinking-dfsph-lagged",
+        &id,
+        &out,
+        &scene,
+        &["--fluid-solver", "dfsph"],
+    );
+    assert!(landed < 0.4, "reached the floor at t = {landed} s");
     assert!(
-        err.contains("added-mass instability of the partitioned coupling")
-            && err.contains("block 'block'"),
+        err.contains("solid node")
+            && err.contains("warning")
+            && err.contains("load on block 'block'")
+            && err.contains("bursts to")
+            && err.contains("unreliable"),
         "{err}"
     );
-    assert_eq!(summary(&out)["status"], "unstable");
-    // What was written up to the stop is kept: the block's rows reach the landing.
-    let (bh, rows, _) = csv(&out.join("blocks.csv"));
-    let last = rows.last().expect("rows")[col(&bh, "time")];
-    assert!(last > 0.2, "blocks.csv ends at t = {last} s");
-    assert!(leftovers(&id).is_empty());
-    let _ = std::fs::remove_dir_all(&out);
     let _ = std::fs::remove_file(&scene);
 }
 

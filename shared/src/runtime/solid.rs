@@ -22,7 +22,7 @@ use super::SolidFactory;
 use super::args::NodeArgs;
 use super::control::{self, Control, Fatal};
 use super::serve::{self, Side, StepFailure};
-use crate::added_mass::AddedMassMonitor;
+use crate::added_mass::{AddedMassMonitor, Verdict};
 use crate::geometry::Polyhedron;
 use crate::load_relaxation::LoadRelaxation;
 use crate::math::Vector;
@@ -195,7 +195,7 @@ impl FluidLink {
         control: &Control,
         solver: &mut dyn SolidSolver,
         tag: u64,
-    ) -> Result<(Duration, Option<String>), Fatal> {
+    ) -> Result<(Duration, Option<Verdict>), Fatal> {
         let mut read = Duration::ZERO;
         let mut added_mass = None;
         let watch = &mut self.added_mass;
@@ -293,15 +293,24 @@ impl Side for Solid {
         cmd: &Command,
     ) -> Result<(StepReport, Duration), StepFailure> {
         let mut compute = Duration::ZERO;
+        let mut burst = None;
         if let Fluid::Coupled(link) = &mut self.fluid {
             let (t, added_mass) = link.receive_loads(control, self.solver.as_mut(), cmd.step)?;
             compute += t;
-            if let Some(msg) = added_mass {
-                return Err(StepFailure::Solver(SolverError::Unstable(msg)));
+            match added_mass {
+                Some(Verdict::Unstable(msg)) => {
+                    return Err(StepFailure::Solver(SolverError::Unstable(msg)));
+                }
+                Some(Verdict::Burst(msg)) => burst = Some(msg),
+                None => {}
             }
         }
         let t = Instant::now();
-        let report = advance_substeps(self.solver.as_mut(), cmd.dt, self.substeps)?;
+        let mut report = advance_substeps(self.solver.as_mut(), cmd.dt, self.substeps)?;
+        // The solver's own warning, if any, is the more specific; a burst is otherwise named.
+        if report.warning.is_none() {
+            report.warning = burst;
+        }
         compute += t.elapsed();
         if let Fluid::Coupled(link) = &self.fluid {
             compute += link.send_geometry(
