@@ -238,6 +238,10 @@ pub struct Session {
     /// The next simulated time a checkpoint is due, and when the last one was written.
     next_checkpoint: Option<f64>,
     last_checkpoint: Instant,
+    /// The kinds of warning printed so far (the message without its numbers, per node): the
+    /// first of each kind is printed, whatever the count (not checkpointed: after a resume a
+    /// kind may be printed once more).
+    warned: std::collections::HashSet<String>,
 }
 
 impl Session {
@@ -276,6 +280,7 @@ impl Session {
             next_output: 0.0,
             next_checkpoint: None,
             last_checkpoint: Instant::now(),
+            warned: std::collections::HashSet::new(),
         })
     }
 
@@ -650,7 +655,11 @@ impl Session {
                                 s.time,
                                 s.message.as_str()
                             );
-                            if self.stats.warnings == 1 || self.stats.warnings.is_power_of_two() {
+                            // Repeats of a kind thin out (#1, 2, 4, 8, …); a new kind, such
+                            // as a block's landing burst among a solver's repeated warnings,
+                            // is always printed.
+                            let kind = warning_kind(&node, s.message.as_str());
+                            if self.warned.insert(kind) || self.stats.warnings.is_power_of_two() {
                                 eprintln!("coupler: {msg} (warning #{})", self.stats.warnings);
                             }
                             self.stats.last_warning = Some(msg);
@@ -944,4 +953,36 @@ impl Session {
 /// scene hash is taken of.
 pub fn scene_text(scene: &Scene) -> Result<String, RunError> {
     toml::to_string(scene).map_err(|e| RunError::Input(format!("cannot serialise the scene: {e}")))
+}
+
+/// What makes two warnings the same kind: the node and the message without its numbers.
+fn warning_kind(node: &str, message: &str) -> String {
+    let text: String = message.chars().filter(|c| !c.is_ascii_digit()).collect();
+    format!("{node}: {text}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::warning_kind;
+
+    #[test]
+    fn warnings_differing_only_in_their_numbers_are_one_kind() {
+        let solid = "solid node (explicit, pid 7)";
+        let burst = |w: u32| {
+            format!(
+                "the water's load on block 'rock' (ρ_b/ρ_w = 2.5000) bursts to {w} weights per step"
+            )
+        };
+        assert_eq!(
+            warning_kind(solid, &burst(47)),
+            warning_kind(solid, &burst(13))
+        );
+        let other =
+            "the water's load on block 'wedge' (ρ_b/ρ_w = 2.5000) bursts to 47 weights per step";
+        assert_ne!(warning_kind(solid, &burst(47)), warning_kind(solid, other));
+        let fluid = "fluid node (dfsph, pid 8)";
+        let solve = "dfsph: density solve did not converge: mean error 0.07 % after 100 iterations";
+        assert_ne!(warning_kind(fluid, solve), warning_kind(solid, &burst(47)));
+        assert_ne!(warning_kind(fluid, solve), warning_kind(solid, solve));
+    }
 }
