@@ -254,10 +254,12 @@ fn coupled_trial(scratch: &Scratch, method: &str, value: f64, config: &Config) -
     let sinks = config.density.is_some_and(|rho| rho > 1000.0);
     // A completed run that warned (a heavy block's landing burst, a solve short of its
     // tolerance) says so in the map: stable is not the same as clean.
-    let warned = match (&r.outcome.last_warning, r.outcome.warnings) {
-        (Some(w), n) => format!("; {n} warning(s), the last: {w}"),
-        (None, _) => String::new(),
-    };
+    let warned = r
+        .outcome
+        .last_warning
+        .as_ref()
+        .map(|w| format!("; {} warning(s), the last: {w}", r.outcome.warnings))
+        .unwrap_or_default();
     let detail = if stable && sinks {
         let h = coupled_sweep::block_height(&coupled_sweep::floating_scene());
         match crate::runner::final_block(&r.outcome.dir, coupled_sweep::BLOCK, h) {
