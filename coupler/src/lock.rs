@@ -10,6 +10,10 @@ use std::fs::File;
 use std::io::{Read, Seek, Write};
 use std::os::fd::AsRawFd;
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// How long a lock held by no live, named process is waited for before the id is refused.
+const BUSY_GRACE: Duration = Duration::from_secs(1);
 
 /// Held while a coupler uses a run id; dropping it frees the id.
 pub struct RunLock {
@@ -26,6 +30,7 @@ impl RunLock {
     /// Takes run `id` for this process, or says which live coupler has it.
     pub fn acquire(id: &RunId) -> Result<RunLock, String> {
         let path = Self::path(id);
+        let mut busy_since = None;
         loop {
             let mut file = std::fs::OpenOptions::new()
                 .read(true)
@@ -39,6 +44,16 @@ impl RunLock {
                 let mut holder = String::new();
                 let _ = file.read_to_string(&mut holder);
                 let holder = holder.trim();
+                // A holder that names no live process is a sweep testing the lock (it holds it
+                // for microseconds) or a coupler between taking it and writing its pid; ask
+                // again shortly rather than refuse a free id. A live holder is refused at once.
+                let live = holder
+                    .parse::<u32>()
+                    .is_ok_and(shared::transport::process_alive);
+                if !live && busy_since.get_or_insert_with(Instant::now).elapsed() < BUSY_GRACE {
+                    std::thread::sleep(Duration::from_millis(5));
+                    continue;
+                }
                 return Err(format!(
                     "run id {id} is in use by a live coupler{}; a second run with the same id would \
                      stop it and remove its files. Fix: choose another --run-id (or none, for a fresh \
@@ -69,8 +84,11 @@ impl RunLock {
     }
 }
 
-/// Removes the lock files of couplers that died without removing theirs (SIGKILL): a free lock
-/// is taken and dropped, which removes it; a held one is left alone. Returns how many went.
+/// Removes the lock files of couplers that died without removing theirs (SIGKILL): a lock whose
+/// file names a dead process is taken and dropped, which removes it. A file naming a live
+/// process, or a new one naming none (a coupler that has just made it and not yet written its
+/// pid), is not touched: taking it even for a moment would make that coupler's `acquire` wait.
+/// Returns how many went.
 pub fn remove_stale_locks() -> usize {
     let Ok(entries) = std::fs::read_dir(SHM_ROOT) else {
         return 0;
@@ -85,6 +103,18 @@ pub fn remove_stale_locks() -> usize {
         else {
             continue;
         };
+        let holder = std::fs::read_to_string(e.path()).unwrap_or_default();
+        let stale = match holder.trim().parse::<u32>() {
+            Ok(pid) => !shared::transport::process_alive(pid),
+            // Named nobody for a minute: its coupler died before writing its pid.
+            Err(_) => e
+                .metadata()
+                .and_then(|m| m.modified())
+                .is_ok_and(|t| t.elapsed().unwrap_or_default() > Duration::from_secs(60)),
+        };
+        if !stale {
+            continue;
+        }
         if RunLock::acquire(&id).is_ok() {
             removed += 1;
         }
@@ -97,5 +127,75 @@ impl Drop for RunLock {
         // Removed while still locked, so nobody can take the old file after us.
         let _ = std::fs::remove_file(&self.path);
         let _ = &self.file;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Takes run `id`'s lock as a sweep does: a file naming no process, locked for `held`.
+    fn held_by_a_sweep(id: &RunId, held: Duration) -> std::thread::JoinHandle<()> {
+        let file = File::create(RunLock::path(id)).unwrap();
+        // SAFETY: flock(2) on a descriptor we own.
+        assert_eq!(unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX) }, 0);
+        std::thread::spawn(move || {
+            std::thread::sleep(held);
+            drop(file);
+        })
+    }
+
+    /// CI saw a coupler refuse its own fresh id: another run's sweep held that lock for a moment.
+    #[test]
+    fn a_coupler_waits_out_a_sweep_holding_its_id() {
+        let id = RunId::fresh();
+        let sweep = held_by_a_sweep(&id, Duration::from_millis(50));
+        let lock = RunLock::acquire(&id).expect("an id held only by a sweep is taken");
+        sweep.join().unwrap();
+        drop(lock);
+        // A lock held longer than the grace by no live process is still refused, by name.
+        let id = RunId::fresh();
+        let sweep = held_by_a_sweep(&id, BUSY_GRACE + Duration::from_millis(500));
+        let err = RunLock::acquire(&id)
+            .err()
+            .expect("refused after the grace");
+        assert!(err.contains("in use by a live coupler"), "{err}");
+        sweep.join().unwrap();
+        let _ = std::fs::remove_file(RunLock::path(&id));
+    }
+
+    /// The sweep leaves alone a lock file that names nobody yet: its coupler is between making
+    /// the file and writing its pid.
+    #[test]
+    fn a_sweep_leaves_a_lock_file_being_made() {
+        let id = RunId::fresh();
+        File::create(RunLock::path(&id)).unwrap();
+        remove_stale_locks();
+        assert!(RunLock::path(&id).exists(), "a lock being made was swept");
+        std::fs::remove_file(RunLock::path(&id)).unwrap();
+    }
+
+    #[test]
+    fn a_dead_couplers_lock_is_swept_and_a_live_ones_is_kept() {
+        let (dead, live) = (RunId::fresh(), RunId::fresh());
+        // No process has pid 0x7fff_fff0 (above Linux's pid_max of 2^22).
+        std::fs::write(RunLock::path(&dead), "2147483632\n").unwrap();
+        let held = RunLock::acquire(&live).unwrap();
+        remove_stale_locks();
+        assert!(
+            !RunLock::path(&dead).exists(),
+            "the dead coupler's lock stays"
+        );
+        assert!(
+            RunLock::path(&live).exists(),
+            "a live coupler's lock was removed"
+        );
+        let err = RunLock::acquire(&live).err().expect("a held id is refused");
+        assert!(
+            err.contains(&format!("pid {}", std::process::id())),
+            "{err}"
+        );
+        drop(held);
+        assert!(!RunLock::path(&live).exists());
     }
 }
