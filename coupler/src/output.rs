@@ -284,6 +284,11 @@ pub struct Summary {
     /// level on a shore in the box).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub runup: BTreeMap<String, Option<crate::runup::RunUp>>,
+    /// For a piston wave maker (one kinematic block moving sinusoidally, paper Example 1):
+    /// the first harmonic at the gauges in front of it against linear theory
+    /// ([`crate::wave_maker`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wave_maker: Option<crate::wave_maker::WaveMakerSummary>,
 }
 
 impl Summary {
@@ -305,6 +310,8 @@ impl Summary {
         };
         let wall = stats.wall_seconds.max(1e-9);
         let runups = crate::runup::runups(&dir.path, scene);
+        let series = gauge_series(&dir.path.join("gauges.csv"));
+        let gauges = gauge_summaries(&series, scene);
         let mut compute_share = BTreeMap::new();
         if solvers.0.is_some() {
             compute_share.insert("fluid".into(), stats.fluid_compute_seconds / wall);
@@ -322,7 +329,8 @@ impl Summary {
             scheme,
             stats: stats.clone(),
             compute_share,
-            gauges: gauge_summaries(&dir.path.join("gauges.csv"), scene),
+            wave_maker: crate::wave_maker::summarise(scene, &series, &gauges),
+            gauges,
             fluid: std::fs::read_to_string(dir.path.join("fluid.json"))
                 .ok()
                 .and_then(|t| serde_json::from_str(&t).ok()),
@@ -361,36 +369,43 @@ fn mib(bytes: u64) -> f64 {
 /// CSV's 6 decimals).
 const DRY_TOLERANCE: f64 = 2e-6;
 
-fn gauge_summaries(path: &Path, scene: &Scene) -> BTreeMap<String, GaugeSummary> {
+/// Each column of `gauges.csv` as (time, value) pairs by its header name (finite values only).
+fn gauge_series(path: &Path) -> BTreeMap<String, Vec<(f64, f64)>> {
     let mut out = BTreeMap::new();
     let Some((header, rows)) = read_csv(path) else {
         return out;
     };
-    let column = |col: usize| -> Vec<(f64, f64)> {
-        rows.iter()
+    for (col, name) in header.iter().enumerate().skip(1) {
+        let series = rows
+            .iter()
             .filter_map(|r| Some((r.first()?.parse().ok()?, r.get(col)?.parse().ok()?)))
             .filter(|(t, v): &(f64, f64)| t.is_finite() && v.is_finite())
-            .collect()
-    };
+            .collect();
+        out.insert(name.clone(), series);
+    }
+    out
+}
+
+fn gauge_summaries(
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    scene: &Scene,
+) -> BTreeMap<String, GaugeSummary> {
+    let mut out = BTreeMap::new();
     // The terrain is part of the bed (read again: it is fixed, and the run has checked it).
     let terrain = shared::terrain::Terrain::load_all(scene).unwrap_or_default();
-    for (col, name) in header.iter().enumerate().skip(1) {
-        if name.ends_with("_spray") {
-            continue;
-        }
-        let Some(g) = scene.gauges.iter().find(|g| &g.name == name) else {
+    for g in &scene.gauges {
+        let Some(surface) = series.get(&g.name) else {
             continue;
         };
-        let spray = header
-            .iter()
-            .position(|h| *h == format!("{name}_spray"))
-            .map(column)
+        let spray = series
+            .get(&format!("{}_spray", g.name))
+            .map(Vec::as_slice)
             .unwrap_or_default();
         out.insert(
-            name.clone(),
+            g.name.clone(),
             summarise_gauge(
-                &column(col),
-                &spray,
+                surface,
+                spray,
                 shared::terrain::bed_elevation(scene, &terrain, g.x, g.y),
             ),
         );

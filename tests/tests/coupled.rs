@@ -163,3 +163,49 @@ fn sliding_wedge_makes_a_wave_that_travels_away() {
     std::fs::remove_dir_all(&dry).unwrap();
     std::fs::remove_file(&dry_scene).unwrap();
 }
+
+/// Paper Example 1's piston in a 40 m flume (scenes/validation/wave_flume.toml;
+/// docs/REFERENCES.md §3.6): the first harmonic at 5 and 10 m from it against Biesel's linear
+/// wave, H = 0.2875 m. DFSPH at the scene's dx = 0.1 m, to t = 14 s (the command table in
+/// docs/VALIDATION.md has WCSPH, finer runs and the 18 s record): measured 0.92 and 0.85 of
+/// linear theory; the wave loses height along the flume (docs/VALIDATION.md, "Example 1").
+#[test]
+fn piston_makes_biesels_wave_in_front_of_it() {
+    let (id, out) = fresh("flume");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/validation/wave_flume.toml");
+    let o = run(coupler(
+        &id,
+        &out,
+        &[
+            scene.to_str().unwrap(),
+            "--end",
+            "14",
+            "--fluid-solver",
+            "dfsph",
+            "--solid-substeps",
+            "20",
+            "--dt-max",
+            "0.01",
+        ],
+    ));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = summary(&out);
+    let w = &s["wave_maker"];
+    assert_eq!(w["piston"], "piston", "{s}");
+    let linear = w["linear"]["height"].as_f64().unwrap();
+    assert!(
+        (linear - 0.2875).abs() < 5e-4,
+        "Biesel's H for the scene: {linear}"
+    );
+    for (gauge, tolerance) in [("x5", 0.15), ("x10", 0.25)] {
+        let g = &w["gauges"][gauge];
+        let ratio = g["ratio_to_linear"].as_f64().unwrap_or(f64::NAN);
+        assert!(
+            (ratio - 1.0).abs() < tolerance,
+            "{gauge}: first harmonic {ratio:.3} of linear theory (tolerance {tolerance}): {g}"
+        );
+    }
+    // x20's wave arrives too late for a whole period by t = 14 s: left out, not guessed.
+    assert!(w["gauges"]["x20"].is_null(), "{w}");
+    std::fs::remove_dir_all(&out).unwrap();
+}
