@@ -39,8 +39,11 @@ pub struct Estimate {
     pub memory: f64,
     /// Steps to time.end at the estimated step.
     pub steps: f64,
-    /// Estimated step [s]: the CFL limit Δt = C h / c0 with C = 0.2, h = 1.3 dx and the default
-    /// speed of sound c0 = 10 sqrt(2 g H) for the water height H (Monaghan 1994), at most dt_max.
+    /// Estimated step [s], at most dt_max. A weakly compressible scheme (wcsph, muller): the CFL
+    /// limit Δt = C h / c0 with C = 0.2, h = 1.3 dx and the default speed of sound
+    /// c0 = 10 sqrt(2 g H) for the water height H (Monaghan 1994). DFSPH steps on the flow:
+    /// Δt = 0.4 dx / v with v the long-wave speed sqrt(g H), about the fastest water a wave
+    /// or a slide of that depth makes.
     pub dt: f64,
     /// Output frames: time.end / output.interval.
     pub frames: f64,
@@ -102,8 +105,13 @@ pub fn estimate(scene: &Scene) -> Option<Estimate> {
     let memory = BASE_BYTES + BYTES_PER_PARTICLE * (fluid_particles + boundary_particles);
     let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
     let height = (top - bottom).max(dx);
-    let c0 = 10.0 * (2.0 * g * height).sqrt().max(1e-6);
-    let dt = (0.2 * 1.3 * dx / c0).min(scene.time.dt_max);
+    let dt = if fluid.solver == "dfsph" {
+        0.4 * dx / (g * height).sqrt().max(1e-6)
+    } else {
+        let c0 = 10.0 * (2.0 * g * height).sqrt().max(1e-6);
+        0.2 * 1.3 * dx / c0
+    }
+    .min(scene.time.dt_max);
     let frames = scene.time.end / scene.output.interval;
     let disk = if scene.output.vtk {
         let per_particle = match scene.output.vtk_format {
@@ -251,5 +259,19 @@ mod tests {
         assert!(errs[0].fix.contains("dx >="), "{}", errs[0]);
         s.set_dx(1e-300);
         assert_eq!(check(&s, Some(8e9)).len(), 1);
+    }
+
+    /// Example 1 with DFSPH took 4 001 steps of its 10 ms limit (docs/PERFORMANCE.md); the
+    /// sound-speed estimate said 68 000.
+    #[test]
+    fn dfsph_steps_are_estimated_on_the_flow_not_the_sound_speed() {
+        let text = include_str!("../../scenes/wave_maker.toml");
+        let mut s = Scene::parse(text, "wave_maker").unwrap();
+        let e = estimate(&s).unwrap();
+        assert!((e.steps - 4_000.0).abs() < 1.0, "{e:?}");
+        s.fluid.as_mut().unwrap().solver = "wcsph".into();
+        let e = estimate(&s).unwrap();
+        // WCSPH took 69 280 steps of 0.58 ms.
+        assert!((60_000.0..80_000.0).contains(&e.steps), "{e:?}");
     }
 }
