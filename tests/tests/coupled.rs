@@ -166,9 +166,9 @@ fn sliding_wedge_makes_a_wave_that_travels_away() {
 
 /// Paper Example 1's piston in a 40 m flume (scenes/validation/wave_flume.toml;
 /// docs/REFERENCES.md §3.6): the first harmonic at 5 and 10 m from it against Biesel's linear
-/// wave, H = 0.2875 m. DFSPH at the scene's dx = 0.1 m, to t = 14 s (the command table in
-/// docs/VALIDATION.md has WCSPH, finer runs and the 18 s record): measured 0.92 and 0.85 of
-/// linear theory; the wave loses height along the flume (docs/VALIDATION.md, "Example 1").
+/// wave, H = 0.2875 m. DFSPH at the scene's dx = 0.1 m, to t = 14 s. The table in
+/// docs/VALIDATION.md ("Piston wave maker") has WCSPH, finer runs and the scene's 18 s record,
+/// where DFSPH gives 0.92 and 0.85 of linear theory: the wave loses height along the flume.
 #[test]
 fn piston_makes_biesels_wave_in_front_of_it() {
     let (id, out) = fresh("flume");
