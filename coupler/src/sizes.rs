@@ -42,8 +42,8 @@ pub struct Estimate {
     /// Estimated step [s], at most dt_max. A weakly compressible scheme (wcsph, muller): the CFL
     /// limit Δt = C h / c0 with C = 0.2, h = 1.3 dx and the default speed of sound
     /// c0 = 10 sqrt(2 g H) for the water height H (Monaghan 1994). DFSPH steps on the flow:
-    /// Δt = 0.4 dx / v with v the long-wave speed sqrt(g H), about the fastest water a wave
-    /// or a slide of that depth makes.
+    /// Δt = C dx / v with its default C = 0.4 and v the long-wave speed sqrt(g H), about the
+    /// fastest water a wave or a slide of that depth makes.
     pub dt: f64,
     /// Output frames: time.end / output.interval.
     pub frames: f64,
@@ -106,7 +106,7 @@ pub fn estimate(scene: &Scene) -> Option<Estimate> {
     let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
     let height = (top - bottom).max(dx);
     let dt = if fluid.solver == "dfsph" {
-        0.4 * dx / (g * height).sqrt().max(1e-6)
+        fluid_node::dfsph::DEFAULT_CFL * dx / (g * height).sqrt().max(1e-6)
     } else {
         let c0 = 10.0 * (2.0 * g * height).sqrt().max(1e-6);
         0.2 * 1.3 * dx / c0

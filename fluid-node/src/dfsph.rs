@@ -152,6 +152,10 @@ use shared::registry::{ParamCheck, SolverParams};
 use shared::solver::{SolverError, StepReport};
 use shared::strain::Strain;
 
+/// Default Courant number of `[fluid.dfsph] cfl` (Bender & Koschier's 0.4 on the particle
+/// diameter); also what `coupler check` estimates a DFSPH run's steps with.
+pub const DEFAULT_CFL: Real = 0.4;
+
 /// Default of `[fluid.dfsph] blocks_in_solve`: the free blocks move inside the pressure solves
 /// (module doc, "Blocks in the solve").
 pub const BLOCKS_IN_SOLVE: bool = true;
@@ -1011,7 +1015,7 @@ impl Scheme for Dfsph {
             0
         };
         let constants = DfsphConstants {
-            cfl: spec.cfl.unwrap_or(0.4),
+            cfl: spec.cfl.unwrap_or(DEFAULT_CFL),
             density_tolerance: 0.01 * spec.density_tolerance.unwrap_or(0.05),
             divergence_tolerance: 0.01 * spec.divergence_tolerance.unwrap_or(0.1),
             // Off unless asked for (module doc, "Known limits").
