@@ -333,7 +333,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     for line in crate::slides::describe(&scene) {
         eprintln!("coupler: {line}");
     }
-    if let Some(e) = crate::sizes::estimate(&scene) {
+    if let Some(e) = crate::sizes::estimate(&scene, args.fluid_solver.as_deref()) {
         eprintln!("coupler: estimate: {}", e.describe());
     }
     for (flag, v) in [

@@ -101,7 +101,7 @@ fn main() -> ExitCode {
                             }
                         }
                     }
-                    if let Some(e) = coupler::sizes::estimate(&s) {
+                    if let Some(e) = coupler::sizes::estimate(&s, None) {
                         println!("estimate: {}", e.describe());
                     }
                     println!("solvers:\n{}", coupler::scenes::solver_list());

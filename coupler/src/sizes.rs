@@ -67,9 +67,11 @@ impl Estimate {
     }
 }
 
-/// The estimate of a scene with water (`None` without).
-pub fn estimate(scene: &Scene) -> Option<Estimate> {
+/// The estimate of a scene with water (`None` without), stepped as `solver` would step it
+/// (`None`: the scene's own `fluid.solver`; `coupler run --fluid-solver` names another).
+pub fn estimate(scene: &Scene, solver: Option<&str>) -> Option<Estimate> {
     let fluid = scene.fluid.as_ref().filter(|_| scene.has_fluid())?;
+    let solver = solver.unwrap_or(&fluid.solver);
     let dx = fluid.dx;
     let (mut volume, mut top, mut bottom) = (0.0, f64::NEG_INFINITY, f64::INFINITY);
     for w in &fluid.water {
@@ -105,7 +107,7 @@ pub fn estimate(scene: &Scene) -> Option<Estimate> {
     let memory = BASE_BYTES + BYTES_PER_PARTICLE * (fluid_particles + boundary_particles);
     let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
     let height = (top - bottom).max(dx);
-    let dt = if fluid.solver == "dfsph" {
+    let dt = if solver == "dfsph" {
         fluid_node::dfsph::DEFAULT_CFL * dx / (g * height).sqrt().max(1e-6)
     } else {
         let c0 = 10.0 * (2.0 * g * height).sqrt().max(1e-6);
@@ -200,7 +202,7 @@ pub fn check(scene: &Scene, available: Option<f64>) -> Vec<FieldError> {
     if !(f.dx.is_finite() && f.dx > 0.0) {
         return Vec::new(); // the scene's own validation names it
     }
-    let Some(est) = estimate(scene) else {
+    let Some(est) = estimate(scene, None) else {
         return Vec::new();
     };
     let Some(available) = available.or_else(available_memory) else {
@@ -248,7 +250,7 @@ mod tests {
     #[test]
     fn default_scene_fits_and_a_fine_one_does_not() {
         let mut s = Scene::default_scene();
-        let e = estimate(&s).unwrap();
+        let e = estimate(&s, None).unwrap();
         // 4.96 × 0.8 × 0.48 m³ at dx = 0.04.
         assert!((e.fluid_particles - 29_760.0).abs() < 1.0, "{e:?}");
         assert!(check(&s, Some(8e9)).is_empty());
@@ -267,11 +269,14 @@ mod tests {
     fn dfsph_steps_are_estimated_on_the_flow_not_the_sound_speed() {
         let text = include_str!("../../scenes/wave_maker.toml");
         let mut s = Scene::parse(text, "wave_maker").unwrap();
-        let e = estimate(&s).unwrap();
+        let e = estimate(&s, None).unwrap();
         assert!((e.steps - 4_000.0).abs() < 1.0, "{e:?}");
-        s.fluid.as_mut().unwrap().solver = "wcsph".into();
-        let e = estimate(&s).unwrap();
-        // WCSPH took 69 280 steps of 0.58 ms.
+        // `coupler run --fluid-solver wcsph`: WCSPH took 69 280 steps of 0.58 ms.
+        let e = estimate(&s, Some("wcsph")).unwrap();
         assert!((60_000.0..80_000.0).contains(&e.steps), "{e:?}");
+        s.fluid.as_mut().unwrap().solver = "wcsph".into();
+        assert_eq!(estimate(&s, None).unwrap().steps, e.steps);
+        // And back: a WCSPH scene run with `--fluid-solver dfsph`.
+        assert!(estimate(&s, Some("dfsph")).unwrap().steps < 5_000.0);
     }
 }
