@@ -11,6 +11,13 @@
 //! neighbour pairs per particle (fluid and boundary; each force pass visits every one) and the
 //! process's peak resident memory so far (VmHWM; run one size per process to read a size's own
 //! peak).
+//!
+//! `fluid-bench --ceiling ROUNDS` instead measures what 2 threads give over 1 on this machine
+//! for loops with no serial part (the `ceiling` module), the yardstick for the solvers' own
+//! 2 ÷ 1 ratios.
+
+#[path = "fluid_bench/ceiling.rs"]
+mod ceiling;
 
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, TempRunDir, build};
@@ -76,10 +83,18 @@ struct Args {
     /// Timed steps (default: about 3·10⁶ particle-steps' worth, at least 3).
     #[arg(long)]
     steps: Option<usize>,
+    /// Instead of the solvers: 2 ÷ 1 threads of three loops without a serial part, over this
+    /// many alternating rounds (the machine's ceiling for the solvers' ratios).
+    #[arg(long, value_name = "ROUNDS")]
+    ceiling: Option<usize>,
 }
 
 fn main() {
     let args = <Args as clap::Parser>::parse();
+    if let Some(rounds) = args.ceiling {
+        ceiling::run(rounds);
+        return;
+    }
     let (sizes, threads, params, from, timed) =
         (args.sizes, args.threads, args.param, args.from, args.steps);
     let solvers = if args.solvers.is_empty() {
