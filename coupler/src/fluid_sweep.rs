@@ -94,19 +94,23 @@ fn run(
     // As the coupler does with --dt-factor: the granted step (proposal within the scene's
     // limits) multiplied by the factor.
     let rule = StepRule::new(scene.time.dt_max, scene.time.dt_min).with_factor(dt_factor);
-    let (mut t, mut steps) = (0.0, 0u64);
     let started = Instant::now();
-    while t < end {
-        let (reached, report) = validation::step(s.as_mut(), &rule, t, end, &mut loads)?;
-        if let Some(w) = report.warning {
-            *warnings += 1;
-            *last_warning = Some(w);
+    // On a rayon worker, as the fluid node runs (`fluid_node::on_pool`).
+    let steps = fluid_node::on_pool(|| -> Result<u64, SolverError> {
+        let (mut t, mut steps) = (0.0, 0u64);
+        while t < end {
+            let (reached, report) = validation::step(s.as_mut(), &rule, t, end, &mut loads)?;
+            if let Some(w) = report.warning {
+                *warnings += 1;
+                *last_warning = Some(w);
+            }
+            t = reached;
+            steps += 1;
+            curve.push((t * scale, front(s.as_ref()) / A));
         }
-        t = reached;
-        steps += 1;
-        curve.push((t * scale, front(s.as_ref()) / A));
-    }
-    s.finish()?;
+        s.finish()?;
+        Ok(steps)
+    })?;
     Ok(DamBreak {
         n2: N2,
         per_a,

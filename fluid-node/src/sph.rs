@@ -15,8 +15,9 @@ pub struct Sph<S: Scheme> {
     dt_next: Real,
 }
 
-/// A fluid solver whose particles the validation, benchmarks and sweeps can look at.
-pub trait SphSolver: FluidSolver {
+/// A fluid solver whose particles the validation, benchmarks and sweeps can look at (`Send`:
+/// their loops run on a rayon worker, [`crate::validation::run`]).
+pub trait SphSolver: FluidSolver + Send {
     fn system(&self) -> &FluidSystem;
 }
 

@@ -90,23 +90,27 @@ pub fn step(
 
 /// Steps a solver alone until `end` ([`step`] with the scene's limits), calling `observe` after
 /// every step.
+///
+/// The loop runs on one of rayon's workers ([`crate::on_pool`]), as the fluid node's does.
 pub fn run(
     solver: &mut dyn SphSolver,
     scene: &Scene,
     end: f64,
-    mut observe: impl FnMut(&dyn SphSolver, f64),
+    mut observe: impl FnMut(&dyn SphSolver, f64) + Send,
 ) -> Result<u64, SolverError> {
     let mut loads = vec![BlockLoad::default(); scene.moving_blocks().len()];
     let rule = StepRule::new(scene.time.dt_max, scene.time.dt_min);
-    let (mut t, mut steps) = (0.0, 0);
-    observe(solver, t);
-    while t < end {
-        t = step(solver, &rule, t, end, &mut loads)?.0;
-        steps += 1;
+    crate::on_pool(|| {
+        let (mut t, mut steps) = (0.0, 0);
         observe(solver, t);
-    }
-    solver.finish()?;
-    Ok(steps)
+        while t < end {
+            t = step(solver, &rule, t, end, &mut loads)?.0;
+            steps += 1;
+            observe(solver, t);
+        }
+        solver.finish()?;
+        Ok(steps)
+    })
 }
 
 /// A slab tank: floor, end walls at x = 0 and x = length, free-slip side walls at y = 0 and y = width.
