@@ -13,7 +13,8 @@
 //! cost is the 2-thread time less half the 1-thread time. A solver step runs a few dozen
 //! regions.
 //!
-//! Rounds alternate 1 and 2 threads; each kernel's ratio is the median over rounds of the
+//! Rounds alternate 1 and 2 threads (each timing the mean of ten calls after an untimed one);
+//! each kernel's ratio is the median over rounds of the
 //! per-round ratio, so a slow minute on a shared machine weighs on both sides of one ratio.
 
 use rayon::prelude::*;
@@ -101,6 +102,9 @@ impl Pairs {
     }
 }
 
+/// A kernel: one call's result (kept, so the work is not optimised away).
+type Kernel<'a> = Box<dyn Fn() -> f64 + Sync + 'a>;
+
 /// Mean seconds of a call of `f` over ten calls in a pool of `threads` (a mean, as the
 /// solvers' rows are means over their timed steps), after one untimed call.
 fn time(threads: usize, f: &(dyn Fn() -> f64 + Sync)) -> f64 {
@@ -161,7 +165,7 @@ fn region_us(threads: usize) -> f64 {
 pub fn run(rounds: usize) {
     let values: Vec<f32> = (0..STREAM).map(|k| (k % 1000) as f32 * 1e-3).collect();
     let pairs = Pairs::new();
-    let kernels: [(&str, Box<dyn Fn() -> f64 + Sync>); 3] = [
+    let kernels: [(&str, Kernel); 3] = [
         ("compute (registers only)", Box::new(compute)),
         ("stream (48 MB of f32)", Box::new(|| stream(&values))),
         (
