@@ -14,8 +14,8 @@
 //! regions.
 //!
 //! Rounds alternate 1 and 2 threads (each timing the mean of ten calls after an untimed one);
-//! each kernel's ratio is the median over rounds of the
-//! per-round ratio, so a slow minute on a shared machine weighs on both sides of one ratio.
+//! each kernel's ratio is the median over rounds of the per-round ratio, so a slow minute on a
+//! shared machine weighs on both sides of one ratio.
 
 use rayon::prelude::*;
 use std::time::Instant;
