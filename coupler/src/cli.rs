@@ -333,7 +333,12 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     for line in crate::slides::describe(&scene) {
         eprintln!("coupler: {line}");
     }
-    if let Some(e) = crate::sizes::estimate(&scene, args.fluid_solver.as_deref()) {
+    // Stepped as the run's fluid solver steps: a resumed run keeps the one it was started with.
+    let stepped_by = resume
+        .as_ref()
+        .and_then(|r| r.checkpoint.fluid_solver.as_deref())
+        .or(args.fluid_solver.as_deref());
+    if let Some(e) = crate::sizes::estimate(&scene, stepped_by) {
         eprintln!("coupler: estimate: {}", e.describe());
     }
     for (flag, v) in [
