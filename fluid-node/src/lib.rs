@@ -100,3 +100,22 @@ pub fn check_scene(scene: &Scene) -> Vec<FieldError> {
 pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     rayon::scope(|_| f())
 }
+
+#[cfg(test)]
+mod tests {
+    /// `on_pool` moves the closure onto a worker of the pool, and stays in place on one.
+    #[test]
+    fn on_pool_runs_on_a_worker() {
+        assert_eq!(
+            rayon::current_thread_index(),
+            None,
+            "the test thread is not a worker"
+        );
+        let outer = super::on_pool(|| {
+            let here = rayon::current_thread_index();
+            assert_eq!(super::on_pool(rayon::current_thread_index), here);
+            here
+        });
+        assert!(outer.is_some());
+    }
+}
