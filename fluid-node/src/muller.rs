@@ -6,7 +6,7 @@
 //! symplectic Euler (Eq. 21).
 
 use crate::dt::StepLimits;
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, lattice_density};
 use crate::kernels::{Poly6, Spiky, ViscosityKernel};
 use crate::lanes::Packed;
 use crate::muller_pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
@@ -15,7 +15,7 @@ use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
 use rayon::prelude::*;
 use serde::Deserialize;
-use shared::math::{Real, Vector};
+use shared::math::Real;
 use shared::registry::{ParamCheck, SolverParams};
 use shared::solver::{SolverError, StepReport};
 
@@ -77,7 +77,11 @@ pub struct Muller {
     pub stiffness: Real,
     /// μ of Eq. 18 [Pa·s].
     pub viscosity: Real,
-    /// ρ0 of Eq. 17: the summed density of the filled lattice (see [`lattice_density`]).
+    /// ρ0 of Eq. 17: the poly6 sum of Eq. 12 on the filled lattice
+    /// ([`crate::kernel::lattice_density`]), 1.0098·ρ0·(m/ρ0dx³) for h = 2 dx. The paper's ρ0
+    /// is water at rest; the continuum value would start every particle 1 % compressed, with
+    /// k·0.0098ρ0 of pressure pushing the surface up (more than the hydrostatic pressure of a
+    /// 0.1 m column).
     pub rest_density: Real,
     clamp: bool,
     limits: StepLimits,
@@ -86,26 +90,6 @@ pub struct Muller {
     /// checkpointed).
     #[serde(skip)]
     records: Vec<Packed>,
-}
-
-/// The poly6 sum of Eq. 12 at a particle inside a full cubic lattice of spacing dx.
-///
-/// The paper's ρ0 is the density of water at rest; at rest in the discrete sense means the
-/// density Eq. 12 gives on the filled lattice, which for h = 2dx is 1.0098·ρ0·(m/ρ0dx³). Using
-/// the continuum ρ0 instead would start every particle 1 % compressed, with k·0.0098ρ0 of
-/// pressure pushing the surface up (more than the hydrostatic pressure of a 0.1 m column).
-pub fn lattice_density(kernel: &Poly6, dx: Real, mass: Real) -> Real {
-    let n = (kernel.support() / dx).ceil() as i64;
-    let mut sum = 0.0;
-    for i in -n..=n {
-        for j in -n..=n {
-            for k in -n..=n {
-                let r = Vector::new(i as Real, j as Real, k as Real) * dx;
-                sum += mass * kernel.value(r.norm());
-            }
-        }
-    }
-    sum
 }
 
 impl Muller {

@@ -8,7 +8,7 @@
 //! - Density: summed, ρ_i = Σ_j m_j W_ij over fluid and boundary particles; the
 //!   boundary particles (Adami-style, filled one support deep on the water's own lattice) carry
 //!   the fluid's particle mass m = ρ0·dx³, as in [`crate::muller`]. Rest density is the sum on a
-//!   full lattice ([`lattice_density`]), so water at rest is at rest in the discrete sense.
+//!   full lattice ([`crate::kernel::lattice_density`]), so water at rest is at rest in the discrete sense.
 //! - Kernel: Wendland C2 (Wendland 1995), h = 1.3·dx by default (support 2.6·dx).
 //! - Factor α_i = ρ_i / (|Σ_j m_j ∇W_ij|² + Σ_j |m_j ∇W_ij|²) (the DFSPH factor) with the
 //!   boundary neighbours in the first sum. Here the pressure variable is k_i = κ_i/ρ_i = p_i/ρ_i²,
@@ -149,7 +149,6 @@ mod passes;
 mod scheme;
 mod solve;
 
-use crate::kernel::Kernel;
 use crate::kernels::WendlandC2;
 use crate::neighbors::PairValues;
 use crate::scheme::Scheme;
@@ -323,22 +322,6 @@ pub struct Dfsph {
     /// tr K of each moving block.
     #[serde(skip)]
     mobility: Vec<Real>,
-}
-
-/// The Wendland sum Σ m W at a particle inside a full cubic lattice of spacing dx: ρ0 of the
-/// summed density (cf. [`crate::muller::lattice_density`]).
-pub fn lattice_density<K: Kernel>(kernel: &K, dx: Real, mass: Real) -> Real {
-    let n = (kernel.support() / dx).ceil() as i64;
-    let mut sum = 0.0;
-    for i in -n..=n {
-        for j in -n..=n {
-            for k in -n..=n {
-                let r = Vector::new(i as Real, j as Real, k as Real) * dx;
-                sum += mass * kernel.value(r.norm());
-            }
-        }
-    }
-    sum
 }
 
 /// Neighbours within `support` of a particle inside a full cubic lattice of spacing dx (itself

@@ -4,10 +4,10 @@
 
 use super::{
     ABSURD_DENSITY_ERROR, BLOCKS_IN_SOLVE, DEFAULT_CFL, DEFICIENT_FRACTION, Dfsph, DfsphConstants,
-    DfsphParams, MIRROR, SURFACE_FRACTION, SolveStats, WALL_PRESSURE, hydrostatic, lattice_density,
+    DfsphParams, MIRROR, SURFACE_FRACTION, SolveStats, WALL_PRESSURE, hydrostatic,
     lattice_neighbours,
 };
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, lattice_density};
 use crate::kernels::WendlandC2;
 use crate::neighbors::PairValues;
 use crate::scheme::{Layout, Scheme};
