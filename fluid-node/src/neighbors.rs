@@ -37,6 +37,8 @@ pub struct CellGrid {
     order: Vec<u32>,
     /// Scratch of the parallel sort: per part and cell, a count, then the next slot.
     counts: Vec<u32>,
+    /// Scratch of the parallel sort: the first slot of each block of cells ([`first_slots`]).
+    firsts: Vec<u32>,
 }
 
 impl CellGrid {
@@ -65,6 +67,7 @@ impl CellGrid {
             cell_of: Vec::new(),
             order: Vec::new(),
             counts: Vec::new(),
+            firsts: Vec::new(),
         })
     }
 
@@ -177,18 +180,7 @@ impl CellGrid {
                     count[c as usize] += 1;
                 }
             });
-        // Each (part, cell)'s first slot: cells in order, parts in order within a cell.
-        let mut next = 0u32;
-        for c in 0..cells {
-            self.start[c] = next;
-            for part in 0..parts {
-                let k = &mut self.counts[part * cells + c];
-                let count = *k;
-                *k = next;
-                next += count;
-            }
-        }
-        self.start[cells] = next;
+        first_slots(&mut self.start, &mut self.counts, parts, &mut self.firsts);
         let order = SharedSlots(self.order.as_mut_ptr(), n);
         self.counts
             .par_chunks_mut(cells)
@@ -292,6 +284,63 @@ impl CellGrid {
     }
 }
 
+/// Cells per task of [`first_slots`].
+const PREFIX_BLOCK: usize = 4096;
+
+/// Turns the sort's counts (`counts[part·cells + c]`: part's particles in cell c) into each
+/// (part, cell)'s first slot, cells in order and parts in order within a cell, and `start[c]`
+/// into cell c's first slot (`start[cells]` the total): an exclusive prefix sum in that order.
+///
+/// In parallel over blocks of cells: each block sums its counts, a serial scan over the few
+/// block totals gives each block's first slot, and each block then scans its own cells. (One
+/// serial scan over every cell kept the second thread idle: the grid has more cells than
+/// twice the particles of a sparse flow.) The same slots as the serial scan: sums of whole
+/// numbers in any order.
+/// `firsts` is scratch (a slot per block, kept between sorts).
+fn first_slots(start: &mut [u32], counts: &mut [u32], parts: usize, firsts: &mut Vec<u32>) {
+    let cells = start.len() - 1;
+    firsts.resize(cells.div_ceil(PREFIX_BLOCK), 0);
+    let slots = SharedSlots(counts.as_mut_ptr(), counts.len());
+    let block_cells = |b: usize| b * PREFIX_BLOCK..((b + 1) * PREFIX_BLOCK).min(cells);
+    firsts.par_iter_mut().enumerate().for_each(|(b, total)| {
+        *total = block_cells(b)
+            // SAFETY: read only; no task writes during this pass.
+            .map(|c| {
+                (0..parts)
+                    .map(|part| unsafe { slots.read(part * cells + c) })
+                    .sum::<u32>()
+            })
+            .sum();
+    });
+    let mut next = 0u32;
+    for f in firsts.iter_mut() {
+        let total = *f;
+        *f = next;
+        next += total;
+    }
+    start[cells] = next;
+    start[..cells]
+        .par_chunks_mut(PREFIX_BLOCK)
+        .zip(firsts.par_iter())
+        .enumerate()
+        .for_each(|(b, (start, &first))| {
+            let mut next = first;
+            for (s, c) in start.iter_mut().zip(block_cells(b)) {
+                *s = next;
+                for part in 0..parts {
+                    let k = part * cells + c;
+                    // SAFETY: cell c belongs to this block alone, so slot (part, c) is read and
+                    // written by this task only.
+                    unsafe {
+                        let count = slots.read(k);
+                        slots.write(k, next);
+                        next += count;
+                    }
+                }
+            }
+        });
+}
+
 /// The sort's permutation, written at disjoint slots by parallel parts.
 #[derive(Clone, Copy)]
 struct SharedSlots(*mut u32, usize);
@@ -304,9 +353,17 @@ impl SharedSlots {
     /// # Safety
     /// No other thread may access slot `i` meanwhile.
     unsafe fn write(&self, i: usize, value: u32) {
-        assert!(i < self.1, "sort slot {i} outside the {} particles", self.1);
+        assert!(i < self.1, "sort slot {i} outside the {} slots", self.1);
         // SAFETY: in bounds (asserted), exclusive by the caller's contract.
         unsafe { self.0.add(i).write(value) };
+    }
+
+    /// # Safety
+    /// No other thread may write slot `i` meanwhile.
+    unsafe fn read(&self, i: usize) -> u32 {
+        assert!(i < self.1, "sort slot {i} outside the {} slots", self.1);
+        // SAFETY: in bounds (asserted), not written meanwhile by the caller's contract.
+        unsafe { self.0.add(i).read() }
     }
 }
 
