@@ -3,7 +3,10 @@
 //!
 //! Broad phase: for each block only the grid cells overlapping its bounding box (grown by the
 //! margin) are visited, and a cell is skipped whole when its centre is farther from the block's
-//! planes than the margin plus half the cell diagonal. The narrow phase takes the face of largest
+//! planes than the margin plus half the cell diagonal. The fixed blocks' cells are found once
+//! (neither the grid nor the blocks move), and all fixed blocks are applied in one parallel pass
+//! over the particles, each reading the fixed blocks near its cell; the moving blocks, whose
+//! reactions are summed, follow block by block. The narrow phase takes the face of largest
 //! signed plane distance (the nearest face in front of it; exact in front of a face, a lower
 //! bound near edges, which errs on the side of pushing).
 
@@ -128,10 +131,56 @@ pub struct Penalty {
     /// Candidate particles of the block being processed, and their forces (reused buffers).
     candidates: Vec<u32>,
     forces: Vec<(Vector, Vector)>,
-    /// For each fixed block, the grid cells near it, found once (the grid and the block never
-    /// move): scanning every cell of a wall's bounding box at each step cost a third of a
-    /// Müller step once the cells were halved.
-    fixed_cells: Vec<Option<Vec<u32>>>,
+    /// The fixed blocks near each grid cell, found once (the grid and the blocks never move):
+    /// scanning every cell of a wall's bounding box at each step cost a third of a Müller step
+    /// once the cells were halved.
+    fixed_near: Option<NearBlocks>,
+}
+
+/// For each grid cell, the fixed blocks (obstacle indices, in obstacle order) whose margin a
+/// particle in the cell may reach: compressed rows, `blocks[start[c]..start[c + 1]]`.
+#[derive(Debug, Clone)]
+struct NearBlocks {
+    start: Vec<u32>,
+    blocks: Vec<u32>,
+}
+
+impl NearBlocks {
+    /// A cell is near a block when its centre is within the margin plus half the cell diagonal
+    /// of the block's planes: every point of the cell is within half the diagonal of its centre.
+    fn new(obstacles: &[Obstacle], grid: &CellGrid) -> Self {
+        let half_diag = 0.5 * 3f64.sqrt() * grid.cell_size();
+        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        for (b, o) in obstacles.iter().enumerate() {
+            if o.moving.is_some() {
+                continue;
+            }
+            let (lo, hi) = o.bounds();
+            grid.box_all_cells(&lo, &hi, |cell, centre| {
+                if o.distance(centre).0 < o.margin + half_diag {
+                    pairs.push((cell as u32, b as u32));
+                }
+            });
+        }
+        // By cell, and within a cell in obstacle order (the order the forces are summed in).
+        pairs.sort_unstable();
+        let mut start = vec![0u32; grid.cell_count() + 1];
+        for &(cell, _) in &pairs {
+            start[cell as usize + 1] += 1;
+        }
+        for c in 0..grid.cell_count() {
+            start[c + 1] += start[c];
+        }
+        Self {
+            start,
+            blocks: pairs.into_iter().map(|(_, b)| b).collect(),
+        }
+    }
+
+    #[inline]
+    fn of(&self, cell: usize) -> &[u32] {
+        &self.blocks[self.start[cell] as usize..self.start[cell + 1] as usize]
+    }
 }
 
 impl Penalty {
@@ -141,7 +190,7 @@ impl Penalty {
             damping,
             obstacles,
             candidates: Vec::new(),
-            fixed_cells: Vec::new(),
+            fixed_near: None,
             forces: Vec::new(),
         }
     }
@@ -159,16 +208,14 @@ impl Penalty {
 
     /// Writes the Eq. 22 force of all blocks on each particle into `particles.penalty`, and the
     /// opposite force and its torque about the centroid, summed per moving block, into `loads`.
+    /// A particle's forces are summed the fixed blocks first, then the moving ones, each in
+    /// scene order.
     pub fn apply(
         &mut self,
         particles: &mut Particles,
         grid: &CellGrid,
         mut loads: Option<&mut [BlockLoad]>,
     ) {
-        particles
-            .penalty
-            .par_iter_mut()
-            .for_each(|f| *f = Vector::zeros());
         if let Some(l) = loads.as_deref_mut() {
             for (k, load) in l.iter_mut().enumerate() {
                 let block = self
@@ -182,37 +229,41 @@ impl Penalty {
                 };
             }
         }
+        let (ks, kd) = (self.stiffness, self.damping);
+        // The fixed blocks, in one pass that also clears every other particle's force. A
+        // particle reads the blocks near the cell it is in now (not the cell it was sorted
+        // into), so how far it moved since the sort does not matter.
+        let near = self
+            .fixed_near
+            .get_or_insert_with(|| NearBlocks::new(&self.obstacles, grid));
+        let obstacles = &self.obstacles;
+        let (pos, vel) = (&particles.position, &particles.velocity);
+        particles
+            .penalty
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, f)| {
+                let mut sum = Vector::zeros();
+                for &b in near.of(grid.cell_index(&pos[i])) {
+                    if let Some((force, _)) = obstacles[b as usize].force(&pos[i], &vel[i], ks, kd)
+                    {
+                        sum += force;
+                    }
+                }
+                *f = sum;
+            });
         // A cell is near when its centre is within the margin plus half its diagonal, plus how
         // far its particles may have moved since they were sorted into it.
         let half_diag = 0.5 * 3f64.sqrt() * grid.cell_size() + grid.stale_reach();
-        let (ks, kd) = (self.stiffness, self.damping);
-        self.fixed_cells.resize(self.obstacles.len(), None);
-        for (o, fixed_cells) in self.obstacles.iter().zip(&mut self.fixed_cells) {
+        for o in self.obstacles.iter().filter(|o| o.moving.is_some()) {
             // Broad phase: cells near the block.
             self.candidates.clear();
             let (lo, hi) = o.bounds();
-            let near = |centre: &Vector| o.distance(centre).0 < o.margin + half_diag;
-            if o.moving.is_some() {
-                grid.box_cells(&lo, &hi, |centre, range| {
-                    if near(centre) {
-                        self.candidates.extend(range.map(|i| i as u32));
-                    }
-                });
-            } else {
-                let cells = fixed_cells.get_or_insert_with(|| {
-                    let mut cells = Vec::new();
-                    grid.box_all_cells(&lo, &hi, |cell, centre| {
-                        if near(centre) {
-                            cells.push(cell as u32);
-                        }
-                    });
-                    cells
-                });
-                for &c in cells.iter() {
-                    self.candidates
-                        .extend(grid.cell_range(c as usize).map(|i| i as u32));
+            grid.box_cells(&lo, &hi, |centre, range| {
+                if o.distance(centre).0 < o.margin + half_diag {
+                    self.candidates.extend(range.map(|i| i as u32));
                 }
-            }
+            });
             // Narrow phase in parallel, then a sequential scatter over the few candidates.
             self.forces
                 .resize(self.candidates.len(), (Vector::zeros(), Vector::zeros()));
@@ -229,10 +280,10 @@ impl Penalty {
             let (mut force, mut torque, mut strain) =
                 (Vector::zeros(), Vector::zeros(), Strain::zeros());
             let c = o.map.centroid;
-            let loaded = o.moving.is_some() && loads.is_some();
+            let loaded = loads.is_some();
             for (&i, (f, at)) in self.candidates.iter().zip(&self.forces) {
                 // Most candidates are beyond the margin; a zero force changes no sum (none
-                // holds −0), so it is skipped, and a fixed block's reaction is not summed.
+                // holds −0), so it is skipped.
                 if *f == Vector::zeros() {
                     continue;
                 }
@@ -420,5 +471,86 @@ mod tests {
         // Inside the block or within the margin: a sizeable sample, and the load balances it.
         assert!(touched > 500, "{touched}");
         assert!((Vector::from(loads[0].force) + total).norm() < 1e-6 * total.norm().max(1.0));
+    }
+
+    #[test]
+    fn fixed_blocks_in_one_pass_give_the_brute_force_sums_after_particles_moved() {
+        let boxed = |min: [f64; 3], max: [f64; 3]| {
+            Polyhedron::from_shape(&ShapeSpec::Box { min, max }).unwrap()
+        };
+        // A floor and two walls meeting in a corner, and a tilted moving cube over it; the
+        // moving block comes first in scene order, its forces are still summed last.
+        let mut moving_state = resting_state(0, &cube());
+        let rot = Rotation::from_euler_angles(0.2, 0.1, -0.4);
+        moving_state.orientation = [rot.i, rot.j, rot.k, rot.w];
+        moving_state.centroid = [0.7, 0.7, 0.6];
+        moving_state.velocity = [0.3, 0.0, -1.0];
+        let margin = 0.06;
+        let fixed = [
+            boxed([-0.5, -0.5, -0.5], [2.5, 2.5, 0.0]),
+            boxed([-0.5, -0.5, -0.5], [0.0, 2.5, 2.5]),
+            boxed([-0.5, -0.5, -0.5], [2.5, 0.0, 2.5]),
+        ];
+        let mut obstacles = vec![Obstacle::new(cube(), moving_state, Some(0), margin)];
+        for (k, f) in fixed.iter().enumerate() {
+            obstacles.push(Obstacle::new(
+                f.clone(),
+                resting_state(k as u32 + 1, f),
+                None,
+                margin,
+            ));
+        }
+        let (ks, kd) = (800.0, 3.0);
+        let mut pen = Penalty::new(ks, kd, obstacles.clone());
+        let mut seed = 3u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // Crowded near the corner, so that many particles are within the margin of 2–4 blocks.
+        let n = 30_000;
+        let pos: Vec<Vector> = (0..n)
+            .map(|_| Vector::new(0.25 * rnd(), 1.5 * rnd(), 0.25 * rnd()))
+            .collect();
+        let mut p = Particles::new(pos, vec![1000.0; n]);
+        let mut grid = CellGrid::new(Vector::zeros(), Vector::repeat(2.0), 0.1).unwrap();
+        grid.set_stale_reach(0.03);
+        let order = grid.sort(&p.position).to_vec();
+        p.permute(&order, crate::particles::Carried::ALL, &mut Vec::new());
+        // Moved since the sort by up to the stale reach, some across a cell face.
+        for (i, x) in p.position.iter_mut().enumerate() {
+            let a = i as f64 * 0.7;
+            *x += Vector::new(a.sin(), a.cos(), (2.0 * a).sin()) * (0.03 / 3f64.sqrt());
+            p.velocity[i] = Vector::new(0.0, 0.0, -a.cos());
+        }
+        let mut loads = vec![BlockLoad::default()];
+        pen.apply(&mut p, &grid, Some(&mut loads));
+        let (mut pushed, mut several) = (0, 0);
+        for i in 0..n {
+            let (x, v) = (&p.position[i], &p.velocity[i]);
+            let mut expected = Vector::zeros();
+            let mut count = 0;
+            for o in obstacles[1..].iter().chain(&obstacles[..1]) {
+                if let Some((f, _)) = o.force(x, v, ks, kd)
+                    && f != Vector::zeros()
+                {
+                    expected += f;
+                    count += 1;
+                }
+            }
+            assert_eq!(p.penalty[i], expected, "particle {i} at {x}");
+            pushed += usize::from(count > 0);
+            several += usize::from(count > 1);
+        }
+        assert!(
+            pushed > 2_000 && several > 200,
+            "{pushed} pushed, {several} by several blocks"
+        );
+        // A second call (the near cells now kept) gives the same forces.
+        let first = p.penalty.clone();
+        pen.apply(&mut p, &grid, Some(&mut loads));
+        assert_eq!(p.penalty, first);
     }
 }
