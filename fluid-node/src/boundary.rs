@@ -12,8 +12,8 @@ use crate::kernel::Kernel;
 use crate::lanes::Packed;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
+use crate::scatter::scatter;
 use crate::walls::WallParticles;
-use rayon::prelude::*;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 
@@ -29,7 +29,6 @@ pub struct Boundary {
     /// loops ([`Self::pack`]; what the two scalars mean is the scheme's).
     fixed_packed: Vec<Packed>,
     moving_packed: Vec<Packed>,
-    packed_scratch: Vec<Packed>,
 }
 
 /// One boundary neighbour of a fluid particle: a wall point with its extrapolated pressure, the
@@ -139,37 +138,21 @@ impl Boundary {
             set: &WallParticles,
             velocity: Option<&[Vector]>,
             out: &mut Vec<Packed>,
-            scratch: &mut Vec<Packed>,
             record: &(impl Fn(&Vector, &Vector, Real, Real) -> Packed + Sync),
         ) {
             out.resize(set.len(), Packed::default());
             let zero = Vector::zeros();
-            // Computed per active particle in parallel, then placed (the active list is short).
-            scratch.resize(set.active.len(), Packed::default());
-            scratch
-                .par_iter_mut()
-                .zip(set.active.par_iter())
-                .for_each(|(r, &w)| {
-                    let w = w as usize;
-                    let v = velocity.map_or(&zero, |v| &v[w]);
-                    *r = record(&set.position[w], v, set.pressure[w], set.density[w]);
-                });
-            for (&w, r) in set.active.iter().zip(scratch.iter()) {
-                out[w as usize] = *r;
-            }
+            // Only the active particles (in increasing order) are read by a pair loop.
+            scatter(&mut out[..], &set.active, &|_, w| {
+                let v = velocity.map_or(&zero, |v| &v[w]);
+                record(&set.position[w], v, set.pressure[w], set.density[w])
+            });
         }
-        let scratch = &mut self.packed_scratch;
         if let Some(w) = &self.fixed {
-            fill(w, None, &mut self.fixed_packed, scratch, &record);
+            fill(w, None, &mut self.fixed_packed, &record);
         }
         if let Some(b) = &self.moving {
-            fill(
-                &b.set,
-                Some(&b.velocity),
-                &mut self.moving_packed,
-                scratch,
-                &record,
-            );
+            fill(&b.set, Some(&b.velocity), &mut self.moving_packed, &record);
         }
     }
 

@@ -33,6 +33,7 @@ pub mod muller_pairs;
 pub mod neighbors;
 pub mod particles;
 pub mod penalty;
+pub mod scatter;
 pub mod scheme;
 pub mod sph;
 pub mod survey;

@@ -17,6 +17,7 @@
 use crate::kernel::Kernel;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
+use crate::scatter::scatter;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Point, Real, Vector};
@@ -38,7 +39,6 @@ pub struct WallParticles {
     mark: Marks,
     /// Scratch of `activate`: the marked particles of each part of [`COLLECT`].
     part_counts: Vec<usize>,
-    active_position_out: Vec<(Real, Real)>,
     /// Fluid neighbours of each active wall particle.
     pub lists: NeighborLists,
 }
@@ -118,7 +118,6 @@ impl WallParticles {
             active_position: Vec::new(),
             mark: Marks((0..n).map(|_| AtomicBool::new(false)).collect()),
             part_counts: Vec::new(),
-            active_position_out: Vec::new(),
             lists: NeighborLists::default(),
         }
     }
@@ -183,13 +182,12 @@ impl WallParticles {
     ) {
         let s2 = kernel.support() * kernel.support();
         let (pos, lists) = (&self.active_position, &self.lists);
-        // Computed per active particle, then scattered (the active list is short).
-        let mut out = std::mem::take(&mut self.active_position_out);
-        out.resize(self.active.len(), (0.0, 0.0));
-        out.par_iter_mut().enumerate().for_each(|(w, (pw, rw))| {
-            let xw = pos[w];
+        // Computed per active particle (in increasing order) and written in place.
+        let out = (&mut self.pressure[..], &mut self.density[..]);
+        scatter(out, &self.active, &|k, _| {
+            let xw = pos[k];
             let (mut sum_w, mut sum_p, mut sum_rho_r) = (0.0, 0.0, Vector::zeros());
-            for &f in lists.of(w) {
+            for &f in lists.of(k) {
                 let f = f as usize;
                 let r = xw - fluid.position[f];
                 let r2 = r.norm_squared();
@@ -200,22 +198,18 @@ impl WallParticles {
                     sum_rho_r += r * (fluid.density[f] * wv);
                 }
             }
-            *pw = if sum_w > 0.0 {
+            let pw = if sum_w > 0.0 {
                 ((sum_p + gravity.dot(&sum_rho_r)) / sum_w).max(0.0)
             } else {
                 0.0
             };
-            *rw = if sum_w > 0.0 {
-                density_of(*pw)
+            let rw = if sum_w > 0.0 {
+                density_of(pw)
             } else {
                 rest_density
             };
+            (pw, rw)
         });
-        for (&w, &(p, r)) in self.active.iter().zip(&out) {
-            self.pressure[w as usize] = p;
-            self.density[w as usize] = r;
-        }
-        self.active_position_out = out;
     }
 }
 
