@@ -12,12 +12,18 @@
 //! process's peak resident memory so far (VmHWM; run one size per process to read a size's own
 //! peak).
 //!
+//! `fluid-bench --paired BLOCK` instead steps a 1-thread and a 2-thread copy of each solver in
+//! alternating blocks of BLOCK steps and reports their ratio pair by pair (the `paired`
+//! module): the 2 ÷ 1 ratio without a minute between its two sides.
+//!
 //! `fluid-bench --ceiling ROUNDS` instead measures what 2 threads give over 1 on this machine
 //! for loops with no serial part (the `ceiling` module), the yardstick for the solvers' own
 //! 2 ÷ 1 ratios.
 
 #[path = "fluid_bench/ceiling.rs"]
 mod ceiling;
+#[path = "fluid_bench/paired.rs"]
+mod paired;
 
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, TempRunDir, build};
@@ -87,6 +93,11 @@ struct Args {
     /// many alternating rounds (the machine's ceiling for the solvers' ratios).
     #[arg(long, value_name = "ROUNDS")]
     ceiling: Option<usize>,
+    /// Instead of the rows per thread count: a 1-thread and a 2-thread copy of each solver
+    /// stepping in alternation, this many steps at a time (`--steps` per side), and the ratio of
+    /// each pair of blocks.
+    #[arg(long, value_name = "BLOCK")]
+    paired: Option<usize>,
 }
 
 fn main() {
@@ -97,7 +108,7 @@ fn main() {
     }
     let (sizes, threads, params, from, timed) =
         (args.sizes, args.threads, args.param, args.from, args.steps);
-    let solvers = if args.solvers.is_empty() {
+    let solvers: Vec<String> = if args.solvers.is_empty() {
         fluid_node::REGISTRY
             .names()
             .iter()
@@ -106,6 +117,10 @@ fn main() {
     } else {
         args.solvers
     };
+    if let Some(block) = args.paired {
+        paired::run(&solvers, &sizes, &params, block, from, timed);
+        return;
+    }
     println!(
         "| solver | particles | threads | from t [s] | steps timed | s/step | particle-steps/s | µs per particle-step | list rebuilds per step | listed pairs per particle (fluid + boundary) | peak RSS so far [MB] |"
     );

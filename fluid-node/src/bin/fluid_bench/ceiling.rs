@@ -122,7 +122,8 @@ fn time(threads: usize, f: &(dyn Fn() -> f64 + Sync)) -> f64 {
     })
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// The median of `v` (the mean of the middle two for an even count).
+pub(super) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
     if n % 2 == 1 {

@@ -1,0 +1,141 @@
+//! `fluid-bench --paired BLOCK`: a solver's 2 ÷ 1 threads measured in pairs close in time.
+//!
+//! The plain rows time 1 thread, then 2 threads, a minute apart; on a shared host a single
+//! 1-thread row moves by ±15 % from one minute to the next, so one row's ratio says little and
+//! a campaign needs many rounds. Here two copies of the same solver on the same scene step in
+//! alternation, one in a 1-thread pool and one in a 2-thread pool, BLOCK steps at a time: both
+//! see the same flow at the same step (the solvers are deterministic) and every block of one is
+//! timed within a second of a block of the other, so a slow second of the machine weighs on
+//! both sides of a pair. Reported per solver: both throughputs over all timed steps, their
+//! ratio, and the median and range of the per-pair ratios.
+
+use super::ceiling::median;
+use super::scene;
+use fluid_node::sph::SphSolver;
+use fluid_node::validation::{self, TempRunDir, build};
+use rayon::ThreadPool;
+use shared::protocol::BlockLoad;
+use shared::scene::Scene;
+use shared::step::StepRule;
+use std::time::Instant;
+
+/// One copy of the solver in its own pool, and where it stands.
+struct Side {
+    pool: ThreadPool,
+    solver: Box<dyn SphSolver>,
+    rule: StepRule,
+    end: f64,
+    time: f64,
+    loads: Vec<BlockLoad>,
+    /// The run directory (removed when dropped).
+    _dir: TempRunDir,
+}
+
+impl Side {
+    fn new(threads: usize, name: &str, sc: &Scene) -> Self {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        let dir = TempRunDir::new("bench").expect("temp dir");
+        let solver = pool
+            .install(|| build(name, sc, dir.path()))
+            .unwrap_or_else(|e| {
+                eprintln!("fluid-bench: {name}: {e}");
+                std::process::exit(2)
+            });
+        Self {
+            pool,
+            solver,
+            rule: StepRule::new(sc.time.dt_max, sc.time.dt_min),
+            end: sc.time.end,
+            time: 0.0,
+            loads: Vec::new(),
+            _dir: dir,
+        }
+    }
+
+    /// Takes `steps` steps on a worker of its pool (as the node does); returns their seconds.
+    fn run(&mut self, steps: usize) -> f64 {
+        let Self {
+            pool,
+            solver,
+            rule,
+            end,
+            time,
+            loads,
+            ..
+        } = self;
+        pool.install(|| {
+            let start = Instant::now();
+            for _ in 0..steps {
+                *time = validation::step(solver.as_mut(), rule, *time, *end, loads)
+                    .expect("stable")
+                    .0;
+            }
+            start.elapsed().as_secs_f64()
+        })
+    }
+}
+
+/// Prints a row per solver and size: 1 and 2 threads in alternating blocks of `block` steps,
+/// `steps` timed steps on each side, after `from` simulated seconds (and 3 warm-up steps).
+pub fn run(
+    solvers: &[String],
+    sizes: &[usize],
+    params: &[String],
+    block: usize,
+    from: f64,
+    steps: Option<usize>,
+) {
+    println!(
+        "| solver | particles | from t [s] | steps timed per side | pairs | 1 thread [particle-steps/s] | 2 threads [particle-steps/s] | 2 ÷ 1, totals | 2 ÷ 1, median of pairs | range of pairs |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for name in solvers {
+        for &n in sizes {
+            let sc = scene(name, n, params);
+            let mut one = Side::new(1, name, &sc);
+            let mut two = Side::new(2, name, &sc);
+            let count = one.solver.system().len();
+            for side in [&mut one, &mut two] {
+                side.run(3);
+                while side.solver.system().time < from {
+                    side.run(1);
+                }
+            }
+            let block = block.max(1);
+            let pairs = steps
+                .unwrap_or((3_000_000 / count).clamp(3, 200))
+                .div_ceil(block)
+                .max(1);
+            let (mut t1, mut t2, mut ratios) = (0.0, 0.0, Vec::with_capacity(pairs));
+            for k in 0..pairs {
+                // Which side goes first alternates, so neither always follows the other's
+                // cache state.
+                let (a, b) = if k % 2 == 0 {
+                    let a = one.run(block);
+                    (a, two.run(block))
+                } else {
+                    let b = two.run(block);
+                    (one.run(block), b)
+                };
+                t1 += a;
+                t2 += b;
+                ratios.push(a / b);
+            }
+            let (lo, hi) = ratios
+                .iter()
+                .fold((f64::INFINITY, 0.0_f64), |(l, h), &r| (l.min(r), h.max(r)));
+            let timed = pairs * block;
+            let rate = |t: f64| (count * timed) as f64 / t;
+            println!(
+                "| {name} | {count} | {from} | {timed} | {pairs} | {:.3e} | {:.3e} | {:.2} | {:.2} | {lo:.2}–{hi:.2} |",
+                rate(t1),
+                rate(t2),
+                t1 / t2,
+                median(ratios)
+            );
+        }
+    }
+}
