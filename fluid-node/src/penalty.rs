@@ -138,7 +138,8 @@ pub struct Penalty {
 }
 
 /// For each grid cell, the fixed blocks (obstacle indices, in obstacle order) whose margin a
-/// particle in the cell may reach: compressed rows, `blocks[start[c]..start[c + 1]]`.
+/// particle in the cell may reach: compressed rows, `blocks[start[c]..start[c + 1]]` (a u32 per
+/// cell, as the grid's own ranges take, and one per near pair).
 #[derive(Debug, Clone)]
 struct NearBlocks {
     start: Vec<u32>,
