@@ -295,8 +295,7 @@ const PREFIX_BLOCK: usize = 4096;
 /// block totals gives each block's first slot, and each block then scans its own cells. (One
 /// serial scan over every cell kept the second thread idle: the grid has more cells than
 /// twice the particles of a sparse flow.) The same slots as the serial scan: sums of whole
-/// numbers in any order.
-/// `firsts` is scratch (a slot per block, kept between sorts).
+/// numbers in any order. `firsts` is scratch (a slot per block, kept between sorts).
 fn first_slots(start: &mut [u32], counts: &mut [u32], parts: usize, firsts: &mut Vec<u32>) {
     let cells = start.len() - 1;
     firsts.resize(cells.div_ceil(PREFIX_BLOCK), 0);

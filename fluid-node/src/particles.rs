@@ -104,8 +104,8 @@ impl Particles {
     }
 }
 
-/// `vectors.0[order[k]]` into `vectors.1[k]` for every slot k, and the same for `scalars` if
-/// given, in one parallel region; each scratch buffer is then swapped in.
+/// `data[order[k]]` into `scratch[k]` for every slot k, and the same for the pair of scalar
+/// arrays if given, in one parallel region; each scratch buffer is then swapped in.
 fn gather(
     order: &[u32],
     (data, scratch): (&mut Vec<Vector>, &mut Vec<Vector>),
