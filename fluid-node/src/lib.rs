@@ -24,6 +24,7 @@ pub mod candidates;
 pub mod dfsph;
 pub mod dt;
 pub mod fill;
+pub mod fixed_sum;
 pub mod gauges;
 pub mod kernel;
 pub mod kernels;

@@ -287,6 +287,12 @@ pub struct Dfsph {
     /// forces still conserve momentum. Recomputed at the start of every step: not checkpointed.
     #[serde(skip)]
     pairs: PairValues<[f32; 4]>,
+    /// Scratch of the solves' fixed-order sums ([`crate::fixed_sum`]): the mean errors, and
+    /// the pressure change with its total.
+    #[serde(skip)]
+    partials: Vec<[Real; 1]>,
+    #[serde(skip)]
+    partials2: Vec<[Real; 2]>,
     pub stats: SolveStats,
     /// Whether free blocks move inside the solves (`blocks_in_solve`).
     #[serde(default)]

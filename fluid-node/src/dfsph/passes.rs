@@ -3,6 +3,7 @@
 //! and the non-pressure forces (2017 Algorithm 1).
 
 use super::{Dfsph, gradient, hydrostatic};
+use crate::fixed_sum::fixed_sum;
 use crate::kernel::Kernel;
 use crate::system::FluidSystem;
 use rayon::prelude::*;
@@ -190,12 +191,11 @@ impl Dfsph {
         let p = &sys.particles;
         let (vel, rho) = (&p.velocity, &p.density);
         let (grad, flux, deficient) = (&self.grad, &self.wall_flux, &self.deficient);
-        let sum: Real = self
-            .error
+        self.error
             .par_iter_mut()
             .zip(self.predicted.par_iter_mut())
             .enumerate()
-            .map(|(i, (e, pred))| {
+            .for_each(|(i, (e, pred))| {
                 let mut d = 0.0;
                 let (js, gs) = lists.with_values(pairs, i);
                 for (&j, o) in js.iter().zip(gs) {
@@ -211,9 +211,11 @@ impl Dfsph {
                 } else {
                     *e = div.max(0.0);
                 }
-                *e
-            })
-            .sum();
+            });
+        // The solves stop on this mean: summed in a fixed order (`fixed_sum`), so that where
+        // they stop does not depend on the threads.
+        let error = &self.error;
+        let [sum] = fixed_sum(p.len(), &mut self.partials, |i| [error[i]]);
         let mean = sum / p.len().max(1) as Real / rho0;
         if density { mean } else { mean * dt }
     }

@@ -89,6 +89,8 @@ impl Scheme for Dfsph {
             dk: Vec::new(),
             v_old: Vec::new(),
             pairs: PairValues::default(),
+            partials: Vec::new(),
+            partials2: Vec::new(),
             stats: SolveStats::default(),
             blocks_in_solve: spec.blocks_in_solve.unwrap_or(BLOCKS_IN_SOLVE),
             mirrored: spec.wall_pressure.as_deref().unwrap_or(WALL_PRESSURE[0]) == "mirrored",

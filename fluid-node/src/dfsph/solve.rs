@@ -2,6 +2,7 @@
 //! solve (Algorithm 3), warm-started Jacobi iterations on the stiffness.
 
 use super::{Dfsph, WARM_START};
+use crate::fixed_sum::fixed_sum;
 use crate::system::FluidSystem;
 use rayon::prelude::*;
 use shared::math::Real;
@@ -81,11 +82,8 @@ impl Dfsph {
                 });
             if pressure_tolerance.is_finite() {
                 // Σ|Δk| / Σ|k|: how much this iteration still moved the pressure field.
-                let (moved, total) = dk
-                    .par_iter()
-                    .zip(k.par_iter())
-                    .map(|(d, k)| (d.abs(), k.abs()))
-                    .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+                let [moved, total] =
+                    fixed_sum(k.len(), &mut self.partials2, |i| [dk[i].abs(), k[i].abs()]);
                 change = if total > 0.0 { moved / total } else { 0.0 };
             }
             self.apply(sys, &dk, dt);
