@@ -103,6 +103,18 @@ pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     rayon::scope(|_| f())
 }
 
+/// Uniform numbers in [0, 1) from a 64-bit LCG (Knuth's MMIX constants), for the unit tests'
+/// scattered particles: the same sequence from the same seed on every machine.
+#[cfg(test)]
+pub(crate) fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     /// `on_pool` moves the closure onto a worker of the pool, and stays in place on one.

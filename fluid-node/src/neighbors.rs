@@ -583,18 +583,11 @@ fn fill_chunk(
 mod tests {
     use super::*;
 
-    fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (*seed >> 11) as f64 / (1u64 << 53) as f64
-    }
-
     #[test]
     fn the_parallel_sort_is_the_stable_serial_sort() {
-        let mut seed = 5;
+        let mut rnd = crate::uniform(5);
         let pts: Vec<Vector> = (0..20_000)
-            .map(|_| Vector::new(lcg(&mut seed), 0.5 * lcg(&mut seed), 0.8 * lcg(&mut seed)))
+            .map(|_| Vector::new(rnd(), 0.5 * rnd(), 0.8 * rnd()))
             .collect();
         let mut grid = CellGrid::new(Vector::zeros(), Vector::new(1.0, 0.5, 0.8), 0.05).unwrap();
         let mut expected: Vec<u32> = (0..pts.len() as u32).collect();
@@ -617,10 +610,10 @@ mod tests {
 
     #[test]
     fn finds_exactly_the_brute_force_neighbours() {
-        let mut seed = 7;
+        let mut rnd = crate::uniform(7);
         let h = 0.13;
         let pts: Vec<Vector> = (0..2000)
-            .map(|_| Vector::new(lcg(&mut seed), 0.5 * lcg(&mut seed), 0.8 * lcg(&mut seed)))
+            .map(|_| Vector::new(rnd(), 0.5 * rnd(), 0.8 * rnd()))
             .collect();
         let mut grid = CellGrid::new(Vector::zeros(), Vector::new(1.0, 0.5, 0.8), h).unwrap();
         let order = grid.sort(&pts).to_vec();

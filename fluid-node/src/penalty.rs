@@ -439,13 +439,7 @@ mod tests {
         state.centroid = [1.0, 1.0, 1.0];
         let ob = Obstacle::new(shape, state, Some(0), 0.04);
         let mut pen = Penalty::new(500.0, 1.0, vec![ob.clone()]);
-        let mut seed = 11u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::uniform(11);
         let pos: Vec<Vector> = (0..20_000)
             .map(|_| Vector::new(3.0 * rnd(), 3.0 * rnd(), 3.0 * rnd()))
             .collect();
@@ -503,13 +497,7 @@ mod tests {
         }
         let (ks, kd) = (800.0, 3.0);
         let mut pen = Penalty::new(ks, kd, obstacles.clone());
-        let mut seed = 3u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::uniform(3);
         // Crowded near the corner, so that many particles are within the margin of 2–4 blocks.
         let n = 30_000;
         let pos: Vec<Vector> = (0..n)

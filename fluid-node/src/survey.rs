@@ -218,13 +218,7 @@ mod tests {
     #[test]
     fn chunked_pass_matches_the_per_particle_fold() {
         let n = 5000;
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::uniform(7);
         let position: Vec<Vector> = (0..n).map(|_| Vector::new(rnd(), rnd(), rnd())).collect();
         let velocity: Vec<Vector> = (0..n)
             .map(|_| Vector::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5))
