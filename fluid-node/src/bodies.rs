@@ -12,7 +12,7 @@ use crate::neighbors::CellGrid;
 use crate::walls::WallParticles;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
-use shared::math::{Matrix, Point, Real, Vector};
+use shared::math::{Matrix, Matrix6, Point, Real, Vector, Vector6};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::strain::{MaterialMap, Strain};
 
@@ -57,9 +57,11 @@ pub struct BodyParticles {
     placed_velocity: Vec<Vector>,
 }
 
-/// What a moving block's motion within a fluid step follows from: m Δv = Δt (F + R) and
-/// I Δω = Δt (τ + T) with F, τ the water's and R, T the rest
-/// ([`shared::protocol::BlockState::other_force`]).
+/// What a moving block's motion within a fluid step follows from. Taken on its own:
+/// m Δv = Δt (F + R) and I Δω = Δt (τ + T) with F, τ the water's and R, T the rest
+/// ([`shared::protocol::BlockState::other_force`]). With a response the solid measured over the
+/// step (it looked ahead, [`shared::protocol::BlockState::free_acceleration`]):
+/// (Δv, Δω) = Δt (a0 + M (F, τ)), the block's contacts' answer within the step included.
 #[derive(Debug, Clone, Copy)]
 pub struct Rigid {
     /// 1/m; zero for a kinematic block.
@@ -68,12 +70,44 @@ pub struct Rigid {
     pub inverse_inertia: Matrix,
     pub other_force: Vector,
     pub other_torque: Vector,
+    /// (a0, M), if the solid measured them.
+    pub response: Option<(Vector6, Matrix6)>,
 }
 
 impl Rigid {
-    /// (Δv, Δω) of force `f` and torque `t` over `dt`.
-    pub fn response(&self, f: &Vector, t: &Vector, dt: Real) -> (Vector, Vector) {
-        (f * (self.inverse_mass * dt), self.inverse_inertia * t * dt)
+    /// (Δv, Δω) of the water's force `f` and torque `t` over `dt`; with `rest`, also of
+    /// everything else on the block (R, T or a0).
+    pub fn response(&self, f: &Vector, t: &Vector, dt: Real, rest: bool) -> (Vector, Vector) {
+        match &self.response {
+            None => {
+                let (f, t) = if rest {
+                    (f + self.other_force, t + self.other_torque)
+                } else {
+                    (*f, *t)
+                };
+                (f * (self.inverse_mass * dt), self.inverse_inertia * t * dt)
+            }
+            Some((a0, m)) => {
+                let mut x = m * Vector6::new(f.x, f.y, f.z, t.x, t.y, t.z);
+                if rest {
+                    x += a0;
+                }
+                x *= dt;
+                (x.fixed_rows::<3>(0).into(), x.fixed_rows::<3>(3).into())
+            }
+        }
+    }
+
+    /// uᵀ M u for u = (a, c) (M = diag(1/m, I⁻¹) on its own): how far a load along u moves
+    /// the block along it (the symmetric part of a measured M; at least 0).
+    pub fn mobility_along(&self, a: &Vector, c: &Vector) -> Real {
+        match &self.response {
+            None => self.inverse_mass * a.norm_squared() + c.dot(&(self.inverse_inertia * c)),
+            Some((_, m)) => {
+                let u = Vector6::new(a.x, a.y, a.z, c.x, c.y, c.z);
+                u.dot(&(m * u)).max(0.0)
+            }
+        }
     }
 }
 
@@ -138,6 +172,7 @@ impl BodyParticles {
                     inverse_inertia: Matrix::zeros(),
                     other_force: Vector::zeros(),
                     other_torque: Vector::zeros(),
+                    response: None,
                 };
                 moving.len()
             ],
@@ -182,6 +217,7 @@ impl BodyParticles {
                 inverse_inertia: s.inverse_inertia(),
                 other_force: Vector::from(s.other_force),
                 other_torque: Vector::from(s.other_torque),
+                response: s.response(),
             };
         }
     }
@@ -390,14 +426,32 @@ mod tests {
         assert!(body.any_free());
         let placed = body.velocity.clone();
         let rigid = body.rigid[0];
-        assert_eq!(rigid.other_force, Vector::new(0.0, 0.0, -19.62));
-        let (dv, dw) = rigid.response(
-            &Vector::new(2.0, 0.0, 4.0),
-            &Vector::new(4.0, 2.0, 1.0),
-            0.1,
-        );
+        assert!(rigid.response.is_none());
+        let (f, t) = (Vector::new(2.0, 0.0, 4.0), Vector::new(4.0, 2.0, 1.0));
+        // With the rest of its forces: the weight 2 · 9.81 N.
+        let (v0, w0) = rigid.response(&f, &t, 0.1, true);
+        assert!((v0 - Vector::new(0.1, 0.0, 0.2 - 0.981)).norm() < 1e-15);
+        assert!((w0 - Vector::new(0.1, 0.1, 0.1)).norm() < 1e-15);
+        let (dv, dw) = rigid.response(&f, &t, 0.1, false);
         assert!((dv - Vector::new(0.1, 0.0, 0.2)).norm() < 1e-15);
         assert!((dw - Vector::new(0.1, 0.1, 0.1)).norm() < 1e-15);
+        // A measured response takes the place of the mass and the rest of the forces: a block
+        // held along z (a contact) and free along x.
+        let mut measured = state;
+        let mut m = shared::math::Matrix6::zeros();
+        m[(0, 0)] = 0.5;
+        m[(4, 4)] = 0.5;
+        m[(2, 0)] = 0.01;
+        measured.set_response(&Vector6::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0), &m);
+        body.place(std::slice::from_ref(&measured));
+        let r = body.rigid[0];
+        let (mv, mw) = r.response(&f, &t, 0.1, true);
+        assert!((mv - Vector::new(0.2, 0.0, 0.002)).norm() < 1e-15, "{mv}");
+        assert!((mw - Vector::new(0.0, 0.1, 0.0)).norm() < 1e-15, "{mw}");
+        assert!(
+            (r.mobility_along(&Vector::new(1.0, 0.0, 1.0), &Vector::zeros()) - 0.51).abs() < 1e-15
+        );
+        body.place(std::slice::from_ref(&state));
         body.nudge(&[(dv, dw)]);
         let c = Vector::from(state.centroid);
         for ((v, p), x) in body.velocity.iter().zip(&placed).zip(&body.set.position) {

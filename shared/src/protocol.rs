@@ -15,7 +15,9 @@ use iceoryx2::prelude::ZeroCopySend;
 /// Version of every layout in this module. Checked at the handshake. 3: the checkpoint command
 /// and its answer, and a setup that may resume from a checkpoint. 4: a block's inertia and the
 /// rest of its forces in [`BlockState`], for a fluid that moves the blocks in its pressure solve.
-pub const PROTOCOL_VERSION: u32 = 4;
+/// 5: the block's measured response over the coming step ([`BlockState::free_acceleration`],
+/// [`BlockState::mobility`]), and [`LoadsHeader::FOLLOWED`].
+pub const PROTOCOL_VERSION: u32 = 5;
 
 /// Which side of the coupling a node plays.
 #[repr(u32)]
@@ -285,6 +287,16 @@ pub struct BlockState {
     pub other_force: [f64; 3],
     /// The same for the torque about the centroid [N m].
     pub other_torque: [f64; 3],
+    /// With [`BlockState::RESPONSE`] set (a solid that looked ahead, `LoadsHeader::FOLLOWED`),
+    /// how the block answers the water over the coming coupling step, everything else
+    /// included (its weight, contacts, joints, and how they change within the step), in place
+    /// of `other_force` and the inverse mass: the change of its mean velocity and angular
+    /// velocity over the step, (Δv, Δω) = Δt (a0 + M (F, τ)), for a water force F and torque τ
+    /// (about the centroid) held over the step; the mean velocity is the displacement over the
+    /// step divided by Δt. This is a0 [m/s², rad/s²].
+    pub free_acceleration: [f64; 6],
+    /// M of [`Self::free_acceleration`], row by row [1/kg, 1/(kg m), 1/(kg m²)].
+    pub mobility: [[f64; 6]; 6],
 }
 
 impl BlockState {
@@ -301,8 +313,33 @@ impl BlockState {
     pub fn angular_velocity(&self) -> crate::math::Vector {
         crate::math::Vector::from(self.angular_velocity)
     }
+    /// [`Self::free_acceleration`] as a vector.
+    pub fn free_acceleration(&self) -> crate::math::Vector6 {
+        crate::math::Vector6::from_row_slice(&self.free_acceleration)
+    }
+    /// [`Self::mobility`] as a matrix.
+    pub fn mobility(&self) -> crate::math::Matrix6 {
+        crate::math::Matrix6::from_fn(|r, c| self.mobility[r][c])
+    }
+    /// The block's measured response over the coming step, if the solid sent one
+    /// ([`Self::free_acceleration`], [`Self::mobility`]).
+    pub fn response(&self) -> Option<(crate::math::Vector6, crate::math::Matrix6)> {
+        (self.flags & Self::RESPONSE != 0).then(|| (self.free_acceleration(), self.mobility()))
+    }
+    /// Stores a measured response over the coming step ([`Self::free_acceleration`]).
+    pub fn set_response(&mut self, a0: &crate::math::Vector6, m: &crate::math::Matrix6) {
+        self.flags |= Self::RESPONSE;
+        self.free_acceleration = (*a0).into();
+        for (r, row) in self.mobility.iter_mut().enumerate() {
+            for (c, x) in row.iter_mut().enumerate() {
+                *x = m[(r, c)];
+            }
+        }
+    }
     /// Flag bit of a deformable block.
     pub const DEFORMABLE: u32 = 1;
+    /// Flag bit of a block sent with its measured response ([`Self::free_acceleration`]).
+    pub const RESPONSE: u32 = 2;
 
     pub fn is_deformable(&self) -> bool {
         self.flags & Self::DEFORMABLE != 0
@@ -361,6 +398,21 @@ fn symmetric(s: &[f64; 6]) -> crate::math::Matrix {
 pub struct LoadsHeader {
     pub step: u64,
     pub time: f64,
+    /// [`LoadsHeader::FOLLOWED`] or 0.
+    pub flags: u32,
+    pub _reserved: u32,
+}
+
+impl LoadsHeader {
+    /// The loads are those the fluid moved the blocks with over the step it has just taken
+    /// (`FluidSolver::loads_follow_step` in the parallel scheme): it moves them inside its own
+    /// step and reads their response over the next one ([`BlockState::free_acceleration`]),
+    /// so the solid looks ahead for it.
+    pub const FOLLOWED: u32 = 1;
+
+    pub fn followed(&self) -> bool {
+        self.flags & Self::FOLLOWED != 0
+    }
 }
 
 /// Force and torque (about the centroid) the water exerts on one moving block: the opposite of

@@ -116,4 +116,12 @@ pub trait SolidSolver: Solver {
     fn vertex_count(&self) -> usize;
     /// Writes the current pose and velocity of each moving block and its world-frame corners.
     fn write_geometry(&self, blocks: &mut [BlockState], vertices: &mut [[f64; 3]]);
+    /// What [`Self::write_geometry`] sends as each free block's response over the coming
+    /// coupling step ([`BlockState::free_acceleration`]): with `Some((dt, substeps))`, measured
+    /// by trial steps over `dt` in `substeps` steps with the water's loads held, which leave
+    /// the state as it was; with `None`, the block on its own (its last forces, its mass).
+    /// The default sends the latter always.
+    fn look_ahead(&mut self, _step: Option<(f64, u32)>) -> Result<(), SolverError> {
+        Ok(())
+    }
 }

@@ -1,6 +1,8 @@
 //! The solid node's solver: a block system advanced by one of the integrators, behind the
 //! coupling interface ([`SolidSolver`]): loads in, geometry out, outputs on request.
 
+mod look_ahead;
+
 use crate::checkpoint::SolidState;
 use crate::energy::EnergyMonitor;
 use crate::integrator::Integrator;
@@ -23,6 +25,9 @@ pub struct DdaSolver {
     /// How the slides settled under gravity before t = 0 ([`crate::settle`]); `None` without
     /// bonded joints.
     pub settled: Option<crate::settle::Settled>,
+    /// Each block's response over the coming coupling step, if measured for a fluid that moves
+    /// the blocks in its step (per block in scene order; empty: every block on its own).
+    response: Vec<Option<look_ahead::Response>>,
 }
 
 impl DdaSolver {
@@ -69,6 +74,7 @@ impl DdaSolver {
             vtk: ctx.scene.output.vtk,
             vtk_format: ctx.scene.output.vtk_format,
             settled,
+            response: Vec::new(),
         })
     }
 
@@ -178,16 +184,39 @@ impl Solver for DdaSolver {
 
     fn save_state(&mut self) -> Result<Vec<u8>, SolverError> {
         self.csv.flush()?;
+        // The response measured for the geometry sent last: a resumed run sends it again.
+        let response = self.response.clone();
+        self.encode_state(&response)
+    }
+
+    fn restore_state(&mut self, state: &[u8], run_dir: &Path) -> Result<(), SolverError> {
+        let (response, mark) = self.decode_state(state, "solid checkpoint")?;
+        self.response = response;
+        self.run_dir = run_dir.to_path_buf();
+        self.csv.resume(run_dir, mark)?;
+        Ok(())
+    }
+}
+
+impl DdaSolver {
+    /// The block system, its integrator and its outputs' marks as a checkpoint has them
+    /// ([`SolidState`]), with `extra` after them.
+    fn encode_state<T: serde::Serialize>(&mut self, extra: &T) -> Result<Vec<u8>, SolverError> {
         let integrator = self.integrator.save().map_err(SolverError::Failed)?;
         let state = SolidState::save(&mut self.world, integrator, &self.energy, self.csv.mark());
-        let bytes = shared::checkpoint::encode(&state).map_err(SolverError::Failed);
+        let bytes = shared::checkpoint::encode(&(&state, extra)).map_err(SolverError::Failed);
         state.give_back(&mut self.world);
         bytes
     }
 
-    fn restore_state(&mut self, state: &[u8], run_dir: &Path) -> Result<(), SolverError> {
-        let state: SolidState =
-            shared::checkpoint::decode(state, "solid checkpoint").map_err(SolverError::Failed)?;
+    /// Restores [`Self::encode_state`]; returns its `extra` and `blocks.csv`'s mark.
+    fn decode_state<T: serde::de::DeserializeOwned>(
+        &mut self,
+        bytes: &[u8],
+        what: &str,
+    ) -> Result<(T, (Option<Real>, usize)), SolverError> {
+        let (state, extra): (SolidState, T) =
+            shared::checkpoint::decode(bytes, what).map_err(SolverError::Failed)?;
         let (integrator, energy, mark) = state
             .restore(&mut self.world)
             .map_err(SolverError::Failed)?;
@@ -195,13 +224,15 @@ impl Solver for DdaSolver {
             .restore(&integrator)
             .map_err(SolverError::Failed)?;
         self.energy = energy;
-        self.run_dir = run_dir.to_path_buf();
-        self.csv.resume(run_dir, mark)?;
-        Ok(())
+        Ok((extra, mark))
     }
 }
 
 impl SolidSolver for DdaSolver {
+    fn look_ahead(&mut self, step: Option<(Real, u32)>) -> Result<(), SolverError> {
+        self.measure_response(step)
+    }
+
     fn read_loads(&mut self, loads: &[BlockLoad]) {
         // Loads arrive per moving block in `Scene::moving_blocks` order; a non-finite load is
         // kept and the next advance reports it as an instability.
@@ -248,14 +279,17 @@ impl SolidSolver for DdaSolver {
                 ..BlockState::default()
             };
             // The block's inertia and its forces besides the water's (weight, contacts,
-            // joints) as the last evaluation has them, for a fluid that moves it inside its
-            // pressure solve.
+            // joints) as the last evaluation has them, and its response over the coming step
+            // if measured: for a fluid that moves it inside its pressure solve.
             if b.is_free() {
                 state.inverse_mass = 1.0 / b.mass;
                 state.inverse_inertia = BlockState::pack_symmetric(&b.world_inv_inertia());
                 state.other_force =
                     (b.mass * self.world.gravity + self.world.contact_force[i]).into();
                 state.other_torque = self.world.contact_torque[i].into();
+                if let Some(r) = self.response.get(i).copied().flatten() {
+                    state.set_response(&r.free_acceleration, &r.mobility);
+                }
             }
             for (dst, v) in vertices[first..first + n].iter_mut().zip(&b.world_vertices) {
                 *dst = [v.x, v.y, v.z];

@@ -4,36 +4,12 @@
 //! bit, with the same blocks.csv, also for a deformable block.
 
 use shared::protocol::{BlockLoad, BlockState};
-use shared::scene::{Scene, Scheme};
-use shared::solver::{SetupContext, SolidSolver};
+use shared::scene::Scene;
+use shared::solver::SolidSolver;
 use solid_node::verification::Incline;
 
-struct Dir(std::path::PathBuf);
-
-impl Dir {
-    fn new(tag: &str) -> Dir {
-        let d =
-            std::env::temp_dir().join(format!("rockwave-solid-ckpt-{tag}-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        Dir(d)
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn build(solver: &str, scene: &Scene, dir: &Dir) -> Box<dyn SolidSolver> {
-    let ctx = SetupContext {
-        scene,
-        run_dir: &dir.0,
-        scheme: Scheme::Parallel,
-        peer_present: false,
-    };
-    solid_node::REGISTRY.build(solver, &ctx).unwrap()
-}
+mod common;
+use common::{Dir, build};
 
 /// Steps with a small constant "water" load, as the runtime does (loads in, advance).
 fn advance(s: &mut dyn SolidSolver, steps: usize) {
@@ -67,9 +43,9 @@ fn geometry(s: &dyn SolidSolver) -> Vec<u64> {
 
 fn continues_exactly(solver: &str, scene: &Scene, what: &str) {
     let (da, db, scratch) = (
-        Dir::new(&format!("{what}-a")),
-        Dir::new(&format!("{what}-b")),
-        Dir::new(&format!("{what}-s")),
+        Dir::new(&format!("ckpt-{what}-a")),
+        Dir::new(&format!("ckpt-{what}-b")),
+        Dir::new(&format!("ckpt-{what}-s")),
     );
     let mut a = build(solver, scene, &da);
     advance(a.as_mut(), 120);
@@ -125,7 +101,7 @@ fn a_block_on_a_terrain_continues_exactly_from_its_checkpoint() {
         b: 0.4,
         h: 0.2,
     };
-    let files = Dir::new("terrain-files");
+    let files = Dir::new("ckpt-terrain-files");
     let scene = solid_node::verification::incline_on_terrain_scene(&inc, 0.5, &files.0);
     for solver in solid_node::REGISTRY.names() {
         continues_exactly(solver, &scene, &format!("{solver}-terrain"));

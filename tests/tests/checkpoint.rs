@@ -123,6 +123,39 @@ fn cleanup(dirs: &[&PathBuf]) {
     }
 }
 
+/// SIGKILLs the coupler `child` (writing into `dir`) as soon as its first checkpoint is
+/// complete: its nodes follow it (parent-death signal), and what they wrote after the
+/// checkpoint must go. Returns the checkpoint's step.
+fn kill_at_first_checkpoint(dir: &Path, child: Child) -> u64 {
+    let step = await_checkpoint(dir);
+    unsafe_kill(child.id(), 9);
+    let (out, _) = wait_output(child, Duration::from_secs(30));
+    assert!(!out.status.success());
+    assert!(step > 0);
+    step
+}
+
+/// `coupler run --resume dir` to the end, as run `label`; returns its run id.
+fn resume_to_the_end(dir: &Path, label: &str) -> RunId {
+    let (id, _) = fresh(label);
+    let mut cmd = resume(dir);
+    cmd.args(["--run-id", id.as_str()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    let log = finish(cmd.spawn().unwrap(), "the resumed run");
+    assert!(log.contains("resuming"), "{log}");
+    id
+}
+
+/// The killed coupler could not clean up; its nodes left on its death (a later coupler
+/// removes such files after a minute, `coupler clean` at once).
+fn remove_killed_run(id: &RunId) {
+    assert!(eventually(Duration::from_secs(10), || {
+        !shared::transport::run_has_live_nodes(id)
+    }));
+    shared::transport::remove_run_files(id);
+}
+
 #[test]
 fn parallel_checkpoints_change_nothing_and_a_killed_coupler_resumes_exactly() {
     let (id_a, a) = fresh("ckpt-reference");
@@ -135,13 +168,7 @@ fn parallel_checkpoints_change_nothing_and_a_killed_coupler_resumes_exactly() {
     let rb = spawn(&id_b, &b, &with(&CHECKPOINTS));
     let rc = spawn(&id_c, &c, &with(&CHECKPOINTS));
 
-    // SIGKILL the coupler as soon as its first checkpoint is complete: its nodes follow it
-    // (parent-death signal), and what they wrote after the checkpoint must go.
-    let step = await_checkpoint(&c);
-    unsafe_kill(rc.id(), 9);
-    let (out, _) = wait_output(rc, Duration::from_secs(30));
-    assert!(!out.status.success());
-    assert!(step > 0);
+    let step = kill_at_first_checkpoint(&c, rc);
 
     finish(ra, "the reference run");
     let log = finish(rb, "the run with checkpoints");
@@ -150,13 +177,7 @@ fn parallel_checkpoints_change_nothing_and_a_killed_coupler_resumes_exactly() {
     let s = summary(&b);
     assert_eq!(s["stats"]["checkpoints"], 3, "{s}");
 
-    let (id_r, _) = fresh("ckpt-resume");
-    let mut cmd = resume(&c);
-    cmd.args(["--run-id", id_r.as_str()])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    let log = finish(cmd.spawn().unwrap(), "the resumed run");
-    assert!(log.contains("resuming"), "{log}");
+    let id_r = resume_to_the_end(&c, "ckpt-resume");
     assert_identical(&a, &c, "killed and resumed against uninterrupted");
     let s = summary(&c);
     assert_eq!(s["status"], "completed");
@@ -168,12 +189,7 @@ fn parallel_checkpoints_change_nothing_and_a_killed_coupler_resumes_exactly() {
             "shared memory of {id} left behind"
         );
     }
-    // The killed coupler could not clean up; its nodes left on its death (a later coupler
-    // removes such files after a minute, `coupler clean` at once).
-    assert!(eventually(Duration::from_secs(10), || {
-        !shared::transport::run_has_live_nodes(&id_c)
-    }));
-    shared::transport::remove_run_files(&id_c);
+    remove_killed_run(&id_c);
 
     // --resume refuses what it cannot continue: an edited scene (named), no checkpoint.
     let scene = c.join("scene.toml");
@@ -199,6 +215,35 @@ fn parallel_checkpoints_change_nothing_and_a_killed_coupler_resumes_exactly() {
         stderr(&out)
     );
     cleanup(&[&a, &b, &c]);
+}
+
+/// DFSPH moving the wedge inside its solve, multi-rate: the solid's look-ahead (the wedge's
+/// response over the coming step, sent with its geometry) is in the solid's checkpoint, so a
+/// killed coupler resumes to the byte of the uninterrupted run (sent again as the block on its
+/// own, the resumed run would part from it at once).
+#[test]
+fn dfsph_with_the_blocks_in_its_solve_resumes_exactly() {
+    let (id_a, a) = fresh("ckpt-dfsph-reference");
+    let (id_c, c) = fresh("ckpt-dfsph-killed");
+    const DFSPH: [&str; 4] = ["--fluid-solver", "dfsph", "--solid-substeps", "8"];
+    let with = |extra: &[&'static str]| -> Vec<&'static str> {
+        COARSE.iter().chain(&DFSPH).chain(extra).copied().collect()
+    };
+    let ra = spawn(&id_a, &a, &with(&[]));
+    let rc = spawn(&id_c, &c, &with(&CHECKPOINTS));
+    let step = kill_at_first_checkpoint(&c, rc);
+    finish(ra, "the reference run");
+    let id_r = resume_to_the_end(&c, "ckpt-dfsph-resume");
+    assert_identical(&a, &c, "DFSPH, killed and resumed against uninterrupted");
+    assert_eq!(summary(&c)["stats"]["resumed_from_step"], step);
+    for id in [&id_a, &id_r] {
+        assert!(
+            leftovers(id).is_empty(),
+            "shared memory of {id} left behind"
+        );
+    }
+    remove_killed_run(&id_c);
+    cleanup(&[&a, &c]);
 }
 
 #[test]

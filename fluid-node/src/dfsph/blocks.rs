@@ -21,11 +21,12 @@ impl Dfsph {
     }
 
     /// The free blocks answer a pressure within the solve (Gissler et al. 2019, rigid bodies
-    /// in the pressure solve; here with the block's own inertia and the rest of its forces
-    /// from the solid node): the force of stiffness `k(i, p_b, ρ_b)` on each block's boundary
-    /// particles, summed as [`Self::react`] sums the loads, moves the block by
-    /// Δv = Δt F/m, Δω = Δt I⁻¹τ (with `explicit`, also by the Eq. 22 load and the rest of
-    /// its forces R, T: the step's non-pressure part), and the boundary's part of Dρ/Dt,
+    /// in the pressure solve; here with the block's response over the step from the solid
+    /// node, its contacts' answer included, [`crate::bodies::Rigid`]): the force of stiffness
+    /// `k(i, p_b, ρ_b)` on each block's boundary particles, summed as [`Self::react`] sums the
+    /// loads, moves the block by (Δv, Δω) = Δt M (F, τ) (Δt F/m, Δt I⁻¹τ for a block on its
+    /// own; with `explicit`, also by the Eq. 22 load and Δt a0, the rest of its motion: the
+    /// step's non-pressure part), and the boundary's part of Dρ/Dt,
     /// `wall_flux`, follows the new velocities. The water near a block then sees it give way
     /// within the step, so the pressure the solve converges to is that of the water and the
     /// block moving together: the partitioned scheme's one-step lag no longer multiplies the
@@ -66,10 +67,6 @@ impl Dfsph {
             load.force = (Vector::from(load.force) + f).into();
             load.torque = (Vector::from(load.torque) + t).into();
             load.strain_load = (Strain::from(load.strain_load) + e).into();
-            if explicit {
-                f += rigid.other_force;
-                t += rigid.other_torque;
-            }
             if rigid.inverse_mass > 0.0 {
                 // Weight, and weight times the radius of gyration r² = 3/(m tr I⁻¹).
                 let weight = BLOCK_TOLERANCE * g / rigid.inverse_mass;
@@ -79,7 +76,9 @@ impl Dfsph {
                     .max(f.norm() / weight)
                     .max(t.norm() / (weight * r2.sqrt()));
             }
-            let (dv, dw) = rigid.response(&f, &t, dt);
+            // With `explicit`, the rest of the block's motion over the step too: its weight,
+            // its contacts.
+            let (dv, dw) = rigid.response(&f, &t, dt, explicit);
             self.motion[kb].0 += dv;
             self.motion[kb].1 += dw;
         }
@@ -89,7 +88,8 @@ impl Dfsph {
     }
 
     /// The Jacobi damping near each free block. Each block joins the solve as a rank-six term
-    /// K = m M⁻¹ Σ_i β_i u_i u_iᵀ, u_i = (a_i, c_i), a_i = m Σ_b ∇W_ib and
+    /// K = m M Σ_i β_i u_i u_iᵀ (M the block's mobility over the step, diag(1/m, I⁻¹) for a
+    /// block on its own), u_i = (a_i, c_i), a_i = m Σ_b ∇W_ib and
     /// c_i = m Σ_b (x_b − c) × ∇W_ib over its boundary neighbours b of particle i: a stiffness
     /// increment on the particles next to it moves the block, which relieves all of them at
     /// once, so their Jacobi update overshoots the block's mode by 1 + K (a light block, whose
@@ -131,10 +131,7 @@ impl Dfsph {
             } else {
                 let r = &rigid[first as usize];
                 let (a, c) = (a * m, c * m);
-                let s = mu
-                    * m
-                    * beta[i]
-                    * (r.inverse_mass * a.norm_squared() + c.dot(&(r.inverse_inertia * c)));
+                let s = mu * m * beta[i] * r.mobility_along(&a, &c);
                 (first, s)
             };
         });

@@ -106,15 +106,18 @@
 //! bodies into the pressure solve the same way, here with the body's dynamics left to the
 //! solid node): every stiffness the two solves apply to the water also pushes the free
 //! blocks' boundary particles, the reverse pair by pair, and moves each block by
-//! Δv = Δt F/m, Δω = Δt I⁻¹τ ([`Dfsph::move_blocks`]); between the solves the block also
-//! takes its non-pressure part, the walls' held pressure, Eq. 22 and the rest of its forces
-//! (weight, contacts: `BlockState::other_force`, from the solid's last evaluation). The
+//! (Δv, Δω) = Δt M (F, τ) ([`Dfsph::move_blocks`]); between the solves the block also
+//! takes its non-pressure part, the walls' held pressure, Eq. 22 and the rest of its motion
+//! Δt a0 (weight, contacts). M and a0 are the block's response over the step as the solid
+//! sends it (`BlockState::free_acceleration`, `mobility`): measured by the solid's trial steps
+//! over the coming step, its contacts' answer within the step included (M = diag(1/m, I⁻¹)
+//! and a0 its last forces over its mass for a block taken on its own). The
 //! boundary's velocity in the continuity equation follows, so the water near a block sees it
 //! give way within the step, and the pressure the solve settles on is that of water and block
 //! moving together. The loads sent are the forces the block was moved with over the step
 //! (`loads_follow_step`: in the parallel scheme the solid waits for the fluid's step and then
 //! moves the block as the fluid predicted). What the prediction misses of the solid's other
-//! forces (contacts changing within the step, δR) returns next step as a velocity mismatch
+//! forces (contacts changing within the step beyond their linear answer, δR) returns next step as a velocity mismatch
 //! Δt δR/m between block and water, which that step's solve shares out by the masses: in open
 //! water it does not feed on itself, where the lagged scheme multiplies the block's
 //! acceleration by −M_A/m each step (docs/REFERENCES.md §4.1b). Against a layer of water the

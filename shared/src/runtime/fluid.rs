@@ -148,11 +148,17 @@ impl SolidLink {
         n_moving: usize,
         tag: u64,
         time: f64,
+        followed: bool,
         sent: &mut SentLoads,
     ) -> Result<Duration, Fatal> {
         let t = Instant::now();
         self.loads.publish(n_moving, &mut |header, loads| {
-            *header = LoadsHeader { step: tag, time };
+            *header = LoadsHeader {
+                step: tag,
+                time,
+                flags: if followed { LoadsHeader::FOLLOWED } else { 0 },
+                _reserved: 0,
+            };
             solver.write_loads(loads);
             sent.header = Some((tag, time));
             sent.loads.clear();
@@ -168,7 +174,12 @@ impl SolidLink {
             return Ok(());
         };
         self.loads.publish(sent.loads.len(), &mut |header, loads| {
-            *header = LoadsHeader { step, time };
+            // Only the serial scheme resends, whose loads never follow the step.
+            *header = LoadsHeader {
+                step,
+                time,
+                ..LoadsHeader::default()
+            };
             loads.copy_from_slice(&sent.loads);
         })?;
         self.bell.ring()?;
@@ -195,7 +206,15 @@ impl Side for Fluid {
                 Some(_) => link.resend_loads(&self.sent)?,
                 None => {
                     link.receive_geometry(control, self.solver.as_mut(), 0)?;
-                    link.send_loads(self.solver.as_mut(), self.n_moving, 0, 0.0, &mut self.sent)?;
+                    // Serial: the loads never follow the step.
+                    link.send_loads(
+                        self.solver.as_mut(),
+                        self.n_moving,
+                        0,
+                        0.0,
+                        false,
+                        &mut self.sent,
+                    )?;
                 }
             }
         }
@@ -242,6 +261,7 @@ impl Side for Fluid {
                     self.n_moving,
                     tag,
                     cmd.time,
+                    follow,
                     &mut self.sent,
                 )?;
                 if let Some(report) = report {

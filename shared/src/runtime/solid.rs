@@ -17,6 +17,18 @@
 //! end, i.e. extrapolation in the parallel scheme, which feeds the added-mass instability
 //! rather than damping it. (A fluid that moves the blocks in its own solve sends the mean
 //! load of the step itself, `FluidSolver::loads_follow_step`; holding it is then exact.)
+//!
+//! Looking ahead: a fluid that moves the blocks inside its own step (DFSPH with the blocks in
+//! its pressure solve) needs how each block will answer a force over that step, its contacts
+//! included, and marks its loads [`LoadsHeader::FOLLOWED`]. After such a step, when it
+//! sub-cycles (`solid_substeps` > 1), the solid measures that answer over a step like the one
+//! just taken, with trial steps it takes back (`SolidSolver::look_ahead`; the DDA's in
+//! `solid-node/src/dda/look_ahead.rs`), and sends it with the geometry
+//! ([`BlockState::free_acceleration`], [`BlockState::mobility`]). Otherwise each block is sent
+//! on its own (its mass and last forces): single-rate, the solid's step is its own stable
+//! step, within which a contact answers little, and looking ahead measured no gain there (the
+//! sinking block's rest) while it moved the floating block's draft by −0.6 % of the
+//! reference (docs/PERFORMANCE.md).
 
 use super::SolidFactory;
 use super::args::NodeArgs;
@@ -153,7 +165,7 @@ fn advance_substeps(
     if max <= 1 {
         return solver.advance(dt);
     }
-    let n = (dt / solver.dt_proposal()).ceil().clamp(1.0, max as f64) as u32;
+    let n = substep_count(solver, dt, max);
     let h = dt / n as f64;
     let mut report = StepReport::default();
     for _ in 0..n {
@@ -163,6 +175,14 @@ fn advance_substeps(
         }
     }
     Ok(report)
+}
+
+/// How many substeps [`advance_substeps`] takes over `dt`.
+fn substep_count(solver: &dyn SolidSolver, dt: f64, max: u32) -> u32 {
+    if max <= 1 {
+        return 1;
+    }
+    (dt / solver.dt_proposal()).ceil().clamp(1.0, max as f64) as u32
 }
 
 impl FluidLink {
@@ -195,13 +215,15 @@ impl FluidLink {
         control: &Control,
         solver: &mut dyn SolidSolver,
         tag: u64,
-    ) -> Result<(Duration, Option<Verdict>), Fatal> {
+    ) -> Result<(Duration, Option<Verdict>, bool), Fatal> {
         let mut read = Duration::ZERO;
         let mut added_mass = None;
+        let mut followed = false;
         let watch = &mut self.added_mass;
         let relaxation = &mut self.relaxation;
-        control.receive_tagged(&*self.loads, |h| h.step, tag, &mut |_, loads| {
+        control.receive_tagged(&*self.loads, |h| h.step, tag, &mut |h, loads| {
             let t = Instant::now();
+            followed = h.followed();
             let loads = match relaxation.as_mut() {
                 Some(r) => r.apply(loads),
                 None => loads,
@@ -210,7 +232,7 @@ impl FluidLink {
             added_mass = watch.as_mut().and_then(|m| m.observe(loads));
             read = t.elapsed();
         })?;
-        Ok((read, added_mass))
+        Ok((read, added_mass, followed))
     }
 
     /// Writes the solver's geometry straight into the outgoing messages (loaned shared memory
@@ -294,9 +316,11 @@ impl Side for Solid {
     ) -> Result<(StepReport, Duration), StepFailure> {
         let mut compute = Duration::ZERO;
         let mut burst = None;
+        let mut followed = false;
         if let Fluid::Coupled(link) = &mut self.fluid {
-            let (t, added_mass) = link.receive_loads(control, self.solver.as_mut(), cmd.step)?;
+            let (t, added_mass, f) = link.receive_loads(control, self.solver.as_mut(), cmd.step)?;
             compute += t;
+            followed = f;
             match added_mass {
                 Some(Verdict::Unstable(msg)) => {
                     return Err(StepFailure::Solver(SolverError::Unstable(msg)));
@@ -307,6 +331,14 @@ impl Side for Solid {
         }
         let t = Instant::now();
         let mut report = advance_substeps(self.solver.as_mut(), cmd.dt, self.substeps)?;
+        // A fluid that moved the blocks inside its step reads their response over the next
+        // one: measured over a step like this one when the solid sub-cycles (module doc,
+        // "Looking ahead").
+        let ahead = (followed && self.substeps > 1).then(|| {
+            let n = substep_count(self.solver.as_ref(), cmd.dt, self.substeps);
+            (cmd.dt, n)
+        });
+        self.solver.look_ahead(ahead)?;
         // The solver's own warning, if any, is the more specific; a burst is otherwise named.
         if report.warning.is_none() {
             report.warning = burst;

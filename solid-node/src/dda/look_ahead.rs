@@ -1,0 +1,166 @@
+//! Looking ahead for a fluid that moves the blocks inside its own step: each free block's
+//! response over the coming coupling step, (Δv, Δω) = Δt (a0 + M (F, τ)) in the water's force
+//! and torque held over it ([`shared::protocol::BlockState::free_acceleration`]), measured by
+//! trial steps.
+//!
+//! Why: DFSPH moves a block inside its pressure solve (Gissler et al. 2019) by the block's
+//! inertia and the rest of its forces. Taken on their own, at their last value, those say
+//! nothing of a contact: a block resting on the floor answers the water as if free, while the
+//! solid's contact spring, sub-cycled within the coupling step, answers the same force within
+//! it. The water then cancels the last contact force and the contact re-closes inside the step
+//! (the default scene's wedge at rest under DFSPH at 2 ms: its contact opened and closed at
+//! 70 Hz, 0 to 2.4 block weights, docs/PERFORMANCE.md). The solid's own step, linearised in the
+//! water's load, is what a fluid needs instead: the interface Jacobian of quasi-Newton
+//! partitioned coupling (Degroote, Bathe & Vierendeels 2009), here of a rigid block's six
+//! degrees of freedom, by finite differences.
+//!
+//! How: after its step the solid saves its state (the checkpoint's bytes), advances over the
+//! last step's dt in the same substeps with the water's loads held, once as they are and once
+//! with each of the six load components raised by a thousandth of the block's weight (times
+//! its radius of gyration for a torque), and restores the state after each trial: seven trial
+//! steps, nothing of them kept. All free rigid blocks are perturbed together (a block's
+//! response to its neighbours' loads is left out). The mean velocities over a trial
+//! (displacement over Δt) give a0 and M. A trial that fails (a contact past its limit) leaves
+//! the blocks on their own for that step; deformable blocks always are (their strains are not
+//! in a fluid's rigid motion).
+
+use super::DdaSolver;
+use crate::block::Block;
+use shared::math::{Matrix6, Point, Real, Rotation, Vector6};
+use shared::solver::SolverError;
+
+/// Relative size of the trial loads: a thousandth of the block's weight moves it by
+/// ~10⁻⁸ m over a 2 ms step, far above rounding and far below a contact's penetration.
+const PERTURBATION: Real = 1e-3;
+
+/// A free block's response over the coming step (module doc).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Response {
+    pub free_acceleration: Vector6,
+    pub mobility: Matrix6,
+}
+
+/// A free block's pose and velocities at the start of the trials.
+struct Start {
+    block: usize,
+    position: Point,
+    rotation: Rotation,
+    velocity: Vector6,
+}
+
+impl Start {
+    /// The block's mean velocities over `dt` since the start, less those at the start.
+    fn mean_change(&self, b: &Block, dt: Real) -> Vector6 {
+        let v = (b.position - self.position) / dt;
+        let w = (b.rotation * self.rotation.inverse()).scaled_axis() / dt;
+        Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z) - self.velocity
+    }
+}
+
+impl DdaSolver {
+    /// Measures each free rigid block's [`Response`] over a step of `dt` in `substeps` with
+    /// the loads held (module doc); `None` clears them (the blocks on their own).
+    pub(super) fn measure_response(
+        &mut self,
+        step: Option<(Real, u32)>,
+    ) -> Result<(), SolverError> {
+        self.response.clear();
+        let Some((dt, substeps)) = step else {
+            return Ok(());
+        };
+        let world = &self.world;
+        let starts: Vec<Start> = world
+            .free
+            .iter()
+            .filter(|&&i| !world.blocks[i].is_deformable())
+            .map(|&i| {
+                let b = &world.blocks[i];
+                let (v, w) = (b.velocity, b.angular_velocity);
+                Start {
+                    block: i,
+                    position: b.position,
+                    rotation: b.rotation,
+                    velocity: Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z),
+                }
+            })
+            .collect();
+        if starts.is_empty() {
+            return Ok(());
+        }
+        let g = match world.gravity.norm() {
+            g if g > 0.0 => g,
+            _ => shared::math::STANDARD_GRAVITY,
+        };
+        // The trial loads: a thousandth of the weight, times the radius of gyration
+        // r² = 3/(m tr I⁻¹) for a torque.
+        let sizes: Vec<(Real, Real)> = starts
+            .iter()
+            .map(|s| {
+                let b = &world.blocks[s.block];
+                let f = PERTURBATION * b.mass * g;
+                let r2 = 3.0 / (b.mass * b.world_inv_inertia().trace());
+                (f, f * r2.sqrt())
+            })
+            .collect();
+        let saved = self.encode_state(&())?;
+        let h = dt / substeps as Real;
+        // Trial 0 with the loads as they are, trial 1 + j with component j raised.
+        let mut trials: Vec<Vec<Vector6>> = Vec::with_capacity(7);
+        for trial in 0..7 {
+            if trial > 0 {
+                let j = trial - 1;
+                for (s, &(f, t)) in starts.iter().zip(&sizes) {
+                    if j < 3 {
+                        self.world.load_force[s.block][j] += f;
+                    } else {
+                        self.world.load_torque[s.block][j - 3] += t;
+                    }
+                }
+            }
+            let mut ok = true;
+            for _ in 0..substeps {
+                if self
+                    .integrator
+                    .advance(&mut self.world, h, &mut self.energy)
+                    .is_err()
+                {
+                    ok = false;
+                    break;
+                }
+            }
+            if ok {
+                trials.push(
+                    starts
+                        .iter()
+                        .map(|s| s.mean_change(&self.world.blocks[s.block], dt))
+                        .collect(),
+                );
+            }
+            self.decode_state::<()>(&saved, "the look-ahead's snapshot")?;
+            if !ok {
+                return Ok(());
+            }
+        }
+        self.response = vec![None; self.world.blocks.len()];
+        for (k, (s, &(f, t))) in starts.iter().zip(&sizes).enumerate() {
+            let mut mobility = Matrix6::zeros();
+            for j in 0..6 {
+                let size = if j < 3 { f } else { t };
+                let column = (trials[j + 1][k] - trials[0][k]) / (size * dt);
+                mobility.set_column(j, &column);
+            }
+            let (lf, lt) = (
+                self.world.load_force[s.block],
+                self.world.load_torque[s.block],
+            );
+            let load = Vector6::new(lf.x, lf.y, lf.z, lt.x, lt.y, lt.z);
+            // Trial 0 is the response to the loads held: a0 is what is left without them.
+            let free_acceleration = trials[0][k] / dt - mobility * load;
+            self.response[s.block] = Some(Response {
+                free_acceleration,
+                mobility,
+            });
+        }
+        Ok(())
+    }
+}
