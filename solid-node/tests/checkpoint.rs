@@ -75,13 +75,7 @@ fn continues_exactly(solver: &str, scene: &Scene, what: &str) {
 
 #[test]
 fn both_schemes_continue_exactly_from_their_checkpoint() {
-    let inc = Incline {
-        alpha: 30.0,
-        phi: 20.0,
-        cohesion: 0.0,
-        b: 0.4,
-        h: 0.2,
-    };
+    let inc = Incline::SLIDING;
     for solver in solid_node::REGISTRY.names() {
         continues_exactly(solver, &inc.scene(), solver);
         let soft = inc.scene_with("elastic = { young_modulus = 1e7, poisson_ratio = 0.25 }");
@@ -94,13 +88,7 @@ fn both_schemes_continue_exactly_from_their_checkpoint() {
 /// to the bit.
 #[test]
 fn a_block_on_a_terrain_continues_exactly_from_its_checkpoint() {
-    let inc = Incline {
-        alpha: 30.0,
-        phi: 20.0,
-        cohesion: 0.0,
-        b: 0.4,
-        h: 0.2,
-    };
+    let inc = Incline::SLIDING;
     let files = Dir::new("ckpt-terrain-files");
     let scene = solid_node::verification::incline_on_terrain_scene(&inc, 0.5, &files.0);
     for solver in solid_node::REGISTRY.names() {

@@ -14,14 +14,7 @@ use common::{Dir, build};
 
 /// A block sliding down a 30° incline (friction 20°): its contact holds it against the plane.
 fn incline() -> Scene {
-    Incline {
-        alpha: 30.0,
-        phi: 20.0,
-        cohesion: 0.0,
-        b: 0.4,
-        h: 0.2,
-    }
-    .scene()
+    Incline::SLIDING.scene()
 }
 
 fn load(force: [f64; 3], torque: [f64; 3]) -> BlockLoad {

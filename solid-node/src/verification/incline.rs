@@ -24,6 +24,15 @@ pub struct Incline {
 }
 
 impl Incline {
+    /// The block that slides: α = 30°, φ = 20°, no cohesion, 0.4 × 0.2 m.
+    pub const SLIDING: Incline = Incline {
+        alpha: 30.0,
+        phi: 20.0,
+        cohesion: 0.0,
+        b: 0.4,
+        h: 0.2,
+    };
+
     /// The slope (a fixed slab) and the block sitting on it at zero gap, both turned by α.
     pub fn scene(&self) -> Scene {
         self.scene_with("")
@@ -94,16 +103,7 @@ pub fn incline_rows(solver: &str) -> Vec<Row> {
                 h: 0.2,
             },
         ),
-        (
-            "incline α=30° φ=20°: slides",
-            Incline {
-                alpha: 30.0,
-                phi: 20.0,
-                cohesion: 0.0,
-                b: 0.4,
-                h: 0.2,
-            },
-        ),
+        ("incline α=30° φ=20°: slides", Incline::SLIDING),
         (
             "incline α=30° φ=20° c=250 Pa: slides",
             Incline {

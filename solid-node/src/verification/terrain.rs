@@ -101,13 +101,7 @@ pub fn incline_on_terrain_rows(solver: &str) -> Vec<Row> {
         ),
         (
             "incline on a terrain mesh α=30° φ=20°: slides",
-            Incline {
-                alpha: 30.0,
-                phi: 20.0,
-                cohesion: 0.0,
-                b: 0.4,
-                h: 0.2,
-            },
+            Incline::SLIDING,
         ),
     ];
     cases
