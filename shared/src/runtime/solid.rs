@@ -162,9 +162,7 @@ fn advance_substeps(
     dt: f64,
     max: u32,
 ) -> Result<StepReport, SolverError> {
-    if max <= 1 {
-        return solver.advance(dt);
-    }
+    // One step of exactly dt when max is 1 (dt / 1 is dt to the bit).
     let n = substep_count(solver, dt, max);
     let h = dt / n as f64;
     let mut report = StepReport::default();
