@@ -56,6 +56,14 @@ fn stack_stays_at_rest() {
     check(&each(|s| [v::stack_row(s, 3.0)]));
 }
 
+/// Boxes cut by one joint set, flush, pressed several contact margins deep: each holds the
+/// one above on its springs (before narrow_phase.rs's `over_face` the column sank 0.90 m
+/// into itself).
+#[test]
+fn flush_column_holds_on_its_springs() {
+    check(&each(|s| [v::flush_column_row(s)]));
+}
+
 #[test]
 fn default_scene_wedge_slides_smoothly() {
     check(&each(v::default_wedge_rows));

@@ -253,6 +253,65 @@ pub fn stack_drift(solver: &str, n: usize, duration: Real) -> Result<Real, Solve
     Ok(drift)
 }
 
+/// Normal stiffness of [`flush_column_sink`]'s contacts [N/m]: soft enough that the lowest
+/// joint is pressed several contact margins deep.
+pub const FLUSH_COLUMN_STIFFNESS: Real = 2e5;
+
+/// A column of `n` equal boxes (0.4 × 0.4 × 0.3 m, 2 500 kg/m³) on a fixed floor, as one joint
+/// set cuts a rock mass: every box's bottom corners sit flush with the side faces of the box
+/// below. The contacts are soft ([`FLUSH_COLUMN_STIFFNESS`]), so the joints are pressed in
+/// several contact margins (n = 4: 9 at the floor, 3.4 between the lowest boxes). Returns the
+/// top box's sink after [`STACK_SETTLE`] and what the springs give at rest: the floor carries
+/// n weights W on the lowest box's four corners, n W/(4 k); between boxes, where the corners
+/// of both coincide, each corner has a spring of either block on the other's face, eight in
+/// all, and the joint j boxes from the top carries j weights: Σ_{j<n} j W/(8 k). A contact
+/// that took the flush side face for its reference (depth 0, no force) let each box sink
+/// through the one below (0.90 m, the column's whole height less a box, before
+/// narrow_phase.rs's `over_face`).
+pub fn flush_column_sink(solver: &str, n: usize) -> Result<(Real, Real), SolverError> {
+    let (a, hgt, density) = (0.4, 0.3, 2500.0);
+    let mut blocks = vec![block_toml(
+        "floor",
+        "fixed",
+        density,
+        &box_corners([-2.0, -2.0, -0.5], [2.0, 2.0, 0.0]),
+        "",
+    )];
+    for i in 0..n {
+        let z = hgt * i as Real;
+        let v = box_corners([-a / 2.0, -a / 2.0, z], [a / 2.0, a / 2.0, z + hgt]);
+        blocks.push(block_toml(&format!("box{i}"), "free", density, &v, ""));
+    }
+    let contact = format!(
+        "friction_angle = 30.0\ndamping_ratio = 0.1\nnormal_stiffness = {FLUSH_COLUMN_STIFFNESS:e}"
+    );
+    let s = scene("flush_column", [0.0, 0.0, -G], 10.0, "", &contact, &blocks);
+    let mut h = Harness::new(&s, solver)?;
+    let top = *h.world().free.last().expect("the column has boxes");
+    let z0 = h.world().blocks[top].position.z;
+    h.run_until(STACK_SETTLE, None, |_| {})?;
+    let sink = z0 - h.world().blocks[top].position.z;
+    let weight = density * a * a * hgt * G;
+    let above = (n * (n - 1) / 2) as Real;
+    let expected = (n as Real / 4.0 + above / 8.0) * weight / FLUSH_COLUMN_STIFFNESS;
+    Ok((sink, expected))
+}
+
+pub fn flush_column_row(solver: &str) -> Row {
+    let case = "column of 4 flush boxes (one joint set), soft contacts: top's sink".to_string();
+    match flush_column_sink(solver, 4) {
+        Err(e) => Row::failed(&case, solver, "sink [m]", &e),
+        Ok((sink, expected)) => Row::numeric(
+            &case,
+            solver,
+            "sink of the top box after 2 s [m]",
+            expected,
+            sink,
+            Tolerance::Relative(0.03),
+        ),
+    }
+}
+
 /// Time the stack is given to settle onto its springs [s].
 pub const STACK_SETTLE: Real = 2.0;
 

@@ -1,7 +1,7 @@
 //! Verification cases with closed-form references (docs/REFERENCES.md §2): free fall, a block on an
 //! incline that sticks or slides (with and without cohesion), slide-or-topple, the restitution
 //! of an undamped penalty bounce for both schemes, the explicit scheme pushed past its limit,
-//! a stack at rest, the embedded default scene's wedge, and a spinning block that must not
+//! a stack at rest, a column of flush boxes pressed several contact margins deep, the embedded default scene's wedge, and a spinning block that must not
 //! grow; jointed slopes cut from a `[[slide]]` against limit equilibrium (planar and wedge
 //! failure, explicit solver); the incline on a terrain mesh and a block on a terrain bump
 //! ([`terrain`]); and the deformable (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints
@@ -59,6 +59,7 @@ pub fn run_all(quick: bool) -> Vec<Row> {
         }
         rows.extend(jointed_rows(solver));
         rows.push(stack_row(solver, if quick { 3.0 } else { 10.0 }));
+        rows.push(flush_column_row(solver));
         rows.extend(default_wedge_rows(solver));
         rows.extend(incline_on_terrain_rows(solver));
         rows.extend(bump_rows(solver));
