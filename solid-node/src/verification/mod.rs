@@ -2,10 +2,11 @@
 //! incline that sticks or slides (with and without cohesion), slide-or-topple, the restitution
 //! of an undamped penalty bounce for both schemes, the explicit scheme pushed past its limit,
 //! a stack at rest, a column of flush boxes pressed several contact margins deep, the embedded
-//! default scene's wedge, and a spinning block that must not grow; jointed slopes cut from a `[[slide]]` against limit equilibrium (planar and wedge
-//! failure, explicit solver); the incline on a terrain mesh and a block on a terrain bump
-//! ([`terrain`]); and the deformable (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints
-//! them as a table; the tests run the same functions.
+//! default scene's wedge, and a spinning block that must not grow; jointed slopes cut from a
+//! `[[slide]]` against limit equilibrium (planar and wedge failure, explicit solver); the
+//! incline on a terrain mesh and a block on a terrain bump ([`terrain`]); and the deformable
+//! (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints them as a table; the tests
+//! run the same functions.
 //!
 //! Every case drives the solver through the [`SolidSolver`] interface, as the node runtime
 //! does, with the run directory in a temporary folder.
