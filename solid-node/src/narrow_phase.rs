@@ -33,7 +33,7 @@ const PARALLEL_SINE: Real = 1e-3;
 
 /// Largest ratio of an edge–edge penetration to the depth of its points below the nearest face
 /// (1/cos 75°).
-const EDGE_DEPTH_RATIO: Real = 3.9;
+pub(crate) const EDGE_DEPTH_RATIO: Real = 3.9;
 
 /// Appends the contacts of blocks `a` < `b` to `out` in key order, inheriting state from `old`
 /// (the previous step's contacts of this pair, sorted by key).

@@ -21,7 +21,9 @@
 //!   in a BVH of their own) can be crossed by a block resting on the terrain, as only peaks can
 //!   touch a face. The crossing test is the one between two blocks
 //!   ([`crate::narrow_phase::crossing`]); its locality check measures the block edge's point
-//!   against the ridge's two triangle planes (locally, the terrain is the wedge under them).
+//!   against the ridge's two triangle planes (locally, the terrain is the wedge under them),
+//!   and a crossing pressed past the margin is kept by the block's depth in that wedge
+//!   ([`wedge_depth`]), as two blocks' crossings are by their separating-axis depth.
 //!   Without these, a block lying across a ridge with no vertex on either side (a slab bridging
 //!   a crest, a block rocking over the brink of a cliff) would sink through it.
 
@@ -325,7 +327,10 @@ fn ridge_contacts(
             return;
         }
         found.sort_unstable_by_key(|f| f.0);
-        let grow = Vector::repeat(m);
+        // A block edge pressed into the terrain lies under the ridge it crosses: its box is
+        // grown by how far a vertex may be sunk and still be found (as in [`collide`]), not by
+        // the margin, or a crossing past the margin would never be tested.
+        let grow = Vector::repeat((0.25 * ba.size()).max(m));
         for ia in 0..ba.shape.edges.len() {
             let ea = narrow_phase::block_edge(ba, ia);
             let lo = ea.p0.coords.inf(&ea.p1.coords) - grow;
@@ -346,7 +351,16 @@ fn ridge_contacts(
                 // ridge's two triangles. The ridge's point in the block: its face planes.
                 let da = (x.pa - eb.p0).dot(&eb.n1).max((x.pa - eb.p0).dot(&eb.n2));
                 let db = ba.plane_distance(&x.pb).0;
-                if !narrow_phase::local_depths(&x, da, db, m) {
+                // A block face pressed onto the ridge past the margin: the ridge's point lies
+                // in the block's side face (depth ≈ 0), so the points' depths understate the
+                // crossing's; the block's depth in the ridge's wedge says it is real, as the
+                // separating-axis depth does between two blocks.
+                let real = narrow_phase::local_depths(&x, da, db, m)
+                    || (da <= m
+                        && db <= m
+                        && -x.gap
+                            <= narrow_phase::EDGE_DEPTH_RATIO * wedge_depth(ba, eb, &x.normal) + m);
+                if !real {
                     continue;
                 }
                 let key = ContactKey {
@@ -360,6 +374,27 @@ fn ridge_contacts(
             }
         }
     });
+}
+
+/// How deep block `ba` lies in the terrain's wedge under ridge `e` (locally the terrain is
+/// the wedge below its two triangles' planes): the least overlap of their projections on the
+/// triangles' normals and on the crossing's normal `n`, the separating axes normal to the
+/// ridge, on which the wedge's extent ends at the ridge line (Gottschalk, Lin & Manocha 1996,
+/// as [`narrow_phase::penetration_depth`] between two blocks). A block sunk a little into one
+/// triangle has a small overlap on that triangle's normal, so a crossing far deeper than that
+/// (an edge of the block's plane, not a contact) is still refused.
+fn wedge_depth(ba: &Block, e: &Edge, n: &Vector) -> Real {
+    [e.n1, e.n2, *n]
+        .iter()
+        .map(|axis| {
+            let lowest = ba
+                .world_vertices
+                .iter()
+                .map(|v| axis.dot(&v.coords))
+                .fold(Real::INFINITY, Real::min);
+            axis.dot(&e.p0.coords) - lowest
+        })
+        .fold(Real::INFINITY, Real::min)
 }
 
 /// Terrain peak `w` at `p` against the faces of block `a`.
@@ -442,5 +477,82 @@ mod tests {
         }
         assert!(body(&grid(|_| 0.0)).ridges.is_empty());
         assert!(body(&grid(|x| x.abs())).ridges.is_empty());
+    }
+
+    /// A cube as wide as a mesa's flat top (one 0.4 m DEM cell, 45° flanks), turned 45° about z
+    /// and pressed `depth` into the top: no vertex of either lies in the other, and the cube's
+    /// four bottom edges cross the rim's four ridges at eight points, each a contact with the
+    /// full depth along +z.
+    fn mesa_crossings(depth: Real) -> Vec<Contact> {
+        let (height, half) = (0.4, 0.2);
+        let mesa = body(&Grid::from_fn(12, 12, -2.2, -2.2, 0.4, |x, y| {
+            if x.abs() <= half + 1e-9 && y.abs() <= half + 1e-9 {
+                height
+            } else {
+                0.0
+            }
+        }));
+        let (s, c) = std::f64::consts::FRAC_PI_4.sin_cos();
+        let mut vertices = Vec::new();
+        for &(x, y) in &[(-half, -half), (half, -half), (half, half), (-half, half)] {
+            for z in [height - depth, height + 2.0 * half - depth] {
+                vertices.push([c * x - s * y, s * x + c * y, z]);
+            }
+        }
+        let spec = BlockSpec {
+            name: "cube".into(),
+            kind: BlockKind::Free,
+            shape: ShapeSpec::Convex { vertices },
+            density: 2500.0,
+            velocity: [0.0; 3],
+            angular_velocity: [0.0; 3],
+            motion: None,
+            friction_angle: None,
+            cohesion: None,
+            elastic: None,
+            slide: None,
+        };
+        let cube = Block::from_spec(0, &spec).unwrap();
+        let joint = Joint {
+            tan_phi: 0.7,
+            cohesion: 0.0,
+            tensile: 0.0,
+            bonded: false,
+        };
+        let params = NarrowParams {
+            margin: 4e-4,
+            at_start: false,
+        };
+        let mut out = Vec::new();
+        collide(0, &cube, 1, &mesa, joint, params, &[], &mut out);
+        assert!(
+            out.iter().all(|c| c.key.feature == Feature::EdgeEdge),
+            "{out:#?}"
+        );
+        assert_eq!(out.len(), 8, "{out:#?}");
+        for c in &out {
+            assert!(
+                (c.normal - Vector::z()).norm() < 1e-9,
+                "normal {}",
+                c.normal
+            );
+            assert!((c.gap + depth).abs() < 1e-9, "gap {}", c.gap);
+        }
+        out
+    }
+
+    /// Touching (within the margin): the rim's crossings carry the cube.
+    #[test]
+    fn mesa_rim_holds_a_touching_cube_by_edge_crossings() {
+        mesa_crossings(1e-4);
+    }
+
+    /// Pressed in five margins (a landing, or a load on top), the crossings stay. Their rim
+    /// points lie in the cube's side faces (depth ≈ 0 below them), so the points' depths alone
+    /// dropped them past the margin and the cube sank into the mesa unresisted until its
+    /// corners reached the flanks; the cube's own depth in the rim's wedge keeps them.
+    #[test]
+    fn mesa_rim_keeps_a_pressed_in_cube() {
+        mesa_crossings(5.0 * 4e-4);
     }
 }

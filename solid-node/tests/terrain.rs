@@ -1,5 +1,6 @@
 //! Blocks on a `[[terrain]]` read from a file: the incline's Mohr–Coulomb reference with the
-//! slope a triangle mesh, and a block on a terrain bump that stays.
+//! slope a triangle mesh, a block on a terrain bump that stays, and a cube resting across a
+//! mesa's rim on its edge crossings alone (also on soft contacts pressed past the margin).
 
 use solid_node::verification::{self as v, Row};
 
