@@ -40,4 +40,8 @@ pub trait Integrator: Send {
     fn save(&self) -> Result<Vec<u8>, String>;
     /// Restores [`Integrator::save`].
     fn restore(&mut self, state: &[u8]) -> Result<(), String>;
+    /// The next advances are trial steps whose state will be restored (the look-ahead's,
+    /// `dda/look_ahead.rs`): work that only the kept steps use may be skipped. Ends at the
+    /// next [`Integrator::restore`].
+    fn begin_trial(&mut self) {}
 }

@@ -7,7 +7,8 @@
 //! of `solid_node::REGISTRY`), `--elastic E` to make every block of the pile deformable
 //! (12 unknowns) with Young's modulus E [Pa], ν = 0.25, `--elastic-one E` only the first (the
 //! rest rigid: what a scene with one deformable block costs the implicit scheme, whose blocks
-//! are then all 12×12).
+//! are then all 12×12), `--scene FILE` the blocks of a scene instead of the piles (its solid
+//! alone, dry: a cut rock mass of `[[slide]]`s, say, sliding and breaking up without water).
 
 use shared::step::StepRule;
 use solid_node::verification::{Harness, block_toml, box_corners, scene};
@@ -90,8 +91,23 @@ fn main() {
         "| blocks | solver | warm-up steps | timed steps | dt [s] | contacts | ms / step | µs / block-step |"
     );
     println!("|---|---|---|---|---|---|---|---|");
-    for &n in &sizes {
-        let scene = pile(n, elastic, only_first);
+    let scenes: Vec<(usize, shared::scene::Scene)> = match arg("--scene") {
+        Some(path) => {
+            let scene = shared::scene::Scene::load(std::path::Path::new(&path))
+                .unwrap_or_else(|e| panic!("--scene {path}: {e}"));
+            let n = scene
+                .blocks
+                .iter()
+                .filter(|b| b.kind != shared::scene::BlockKind::Fixed)
+                .count();
+            vec![(n, scene)]
+        }
+        None => sizes
+            .iter()
+            .map(|&n| (n, pile(n, elastic, only_first)))
+            .collect(),
+    };
+    for (n, scene) in scenes {
         let solvers: Vec<String> = arg("--solvers").map_or(
             solid_node::REGISTRY
                 .names()

@@ -117,6 +117,8 @@ impl DdaSolver {
                     }
                 }
             }
+            // Each trial is thrown away (the restore below also ends the trial mode).
+            self.integrator.begin_trial();
             let mut ok = true;
             for _ in 0..substeps {
                 if self
