@@ -9,7 +9,7 @@ use crate::block::Block;
 use shared::math::Real;
 
 /// Candidate pairs of overlapping bounding boxes.
-#[derive(Debug, Default, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct BroadPhase {
     order: Vec<u32>,
     active_free: Vec<u32>,

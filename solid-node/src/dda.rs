@@ -215,17 +215,30 @@ impl DdaSolver {
         bytes: &[u8],
         what: &str,
     ) -> Result<(T, (Option<Real>, usize)), SolverError> {
-        let (state, extra): (SolidState, T) =
-            shared::checkpoint::decode(bytes, what).map_err(SolverError::Failed)?;
-        let (integrator, energy, mark) = state
-            .restore(&mut self.world)
-            .map_err(SolverError::Failed)?;
-        self.integrator
-            .restore(&integrator)
-            .map_err(SolverError::Failed)?;
-        self.energy = energy;
-        Ok((extra, mark))
+        decode_into(
+            &mut self.world,
+            self.integrator.as_mut(),
+            &mut self.energy,
+            bytes,
+            what,
+        )
     }
+}
+
+/// [`DdaSolver::decode_state`] into any block system of the scene (the look-ahead's copy).
+fn decode_into<T: serde::de::DeserializeOwned>(
+    world: &mut World,
+    integrator: &mut dyn Integrator,
+    energy: &mut EnergyMonitor,
+    bytes: &[u8],
+    what: &str,
+) -> Result<(T, (Option<Real>, usize)), SolverError> {
+    let (state, extra): (SolidState, T) =
+        shared::checkpoint::decode(bytes, what).map_err(SolverError::Failed)?;
+    let (saved, monitor, mark) = state.restore(world).map_err(SolverError::Failed)?;
+    integrator.restore(&saved).map_err(SolverError::Failed)?;
+    *energy = monitor;
+    Ok((extra, mark))
 }
 
 impl SolidSolver for DdaSolver {

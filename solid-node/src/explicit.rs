@@ -74,7 +74,7 @@ impl Scheme for CentralDifference {
     }
 }
 
-#[derive(serde::Serialize, serde::Deserialize)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct CentralDifference {
     /// v_{n−½} of each block (indexed like `World::blocks`).
     half_velocity: Vec<Vector>,
@@ -161,6 +161,10 @@ impl Integrator for CentralDifference {
 
     fn begin_trial(&mut self) {
         self.trial = true;
+    }
+
+    fn duplicate(&self) -> Box<dyn Integrator> {
+        Box::new(self.clone())
     }
 
     fn init(&mut self, world: &mut World) {

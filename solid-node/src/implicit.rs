@@ -160,7 +160,7 @@ enum Cut {
 
 /// Shi's implicit scheme over blocks of `N` unknowns: 6 (rigid blocks only) or 12 (a scene
 /// with deformable blocks).
-#[derive(serde::Serialize, serde::Deserialize)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct Newmark<const N: usize> {
     max_open_close: u32,
     displacement_limit: Real,
@@ -677,6 +677,10 @@ impl<const N: usize> Integrator for Newmark<N> {
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
         *self = shared::checkpoint::decode(state, "implicit integrator")?;
         Ok(())
+    }
+
+    fn duplicate(&self) -> Box<dyn Integrator> {
+        Box::new(self.clone())
     }
 
     fn init(&mut self, world: &mut World) {

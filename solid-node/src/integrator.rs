@@ -44,4 +44,6 @@ pub trait Integrator: Send {
     /// `dda/look_ahead.rs`): work that only the kept steps use may be skipped. Ends at the
     /// next [`Integrator::restore`].
     fn begin_trial(&mut self) {}
+    /// A copy of the integrator, history and all (the look-ahead's second set of trials).
+    fn duplicate(&self) -> Box<dyn Integrator>;
 }

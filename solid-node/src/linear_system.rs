@@ -22,7 +22,7 @@ pub type Mat6 = BlockMat<6>;
 pub type Vec6 = BlockVec<6>;
 
 /// A · x = b with A block-sparse, symmetric. Buffers are kept between solves.
-#[derive(Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct BlockSystem<const N: usize> {
     pub diag: Vec<BlockMat<N>>,
     /// Off-diagonal blocks (i, j, A_ij) with i < j; A_ji = A_ijᵀ.

@@ -51,7 +51,7 @@ impl Estimate {
 }
 
 /// Per-block matrices reused between calls.
-#[derive(Debug, Default, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct Scratch {
     rigid: Vec<Matrix6<Real>>,
     strain: Vec<Matrix6<Real>>,

@@ -21,7 +21,9 @@ use std::sync::Arc;
 /// more than the work.
 const PARALLEL_MIN: usize = 64;
 
-/// Blocks, their contacts and the loads on them.
+/// Blocks, their contacts and the loads on them. (Clone: the look-ahead runs half its trial
+/// steps on a copy, `dda/look_ahead.rs`.)
+#[derive(Clone)]
 pub struct World {
     /// All blocks in scene order (fixed ones too: they are contact partners), then one fixed
     /// block per terrain (from `first_terrain` on).

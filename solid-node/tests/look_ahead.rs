@@ -1,7 +1,8 @@
 //! The solid's look-ahead for a fluid that moves the blocks inside its step
 //! (`SolidSolver::look_ahead`): the response it sends, (Δv, Δω) = Δt (a0 + M (F, τ)) over the
 //! coming step, predicts what the next step then does under a load it has not seen, the trial
-//! steps leave no trace, and a contact shows in M.
+//! steps leave no trace, a contact shows in M, and the trials split over two threads give the
+//! response of one.
 
 use shared::math::{Real, Vector6};
 use shared::protocol::{BlockLoad, BlockState};
@@ -148,5 +149,47 @@ fn looking_ahead_changes_nothing_of_the_run() {
         b.finish().unwrap();
         let csv = |d: &Dir| std::fs::read_to_string(d.0.join("blocks.csv")).unwrap();
         assert_eq!(csv(&da), csv(&db), "{solver}: blocks.csv");
+    }
+}
+
+/// The trials run half on a copy of the block system, on the second thread: the response is
+/// the same to the bit on one thread and on two, and again when looked ahead twice.
+#[test]
+fn the_response_is_the_same_on_one_thread_and_on_two() {
+    for solver in solid_node::REGISTRY.names() {
+        let response = |threads: usize, twice: bool| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let dir = Dir::new(&format!("ahead-threads-{solver}-{threads}-{twice}"));
+                let mut s = build(solver, &incline(), &dir);
+                let l = load([1.0, 0.0, 0.5], [0.0, 0.2, 0.0]);
+                let n = 4;
+                let dt = n as Real * s.dt_proposal().min(1e-3);
+                for _ in 0..20 {
+                    coupling_step(s.as_mut(), l, dt, n);
+                }
+                s.look_ahead(Some((dt, n))).unwrap();
+                if twice {
+                    s.look_ahead(Some((dt, n))).unwrap();
+                }
+                let (b, _) = state(s.as_ref());
+                s.finish().unwrap();
+                b.free_acceleration()
+                    .iter()
+                    .chain(b.mobility().iter())
+                    .map(|x| x.to_bits())
+                    .collect::<Vec<u64>>()
+            })
+        };
+        let one = response(1, false);
+        assert!(
+            one.iter().any(|&x| x != 0),
+            "{solver}: a response was measured"
+        );
+        assert_eq!(one, response(2, false), "{solver}: 1 against 2 threads");
+        assert_eq!(one, response(2, true), "{solver}: looked ahead twice");
     }
 }
