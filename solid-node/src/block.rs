@@ -451,22 +451,11 @@ mod tests {
     use shared::scene::ShapeSpec;
 
     fn spec(kind: BlockKind) -> BlockSpec {
-        BlockSpec {
-            name: "b".into(),
-            kind,
-            shape: ShapeSpec::Box {
-                min: [0.0, 0.0, 0.0],
-                max: [2.0, 1.0, 0.5],
-            },
-            density: 2000.0,
-            velocity: [0.0; 3],
-            angular_velocity: [0.0; 3],
-            motion: None,
-            friction_angle: None,
-            cohesion: None,
-            elastic: None,
-            slide: None,
-        }
+        let shape = ShapeSpec::Box {
+            min: [0.0, 0.0, 0.0],
+            max: [2.0, 1.0, 0.5],
+        };
+        BlockSpec::plain("b", kind, shape, 2000.0)
     }
 
     #[test]

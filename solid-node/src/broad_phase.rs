@@ -73,22 +73,8 @@ mod tests {
     use shared::scene::{BlockKind, BlockSpec, ShapeSpec};
 
     fn cube(kind: BlockKind, min: [f64; 3], size: f64) -> Block {
-        let spec = BlockSpec {
-            name: "c".into(),
-            kind,
-            shape: ShapeSpec::Box {
-                min,
-                max: [min[0] + size, min[1] + size, min[2] + size],
-            },
-            density: 1000.0,
-            velocity: [0.0; 3],
-            angular_velocity: [0.0; 3],
-            motion: None,
-            friction_angle: None,
-            cohesion: None,
-            elastic: None,
-            slide: None,
-        };
+        let max = [min[0] + size, min[1] + size, min[2] + size];
+        let spec = BlockSpec::plain("c", kind, ShapeSpec::Box { min, max }, 1000.0);
         Block::from_spec(0, &spec).unwrap()
     }
 

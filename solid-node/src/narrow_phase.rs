@@ -450,19 +450,7 @@ mod tests {
     use shared::scene::{BlockKind, BlockSpec, ShapeSpec};
 
     fn block(kind: BlockKind, vertices: Vec<[f64; 3]>) -> Block {
-        let spec = BlockSpec {
-            name: "t".into(),
-            kind,
-            shape: ShapeSpec::Convex { vertices },
-            density: 1000.0,
-            velocity: [0.0; 3],
-            angular_velocity: [0.0; 3],
-            motion: None,
-            friction_angle: None,
-            cohesion: None,
-            elastic: None,
-            slide: None,
-        };
+        let spec = BlockSpec::plain("t", kind, ShapeSpec::Convex { vertices }, 1000.0);
         Block::from_spec(0, &spec).unwrap()
     }
 

@@ -122,17 +122,14 @@ impl TerrainBody {
             }
         }
         let spec = BlockSpec {
-            name: self.terrain.name.clone(),
-            kind: BlockKind::Fixed,
-            shape: ShapeSpec::Box { min, max },
-            density: 2500.0,
-            velocity: [0.0; 3],
-            angular_velocity: [0.0; 3],
-            motion: None,
             friction_angle: self.terrain.friction_angle,
             cohesion: self.terrain.cohesion,
-            elastic: None,
-            slide: None,
+            ..BlockSpec::plain(
+                self.terrain.name.clone(),
+                BlockKind::Fixed,
+                ShapeSpec::Box { min, max },
+                2500.0,
+            )
         };
         Block::from_spec(scene_index, &spec)
     }
@@ -499,19 +496,12 @@ mod tests {
                 vertices.push([c * x - s * y, s * x + c * y, z]);
             }
         }
-        let spec = BlockSpec {
-            name: "cube".into(),
-            kind: BlockKind::Free,
-            shape: ShapeSpec::Convex { vertices },
-            density: 2500.0,
-            velocity: [0.0; 3],
-            angular_velocity: [0.0; 3],
-            motion: None,
-            friction_angle: None,
-            cohesion: None,
-            elastic: None,
-            slide: None,
-        };
+        let spec = BlockSpec::plain(
+            "cube",
+            BlockKind::Free,
+            ShapeSpec::Convex { vertices },
+            2500.0,
+        );
         let cube = Block::from_spec(0, &spec).unwrap();
         let joint = Joint {
             tan_phi: 0.7,

@@ -455,6 +455,31 @@ pub struct BlockSpec {
     pub slide: Option<super::slide::SlideMember>,
 }
 
+impl BlockSpec {
+    /// A block of `shape` and nothing else: at rest, no motion, the scene's contact
+    /// properties, rigid, in no slide (a terrain's stand-in block, the solid's unit tests).
+    pub fn plain(
+        name: impl Into<String>,
+        kind: BlockKind,
+        shape: ShapeSpec,
+        density: f64,
+    ) -> BlockSpec {
+        BlockSpec {
+            name: name.into(),
+            kind,
+            shape,
+            density,
+            velocity: [0.0; 3],
+            angular_velocity: [0.0; 3],
+            motion: None,
+            friction_angle: None,
+            cohesion: None,
+            elastic: None,
+            slide: None,
+        }
+    }
+}
+
 /// `elastic = { young_modulus = ..., poisson_ratio = ... }` of a deformable block: linear
 /// isotropic elasticity of its constant strain (Shi 1993, the 3D-DDA stiffness sub-matrix).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
