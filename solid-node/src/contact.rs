@@ -186,6 +186,28 @@ pub fn tangents(n: &Vector) -> (Vector, Vector) {
     (t1, n.cross(&t1))
 }
 
+/// Asserts that `contacts` are `n` contacts of `feature`, each along `normal` and `depth`
+/// deep, both within `tol` (the narrow phases' unit tests).
+#[cfg(test)]
+pub(crate) fn assert_contacts(
+    contacts: &[Contact],
+    feature: Feature,
+    n: usize,
+    normal: Vector,
+    depth: Real,
+    tol: Real,
+) {
+    assert!(
+        contacts.iter().all(|c| c.key.feature == feature),
+        "not all {feature:?}: {contacts:#?}"
+    );
+    assert_eq!(contacts.len(), n, "{contacts:#?}");
+    for c in contacts {
+        assert!((c.normal - normal).norm() < tol, "normal {}", c.normal);
+        assert!((c.gap + depth).abs() < tol, "gap {}", c.gap);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

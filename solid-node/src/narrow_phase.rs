@@ -533,15 +533,7 @@ mod tests {
         let mut out = Vec::new();
         collide(&pair(&low, &pressed), P, &first, &mut out);
         let cs = corners(&out);
-        assert_eq!(cs.len(), 4, "{out:#?}");
-        for c in &cs {
-            assert!(
-                (c.normal - Vector::z()).norm() < 1e-12,
-                "normal {}",
-                c.normal
-            );
-            assert!((c.gap + depth).abs() < 1e-12, "gap {}", c.gap);
-        }
+        contact::assert_contacts(&cs, Feature::VertexOfB, 4, Vector::z(), depth, 1e-12);
     }
 
     /// The edge–edge contacts of two equal cubes stacked with a 45° twist, the upper one
@@ -553,18 +545,8 @@ mod tests {
         assert!((penetration_depth(&low, &high) - depth).abs() < 1e-12);
         let mut out = Vec::new();
         collide(&pair(&low, &high), P, &[], &mut out);
-        assert!(
-            out.iter().all(|c| c.key.feature == Feature::EdgeEdge),
-            "{out:#?}"
-        );
-        assert_eq!(out.len(), 8, "{out:#?}");
+        contact::assert_contacts(&out, Feature::EdgeEdge, 8, -Vector::z(), depth, 1e-9);
         for c in &out {
-            assert!(
-                (c.normal + Vector::z()).norm() < 1e-9,
-                "normal {}",
-                c.normal
-            );
-            assert!((c.gap + depth).abs() < 1e-9, "gap {}", c.gap);
             assert!((c.point.z - 0.5).abs() < depth);
         }
         out

@@ -515,19 +515,7 @@ mod tests {
         };
         let mut out = Vec::new();
         collide(0, &cube, 1, &mesa, joint, params, &[], &mut out);
-        assert!(
-            out.iter().all(|c| c.key.feature == Feature::EdgeEdge),
-            "{out:#?}"
-        );
-        assert_eq!(out.len(), 8, "{out:#?}");
-        for c in &out {
-            assert!(
-                (c.normal - Vector::z()).norm() < 1e-9,
-                "normal {}",
-                c.normal
-            );
-            assert!((c.gap + depth).abs() < 1e-9, "gap {}", c.gap);
-        }
+        contact::assert_contacts(&out, Feature::EdgeEdge, 8, Vector::z(), depth, 1e-9);
         out
     }
 
