@@ -23,9 +23,9 @@
 //! 0, 2, 4 and 6; each starts from the same state, so the split changes no bit. Trial steps
 //! skip the explicit scheme's ω_max estimate ([`crate::integrator::Integrator::begin_trial`]),
 //! which only sizes and reports the kept steps. In a cut rock mass of 27 blocks
-//! (scenes/jointed_slide.toml under DFSPH) the two took the solid's compute from 59 to 28 s. All free rigid blocks are perturbed together (a block's
-//! response to its neighbours' loads is left out). The mean velocities over a trial
-//! (displacement over Δt) give a0 and M. A trial that fails (a contact past its limit) leaves
+//! (scenes/jointed_slide.toml under DFSPH) the two took the solid's compute from 59 to 28 s.
+//! All free rigid blocks are perturbed together (a block's response to its neighbours' loads
+//! is left out). The mean velocities over a trial (displacement over Δt) give a0 and M. A trial that fails (a contact past its limit) leaves
 //! the blocks on their own for that step; deformable blocks always are (their strains are not
 //! in a fluid's rigid motion).
 
@@ -137,13 +137,13 @@ impl DdaSolver {
             },
             || plan.run(&mut copy.0, copy.1.as_mut(), &mut copy.2, 1),
         );
-        let (here, there) = (here?, there?);
+        let (mut here, mut there) = (here?.into_iter(), there?.into_iter());
         let mut trials: Vec<Vec<Vector6>> = Vec::with_capacity(7);
         for k in 0..7 {
-            let side = if k % 2 == 0 { &here } else { &there };
+            let side = if k % 2 == 0 { &mut here } else { &mut there };
             // A trial that failed (a contact past its limit) leaves the blocks on their own.
-            match &side[k / 2] {
-                Some(changes) => trials.push(changes.clone()),
+            match side.next().flatten() {
+                Some(changes) => trials.push(changes),
                 None => return Ok(()),
             }
         }

@@ -263,7 +263,7 @@ pub const MESA_SOFT_STIFFNESS: Real = 1e5;
 /// crossings. With the scene's stiff contacts it drops less than 1 mm (the springs'
 /// deflection); with soft ones ([`MESA_SOFT_STIFFNESS`]) it sinks what the eight springs in
 /// parallel give under its weight, W/(8k), within 3 %. Before the ridges' wedge depth
-/// (terrain_contact.rs) the soft cube sank 83 mm onto its corners.
+/// (terrain_contact.rs) the soft cube sank 88 mm onto its corners.
 pub fn mesa_rows(solver: &str) -> Vec<Row> {
     let weight = 2500.0 * (2.0 * MESA.1).powi(3) * G;
     let mut rows = mesa_case_rows(
