@@ -153,9 +153,11 @@ pub fn sym_inv_sqrt(a: &Matrix6) -> Matrix6 {
     eig.eigenvectors * Matrix6::from_diagonal(&d) * eig.eigenvectors.transpose()
 }
 
-/// Largest eigenvalue of a symmetric 6×6 matrix.
+/// Largest eigenvalue of a symmetric 6×6 matrix. The eigenvalues alone: nalgebra's QR
+/// iteration then skips accumulating the Givens rotations into eigenvectors, and its
+/// eigenvalues are the same bits as `symmetric_eigen`'s (the rotations never feed back).
 pub fn largest_eigenvalue(a: &Matrix6) -> Real {
-    a.symmetric_eigen().eigenvalues.max()
+    a.symmetric_eigenvalues().max()
 }
 
 /// Angular frequencies ω of the constant-strain modes of a cube of side `l`: (volumetric,
