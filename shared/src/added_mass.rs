@@ -182,7 +182,7 @@ impl Watched {
             return None;
         }
         Some(Verdict::Burst(format!(
-            "the water's load on block '{}' (ρ_b/ρ_w = {ratio:.4}) bursts to {:.0} weights per step (×{growth:.1} in {n} steps, {reversals} reversals): a landing squeezing water against a wall; the run goes on (it stops past {HEAVY_SWING:.0} weights), but the block's motion over the burst is unreliable (it may bounce); WCSPH lands it smoothly",
+            "the water's load on block '{}' (ρ_b/ρ_w = {ratio:.4}) bursts to {:.0} weights per step (×{growth:.1} in {n} steps, {reversals} reversals): a landing squeezing water against a wall; the run goes on (it stops past {HEAVY_SWING:.0} weights), but the block's motion over the burst is unreliable (it may bounce)",
             self.name,
             newer / weight,
         )))
