@@ -145,7 +145,7 @@ fn vertex_face(
 /// on depth moved the contact to the flush face, where it has no depth and no force, and the
 /// corner sank freely into the neighbour (seen: 2.4 cm, then an edge–edge contact 6.7 cm deep
 /// and the energy watch stopping the run, in scenes/jointed_slide.toml under DFSPH).
-fn over_face(qb: &Block, f: usize, v: &Point, d: Real, margin: Real) -> bool {
+pub(crate) fn over_face(qb: &Block, f: usize, v: &Point, d: Real, margin: Real) -> bool {
     let on_plane = v - qb.world_normals[f] * d;
     qb.world_normals
         .iter()

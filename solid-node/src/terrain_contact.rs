@@ -9,9 +9,12 @@
 //!
 //! - a block vertex against the terrain (`VertexOfA`, the block is `a`): the nearest surface
 //!   point by parry's BVH projection (O(log n) in the triangle count), its outward normal and
-//!   signed distance from the pseudo-normals (exact at the mesh's edges and corners);
+//!   signed distance from the pseudo-normals (exact at the mesh's edges and corners); pressed
+//!   in at a convex crease, the plane of the triangle it entered by while it lies over it
+//!   ([`reference_triangle`], DDA's reference face as between blocks);
 //! - a terrain vertex against a block face (`VertexOfB`): the terrain vertices of the triangles
-//!   under the block's box, tested against the block's face planes. Only vertices where the
+//!   under the block's box, tested against the block's face planes (the face entered by kept
+//!   while the vertex lies over it, as between blocks). Only vertices where the
 //!   surface bends away (peaks and ridges, [`TerrainBody::peaks`], found in a BVH of their
 //!   own) are used: a vertex
 //!   of a flat or hollow patch is never the feature that touches, and counting it would add a
@@ -158,7 +161,7 @@ pub fn collide(
         if !t.may_be_within(v, reach) {
             continue;
         }
-        let Some(s) = t.nearest(v, reach) else {
+        let Some(mut s) = t.nearest(v, reach) else {
             continue;
         };
         if s.distance > m {
@@ -171,6 +174,16 @@ pub fn collide(
             i: vi as u32,
             j: 0,
         };
+        let prev = contact::find(old, &key);
+        // DDA's reference face, as between blocks (`narrow_phase::over_face`): a vertex
+        // pressed into the ground keeps the triangle it entered by while it lies over it,
+        // instead of the nearest surface point's, which at a rim jumps to the flank.
+        if let Some(o) = prev
+            && o.face != s.triangle
+            && let Some(r) = reference_triangle(&t.mesh, o.face, v, &s, m)
+        {
+            s = r;
+        }
         let mut area = 0.0;
         for &pf in &ba.vertex_faces[vi] {
             if -ba.world_normals[pf as usize].dot(&s.normal) >= FACE_ALIGNMENT {
@@ -186,7 +199,7 @@ pub fn collide(
         c.area = area;
         c.tan_phi = joint.tan_phi;
         c.cohesion = joint.cohesion;
-        if let Some(o) = contact::find(old, &key) {
+        if let Some(o) = prev {
             c.inherit(o);
         }
         out.push(c);
@@ -394,6 +407,59 @@ fn wedge_depth(ba: &Block, e: &Edge, n: &Vector) -> Real {
         .fold(Real::INFINITY, Real::min)
 }
 
+/// The surface as seen from triangle `tri`, the reference of a block vertex `v` pressed into
+/// the ground (`near` its nearest surface point now, on another triangle): `tri`'s plane, its
+/// normal and `v`'s signed distance from it, when `v` is in the ground by that plane too and
+/// lies over `tri` (its projection inside the triangle, within `margin`) and the surface
+/// bends away there (`near`'s triangle on or under `tri`'s plane: a convex crease, where the
+/// ground is the intersection of the two half-spaces). Otherwise `None`, and the nearest
+/// point stands: above the ground it is exact, and in a hollow (a concave crease, the ground
+/// the union of the half-spaces) the entrance plane would let the vertex sink into the other
+/// side unresisted.
+fn reference_triangle(
+    mesh: &parry3d_f64::shape::TriMesh,
+    tri: u32,
+    v: &Point,
+    near: &shared::terrain::Surface,
+    margin: Real,
+) -> Option<shared::terrain::Surface> {
+    if near.distance >= 0.0 || tri as usize >= mesh.indices().len() {
+        return None;
+    }
+    let t = mesh.triangle(tri);
+    let n = t.normal()?.into_inner();
+    let d = n.dot(&(v - t.a));
+    if d >= 0.0 {
+        return None;
+    }
+    // Inside the triangle: on the inner side of each edge's in-plane outward normal. The
+    // winding is counter-clockwise about n, so (b − a) × n points out of the triangle.
+    let on_plane = v - n * d;
+    let corners = [t.a, t.b, t.c];
+    for k in 0..3 {
+        let (p0, p1) = (corners[k], corners[(k + 1) % 3]);
+        let out = (p1 - p0).cross(&n);
+        let len = out.norm();
+        if len > 0.0 && out.dot(&(on_plane - p0)) > margin * len {
+            return None;
+        }
+    }
+    let other = mesh.triangle(near.triangle);
+    let tol = 1e-9 * (t.b - t.a).norm().max((t.c - t.a).norm());
+    if [other.a, other.b, other.c]
+        .iter()
+        .any(|w| n.dot(&(w - t.a)) > tol)
+    {
+        return None;
+    }
+    Some(shared::terrain::Surface {
+        distance: d,
+        point: on_plane,
+        normal: n,
+        triangle: tri,
+    })
+}
+
 /// Terrain peak `w` at `p` against the faces of block `a`.
 #[allow(clippy::too_many_arguments)]
 #[inline]
@@ -413,7 +479,7 @@ fn peak_contact(
     if (0..3).any(|k| p[k] < lo[k] || p[k] > hi[k]) {
         return;
     }
-    let (d, f) = ba.plane_distance(&p);
+    let (mut d, mut f) = ba.plane_distance(&p);
     if d > m {
         return;
     }
@@ -424,6 +490,19 @@ fn peak_contact(
         i: w,
         j: 0,
     };
+    let prev = contact::find(old, &key);
+    // The block's face the peak entered by, kept while the peak lies over it (the rule
+    // between blocks, `narrow_phase::over_face`): the least deep face flips at the block's edge.
+    if let Some(o) = prev
+        && (o.face as usize) < ba.world_normals.len()
+        && o.face as usize != f
+    {
+        let fo = o.face as usize;
+        let dold = ba.world_normals[fo].dot(&p.coords) - ba.world_offsets[fo];
+        if narrow_phase::over_face(ba, fo, &p, dold, m) {
+            (d, f) = (dold, fo);
+        }
+    }
     // The terrain vertex is the vertex owner (p), the block the face owner (q).
     let mut c = Contact::new(key, b, a);
     c.face = f as u32;
@@ -432,7 +511,7 @@ fn peak_contact(
     c.gap = d;
     c.tan_phi = joint.tan_phi;
     c.cohesion = joint.cohesion;
-    if let Some(o) = contact::find(old, &key) {
+    if let Some(o) = prev {
         c.inherit(o);
     }
     out.push(c);
@@ -476,19 +555,47 @@ mod tests {
         assert!(body(&grid(|x| x.abs())).ridges.is_empty());
     }
 
-    /// A cube as wide as a mesa's flat top (one 0.4 m DEM cell, 45° flanks), turned 45° about z
-    /// and pressed `depth` into the top: no vertex of either lies in the other, and the cube's
-    /// four bottom edges cross the rim's four ridges at eight points, each a contact with the
-    /// full depth along +z.
-    fn mesa_crossings(depth: Real) -> Vec<Contact> {
-        let (height, half) = (0.4, 0.2);
-        let mesa = body(&Grid::from_fn(12, 12, -2.2, -2.2, 0.4, |x, y| {
+    /// The mesa of the rim tests: one 0.4 m DEM cell of flat top at z = 0.4, 45° flanks.
+    const MESA: (Real, Real) = (0.4, 0.2);
+
+    fn mesa() -> TerrainBody {
+        let (height, half) = MESA;
+        body(&Grid::from_fn(12, 12, -2.2, -2.2, 0.4, |x, y| {
             if x.abs() <= half + 1e-9 && y.abs() <= half + 1e-9 {
                 height
             } else {
                 0.0
             }
-        }));
+        }))
+    }
+
+    const JOINT: Joint = Joint {
+        tan_phi: 0.7,
+        cohesion: 0.0,
+        tensile: 0.0,
+        bonded: false,
+    };
+
+    const PARAMS: NarrowParams = NarrowParams {
+        margin: 4e-4,
+        at_start: false,
+    };
+
+    fn free_block(vertices: Vec<[Real; 3]>) -> Block {
+        let spec = BlockSpec::plain(
+            "rock",
+            BlockKind::Free,
+            ShapeSpec::Convex { vertices },
+            2500.0,
+        );
+        Block::from_spec(0, &spec).unwrap()
+    }
+
+    /// A cube as wide as a mesa's flat top, turned 45° about z and pressed `depth` into the
+    /// top: no vertex of either lies in the other, and the cube's four bottom edges cross the
+    /// rim's four ridges at eight points, each a contact with the full depth along +z.
+    fn mesa_crossings(depth: Real) -> Vec<Contact> {
+        let (height, half) = MESA;
         let (s, c) = std::f64::consts::FRAC_PI_4.sin_cos();
         let mut vertices = Vec::new();
         for &(x, y) in &[(-half, -half), (half, -half), (half, half), (-half, half)] {
@@ -496,25 +603,17 @@ mod tests {
                 vertices.push([c * x - s * y, s * x + c * y, z]);
             }
         }
-        let spec = BlockSpec::plain(
-            "cube",
-            BlockKind::Free,
-            ShapeSpec::Convex { vertices },
-            2500.0,
-        );
-        let cube = Block::from_spec(0, &spec).unwrap();
-        let joint = Joint {
-            tan_phi: 0.7,
-            cohesion: 0.0,
-            tensile: 0.0,
-            bonded: false,
-        };
-        let params = NarrowParams {
-            margin: 4e-4,
-            at_start: false,
-        };
         let mut out = Vec::new();
-        collide(0, &cube, 1, &mesa, joint, params, &[], &mut out);
+        collide(
+            0,
+            &free_block(vertices),
+            1,
+            &mesa(),
+            JOINT,
+            PARAMS,
+            &[],
+            &mut out,
+        );
         contact::assert_contacts(&out, Feature::EdgeEdge, 8, Vector::z(), depth, 1e-9);
         out
     }
@@ -532,5 +631,101 @@ mod tests {
     #[test]
     fn mesa_rim_keeps_a_pressed_in_cube() {
         mesa_crossings(5.0 * 4e-4);
+    }
+
+    /// A slab on the mesa's top with its two corners at x = 0.1995 m, 0.5 mm inside the rim,
+    /// found touching and then pressed 1.7 mm in (4 margins: soft springs under its weight).
+    /// Pressed in, the nearest surface point of those corners is on the flank (1.56 mm away,
+    /// against 1.7 mm to the top), whose 45° normal pushed the slab off the mesa; the corners
+    /// keep the top's triangle they entered by, its normal and its depth.
+    #[test]
+    fn a_corner_pressed_in_near_the_rim_keeps_the_top() {
+        let (height, _) = MESA;
+        let slab = |depth: Real| {
+            let z = height - depth;
+            free_block(crate::verification::box_corners(
+                [-0.1, -0.15, z],
+                [0.1995, 0.15, z + 0.1],
+            ))
+        };
+        let mesa = mesa();
+        let mut touching = Vec::new();
+        collide(0, &slab(1e-4), 1, &mesa, JOINT, PARAMS, &[], &mut touching);
+        contact::assert_contacts(&touching, Feature::VertexOfA, 4, Vector::z(), 1e-4, 1e-12);
+        let mut fresh = Vec::new();
+        collide(0, &slab(1.7e-3), 1, &mesa, JOINT, PARAMS, &[], &mut fresh);
+        let tilted = fresh.iter().filter(|c| c.normal.x > 0.7).count();
+        assert_eq!(
+            tilted, 2,
+            "found afresh, the rim corners take the flank: {fresh:#?}"
+        );
+        let mut kept = Vec::new();
+        collide(
+            0,
+            &slab(1.7e-3),
+            1,
+            &mesa,
+            JOINT,
+            PARAMS,
+            &touching,
+            &mut kept,
+        );
+        contact::assert_contacts(&kept, Feature::VertexOfA, 4, Vector::z(), 1.7e-3, 1e-12);
+    }
+
+    /// In a hollow the entrance triangle is not kept: a vertex under the plane of one side of a
+    /// valley (z = |x|) and over it, whose nearest point is on the other side, is on the wrong
+    /// side of a concave crease to be held by the first plane alone.
+    #[test]
+    fn no_reference_triangle_in_a_valley() {
+        let valley = body(&Grid::from_fn(11, 11, -2.5, -2.5, 0.5, |x, _| x.abs()));
+        let t = &valley.terrain;
+        let left = t.nearest(&Point::new(-0.02, 0.1, 0.03), 1.0).unwrap();
+        let right = t.nearest(&Point::new(0.3, 0.1, 0.3), 1.0).unwrap();
+        let v = Point::new(-0.05, 0.1, -0.01);
+        let near = shared::terrain::Surface {
+            distance: -1e-3,
+            ..right
+        };
+        assert!(reference_triangle(&t.mesh, left.triangle, &v, &near, 4e-4).is_none());
+        // The same point with the nearest point on a coplanar triangle of the left side: kept.
+        let beside = t.nearest(&Point::new(-0.3, 0.6, 0.3), 1.0).unwrap();
+        assert_ne!(beside.triangle, left.triangle);
+        let near = shared::terrain::Surface {
+            distance: -1e-3,
+            ..beside
+        };
+        let r = reference_triangle(&t.mesh, left.triangle, &v, &near, 4e-4).unwrap();
+        let n = Vector::new(1.0, 0.0, 1.0).normalize();
+        assert!((r.normal - n).norm() < 1e-12 && (r.distance - n.dot(&v.coords)).abs() < 1e-12);
+    }
+
+    /// The mirror case: the mesa's corner (a peak) under a block whose side face is 0.5 mm
+    /// past it, found touching the block's bottom and then pressed 1.7 mm in. The least deep
+    /// face is then the side, whose normal pushed the block sideways off the corner; the peak
+    /// keeps the bottom face it entered by.
+    #[test]
+    fn a_peak_pressed_in_near_a_side_face_keeps_the_bottom() {
+        let (height, half) = MESA;
+        let block = |depth: Real| {
+            let z = height - depth;
+            free_block(crate::verification::box_corners(
+                [half - 5e-4, 0.1, z],
+                [0.7, 0.7, z + 0.1],
+            ))
+        };
+        let mesa = mesa();
+        let peak = |old: &[Contact], depth: Real| {
+            let mut out = Vec::new();
+            collide(0, &block(depth), 1, &mesa, JOINT, PARAMS, old, &mut out);
+            out.retain(|c| c.key.feature == Feature::VertexOfB);
+            out
+        };
+        let touching = peak(&[], 1e-4);
+        contact::assert_contacts(&touching, Feature::VertexOfB, 1, -Vector::z(), 1e-4, 1e-12);
+        let fresh = peak(&[], 1.7e-3);
+        contact::assert_contacts(&fresh, Feature::VertexOfB, 1, -Vector::x(), 5e-4, 1e-12);
+        let kept = peak(&touching, 1.7e-3);
+        contact::assert_contacts(&kept, Feature::VertexOfB, 1, -Vector::z(), 1.7e-3, 1e-12);
     }
 }

@@ -38,3 +38,13 @@ fn a_cube_across_a_terrain_ridge_rests_on_its_edge_crossings() {
         .collect();
     check(&rows);
 }
+
+#[test]
+fn a_slab_pressed_in_near_a_terrain_rim_keeps_the_top_and_its_place() {
+    let rows: Vec<Row> = solid_node::REGISTRY
+        .names()
+        .into_iter()
+        .flat_map(v::rim_rows)
+        .collect();
+    check(&rows);
+}

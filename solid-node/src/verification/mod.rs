@@ -65,6 +65,7 @@ pub fn run_all(quick: bool) -> Vec<Row> {
         rows.extend(incline_on_terrain_rows(solver));
         rows.extend(bump_rows(solver));
         rows.extend(mesa_rows(solver));
+        rows.extend(rim_rows(solver));
     }
     for &solver in &solvers {
         rows.extend(deformable::rows(solver));

@@ -205,6 +205,22 @@ pub fn bump_rows(solver: &str) -> Vec<Row> {
 /// Height [m] and half-width [m] of the mesa in [`block_on_mesa`].
 const MESA: (Real, Real) = (0.4, 0.2);
 
+/// The mesa's DEM (0.4 m cells, the top one cell, 45° flanks) written into `files`. It reaches
+/// past the ±2 m domain, so the terrain's rim is at the domain's sides.
+fn mesa_dem(files: &Files) -> PathBuf {
+    let file = files.join("mesa.asc");
+    let (height, half) = MESA;
+    let grid = Grid::from_fn(12, 12, -11.0 * half, -11.0 * half, 2.0 * half, |x, y| {
+        if x.abs() <= half + 1e-9 && y.abs() <= half + 1e-9 {
+            height
+        } else {
+            0.0
+        }
+    });
+    std::fs::write(&file, grid.to_asc()).expect("write the DEM");
+    file
+}
+
 /// A cube as wide as a mesa's flat top, turned 45° about z and set down on it at zero gap. The
 /// DEM (0.4 m cells) has the top as one cell, its rim four *ridges* with no vertex between the
 /// corners; the cube's bottom corners hang over the 45° flanks and the mesa's corners stand
@@ -220,18 +236,9 @@ pub fn block_on_mesa(
     stiffness: Option<Real>,
 ) -> Result<(Real, Real, Real, usize), SolverError> {
     let files = Files::new("mesa");
-    let file = files.join("mesa.asc");
+    let file = mesa_dem(&files);
     let (height, half) = MESA;
     let cell = 2.0 * half;
-    // Past the ±2 m domain, so the terrain's rim is at its sides.
-    let grid = Grid::from_fn(12, 12, -11.0 * half, -11.0 * half, cell, |x, y| {
-        if x.abs() <= half + 1e-9 && y.abs() <= half + 1e-9 {
-            height
-        } else {
-            0.0
-        }
-    });
-    std::fs::write(&file, grid.to_asc()).expect("write the DEM");
     let (s, c) = std::f64::consts::FRAC_PI_4.sin_cos();
     let block: Vec<[Real; 3]> = box_corners([-half, -half, height], [half, half, height + cell])
         .iter()
@@ -316,6 +323,72 @@ fn mesa_case_rows(
                 "closed edge–edge contacts",
                 "8",
                 &edges.to_string(),
+            ),
+        ],
+    }
+}
+
+/// How far inside the mesa's rim the slab of [`slab_at_mesa_rim`] has its two corners [m].
+pub const RIM_INSET: Real = 5e-4;
+
+/// A 0.3 m tall slab set down on the mesa's top with two bottom corners [`RIM_INSET`] inside
+/// the rim (x = 0.1995 m) and two 0.3 m further in, on soft contacts
+/// ([`MESA_SOFT_STIFFNESS`]), so that its weight presses each corner W/(4k) = 1.65 mm in.
+/// Pressed past RIM_INSET/(√2 − 1) = 1.2 mm, the rim corners' nearest surface point is on the
+/// 45° flank; a contact that followed it pushed them outward along the flank's normal. They
+/// keep the top's triangle they entered by (DDA's reference face, terrain_contact.rs), so the
+/// slab sinks level and stays in place. Returns the drop of the centroid, the tilt [rad] and
+/// the horizontal drift [m] after `duration`.
+pub fn slab_at_mesa_rim(solver: &str, duration: Real) -> Result<(Real, Real, Real), SolverError> {
+    let files = Files::new("rim");
+    let file = mesa_dem(&files);
+    let (height, half) = MESA;
+    let block = box_corners(
+        [half - RIM_INSET - 0.3, -0.15, height],
+        [half - RIM_INSET, 0.15, height + 0.3],
+    );
+    let contact = format!("normal_stiffness = {MESA_SOFT_STIFFNESS:e}");
+    let (mut h, start) = rock_on_terrain("terrain_rim", &file, &block, &contact, solver)?;
+    h.run_until(duration, None, |_| {})?;
+    let b = h.block("rock");
+    Ok((
+        start.z - b.position.z,
+        b.rotation.angle(),
+        (b.position - start).xy().norm(),
+    ))
+}
+
+/// The rim case as rows: the slab sinks W/(4k) (3 %), level (0.1 mrad) and in place (10 µm,
+/// against 1.1 mm for a contact that took the nearest surface point).
+pub fn rim_rows(solver: &str) -> Vec<Row> {
+    let case = "slab with two corners 0.5 mm inside a mesa's rim, soft contacts pressed in";
+    let weight = 2500.0 * 0.3 * 0.3 * 0.3 * G;
+    match slab_at_mesa_rim(solver, 1.0) {
+        Err(e) => vec![Row::failed(case, solver, "drop [m]", &e)],
+        Ok((drop, tilt, drift)) => vec![
+            Row::numeric(
+                case,
+                solver,
+                "drop [m]",
+                weight / (4.0 * MESA_SOFT_STIFFNESS),
+                drop,
+                Tolerance::Relative(0.03),
+            ),
+            Row::numeric(
+                case,
+                solver,
+                "tilt [rad]",
+                0.0,
+                tilt,
+                Tolerance::Absolute(1e-4),
+            ),
+            Row::numeric(
+                case,
+                solver,
+                "horizontal drift [m]",
+                0.0,
+                drift,
+                Tolerance::Absolute(1e-5),
             ),
         ],
     }
