@@ -428,20 +428,15 @@ pub fn cut_slide(i: usize, s: &SlideSpec) -> Result<(Vec<BlockSpec>, SlideCut), 
                 summary.kept_volume += p.volume;
                 summary.min_volume = summary.min_volume.min(p.volume);
                 summary.max_volume = summary.max_volume.max(p.volume);
+                let shape = ShapeSpec::Convex {
+                    vertices: corners.iter().map(|p| [p.x, p.y, p.z]).collect(),
+                };
+                let name = format!("{}/{}", s.name, blocks.len());
                 blocks.push(BlockSpec {
-                    name: format!("{}/{}", s.name, blocks.len()),
-                    kind: BlockKind::Free,
-                    shape: ShapeSpec::Convex {
-                        vertices: corners.iter().map(|p| [p.x, p.y, p.z]).collect(),
-                    },
-                    density: s.density,
-                    velocity: [0.0; 3],
-                    angular_velocity: [0.0; 3],
-                    motion: None,
                     friction_angle: s.friction_angle,
                     cohesion: s.cohesion,
-                    elastic: None,
                     slide: Some(SlideMember { slide: i }),
+                    ..BlockSpec::plain(name, BlockKind::Free, shape, s.density)
                 });
             }
             Ok(p) => {
