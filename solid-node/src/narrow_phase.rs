@@ -91,22 +91,7 @@ fn vertex_face(
             f = entrance_face(pb, vi, qb, d, f, params.margin);
             d = qb.world_normals[f].dot(&v.coords) - qb.world_offsets[f];
         }
-        // DDA's reference face: keep the face of the previous step while the vertex still
-        // lies over it (its projection on the face's plane inside the face), however deep it
-        // has been pressed in, so that the normal neither flips between the two faces at an
-        // edge when the vertex sits near it nor jumps to a face the vertex did not enter by
-        // ([`over_face`]).
-        if let Some(o) = prev
-            && (o.face as usize) < qb.world_normals.len()
-            && o.face as usize != f
-        {
-            let fo = o.face as usize;
-            let dold = qb.world_normals[fo].dot(&v.coords) - qb.world_offsets[fo];
-            if over_face(qb, fo, v, dold, params.margin) {
-                d = dold;
-                f = fo;
-            }
-        }
+        (d, f) = reference_face(qb, prev, v, (d, f), params.margin);
         let normal = qb.world_normals[f];
         // Tributary area: the faces of P at this vertex lying flat on Q's face share their
         // area among their corners.
@@ -133,6 +118,31 @@ fn vertex_face(
     }
 }
 
+/// DDA's reference face: the face of `prev` (the same contact at the previous step), with
+/// `v`'s signed distance from it, while the vertex still lies over it (its projection on the
+/// face's plane inside the face, [`over_face`]), however deep it has been pressed in, so that
+/// the normal neither flips between the two faces at an edge when the vertex sits near it nor
+/// jumps to a face the vertex did not enter by. Otherwise `nearest` (distance, face).
+pub(crate) fn reference_face(
+    qb: &Block,
+    prev: Option<&Contact>,
+    v: &Point,
+    nearest: (Real, usize),
+    margin: Real,
+) -> (Real, usize) {
+    if let Some(o) = prev
+        && (o.face as usize) < qb.world_normals.len()
+        && o.face as usize != nearest.1
+    {
+        let fo = o.face as usize;
+        let dold = qb.world_normals[fo].dot(&v.coords) - qb.world_offsets[fo];
+        if over_face(qb, fo, v, dold, margin) {
+            return (dold, fo);
+        }
+    }
+    nearest
+}
+
 /// Whether point `v`, at signed distance `d` from the plane of face `f` of `qb`, lies over
 /// that face: its projection on the plane is inside the face polygon, within `margin` (`qb`
 /// being convex, inside every other face's plane).
@@ -145,7 +155,7 @@ fn vertex_face(
 /// on depth moved the contact to the flush face, where it has no depth and no force, and the
 /// corner sank freely into the neighbour (seen: 2.4 cm, then an edge–edge contact 6.7 cm deep
 /// and the energy watch stopping the run, in scenes/jointed_slide.toml under DFSPH).
-pub(crate) fn over_face(qb: &Block, f: usize, v: &Point, d: Real, margin: Real) -> bool {
+fn over_face(qb: &Block, f: usize, v: &Point, d: Real, margin: Real) -> bool {
     let on_plane = v - qb.world_normals[f] * d;
     qb.world_normals
         .iter()

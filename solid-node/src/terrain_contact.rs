@@ -175,7 +175,7 @@ pub fn collide(
             j: 0,
         };
         let prev = contact::find(old, &key);
-        // DDA's reference face, as between blocks (`narrow_phase::over_face`): a vertex
+        // DDA's reference face, as between blocks (`narrow_phase::reference_face`): a vertex
         // pressed into the ground keeps the triangle it entered by while it lies over it,
         // instead of the nearest surface point's, which at a rim jumps to the flank.
         if let Some(o) = prev
@@ -479,7 +479,7 @@ fn peak_contact(
     if (0..3).any(|k| p[k] < lo[k] || p[k] > hi[k]) {
         return;
     }
-    let (mut d, mut f) = ba.plane_distance(&p);
+    let (d, f) = ba.plane_distance(&p);
     if d > m {
         return;
     }
@@ -492,17 +492,8 @@ fn peak_contact(
     };
     let prev = contact::find(old, &key);
     // The block's face the peak entered by, kept while the peak lies over it (the rule
-    // between blocks, `narrow_phase::over_face`): the least deep face flips at the block's edge.
-    if let Some(o) = prev
-        && (o.face as usize) < ba.world_normals.len()
-        && o.face as usize != f
-    {
-        let fo = o.face as usize;
-        let dold = ba.world_normals[fo].dot(&p.coords) - ba.world_offsets[fo];
-        if narrow_phase::over_face(ba, fo, &p, dold, m) {
-            (d, f) = (dold, fo);
-        }
-    }
+    // between blocks): the least deep face flips at the block's edge.
+    let (d, f) = narrow_phase::reference_face(ba, prev, &p, (d, f), m);
     // The terrain vertex is the vertex owner (p), the block the face owner (q).
     let mut c = Contact::new(key, b, a);
     c.face = f as u32;
