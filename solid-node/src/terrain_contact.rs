@@ -572,6 +572,22 @@ mod tests {
         at_start: false,
     };
 
+    /// A 0.1 m tall box over the mesa's top, x and y from `lo` to `hi`, pressed `depth` in.
+    fn pressed_box(lo: [Real; 2], hi: [Real; 2], depth: Real) -> Block {
+        let z = MESA.0 - depth;
+        free_block(crate::verification::box_corners(
+            [lo[0], lo[1], z],
+            [hi[0], hi[1], z + 0.1],
+        ))
+    }
+
+    /// The contacts of `block` with `mesa`, inheriting from `old`.
+    fn contacts(block: &Block, mesa: &TerrainBody, old: &[Contact]) -> Vec<Contact> {
+        let mut out = Vec::new();
+        collide(0, block, 1, mesa, JOINT, PARAMS, old, &mut out);
+        out
+    }
+
     fn free_block(vertices: Vec<[Real; 3]>) -> Block {
         let spec = BlockSpec::plain(
             "rock",
@@ -594,17 +610,7 @@ mod tests {
                 vertices.push([c * x - s * y, s * x + c * y, z]);
             }
         }
-        let mut out = Vec::new();
-        collide(
-            0,
-            &free_block(vertices),
-            1,
-            &mesa(),
-            JOINT,
-            PARAMS,
-            &[],
-            &mut out,
-        );
+        let out = contacts(&free_block(vertices), &mesa(), &[]);
         contact::assert_contacts(&out, Feature::EdgeEdge, 8, Vector::z(), depth, 1e-9);
         out
     }
@@ -631,36 +637,18 @@ mod tests {
     /// keep the top's triangle they entered by, its normal and its depth.
     #[test]
     fn a_corner_pressed_in_near_the_rim_keeps_the_top() {
-        let (height, _) = MESA;
-        let slab = |depth: Real| {
-            let z = height - depth;
-            free_block(crate::verification::box_corners(
-                [-0.1, -0.15, z],
-                [0.1995, 0.15, z + 0.1],
-            ))
-        };
+        let half = MESA.1;
+        let slab = |depth| pressed_box([-0.1, -0.15], [half - 5e-4, 0.15], depth);
         let mesa = mesa();
-        let mut touching = Vec::new();
-        collide(0, &slab(1e-4), 1, &mesa, JOINT, PARAMS, &[], &mut touching);
+        let touching = contacts(&slab(1e-4), &mesa, &[]);
         contact::assert_contacts(&touching, Feature::VertexOfA, 4, Vector::z(), 1e-4, 1e-12);
-        let mut fresh = Vec::new();
-        collide(0, &slab(1.7e-3), 1, &mesa, JOINT, PARAMS, &[], &mut fresh);
+        let fresh = contacts(&slab(1.7e-3), &mesa, &[]);
         let tilted = fresh.iter().filter(|c| c.normal.x > 0.7).count();
         assert_eq!(
             tilted, 2,
             "found afresh, the rim corners take the flank: {fresh:#?}"
         );
-        let mut kept = Vec::new();
-        collide(
-            0,
-            &slab(1.7e-3),
-            1,
-            &mesa,
-            JOINT,
-            PARAMS,
-            &touching,
-            &mut kept,
-        );
+        let kept = contacts(&slab(1.7e-3), &mesa, &touching);
         contact::assert_contacts(&kept, Feature::VertexOfA, 4, Vector::z(), 1.7e-3, 1e-12);
     }
 
@@ -697,18 +685,11 @@ mod tests {
     /// keeps the bottom face it entered by.
     #[test]
     fn a_peak_pressed_in_near_a_side_face_keeps_the_bottom() {
-        let (height, half) = MESA;
-        let block = |depth: Real| {
-            let z = height - depth;
-            free_block(crate::verification::box_corners(
-                [half - 5e-4, 0.1, z],
-                [0.7, 0.7, z + 0.1],
-            ))
-        };
+        let half = MESA.1;
         let mesa = mesa();
-        let peak = |old: &[Contact], depth: Real| {
-            let mut out = Vec::new();
-            collide(0, &block(depth), 1, &mesa, JOINT, PARAMS, old, &mut out);
+        let peak = |old: &[Contact], depth| {
+            let block = pressed_box([half - 5e-4, 0.1], [0.7, 0.7], depth);
+            let mut out = contacts(&block, &mesa, old);
             out.retain(|c| c.key.feature == Feature::VertexOfB);
             out
         };

@@ -25,9 +25,9 @@
 //! which only sizes and reports the kept steps. In a cut rock mass of 27 blocks
 //! (scenes/jointed_slide.toml under DFSPH) the two took the solid's compute from 59 to 28 s.
 //! All free rigid blocks are perturbed together (a block's response to its neighbours' loads
-//! is left out). The mean velocities over a trial (displacement over Δt) give a0 and M. A trial that fails (a contact past its limit) leaves
-//! the blocks on their own for that step; deformable blocks always are (their strains are not
-//! in a fluid's rigid motion).
+//! is left out). The mean velocities over a trial (displacement over Δt) give a0 and M. A
+//! trial that fails (a contact past its limit) leaves the blocks on their own for that step;
+//! deformable blocks always are (their strains are not in a fluid's rigid motion).
 
 use super::{DdaSolver, decode_into};
 use crate::block::Block;
