@@ -1,7 +1,12 @@
 //! `fluid-bench --ceiling ROUNDS`: what 2 threads give over 1 on this machine for loops with no
 //! serial part at all, so that the solvers' own 2 ÷ 1 ratios can be read against the machine
-//! rather than against 2. Three kernels, each split evenly over the pool by rayon:
+//! rather than against 2. Four kernels, each split evenly over the pool by rayon:
 //! - `compute`: independent multiply–add chains in registers, no memory traffic (the ideal);
+//!   two chains per item, so each waits on its adds' latency;
+//! - `throughput`: the same in registers, 24 chains per item, enough to fill a core's
+//!   floating-point pipes: 2.0 only on two whole cores. Two hardware threads of one core (or a
+//!   host that gives the guest's two cores one between them for a while) get ~1.0 here, where
+//!   `compute` still gets 2.0 (the second thread fills the first one's latency);
 //! - `stream`: a sum over 48 MB of f32, larger than the last-level cache (as a DFSPH or WCSPH
 //!   pass streams its pairs' values and indices at ~3·10⁴ particles);
 //! - `gather`: a pair loop's shape: per particle, 64 listed neighbours (indices to nearby
@@ -28,6 +33,9 @@ const STREAM: usize = 12 << 20;
 /// Independent chains and their length in the compute kernel.
 const CHAINS: usize = 1 << 16;
 const LINKS: usize = 500;
+/// Items of the throughput kernel and the length of its chains.
+const FILL_ITEMS: usize = 1 << 10;
+const FILL_LINKS: usize = 2_000;
 
 fn compute() -> f64 {
     (0..CHAINS)
@@ -39,6 +47,25 @@ fn compute() -> f64 {
                 b = b * 0.999_998 + 2e-7;
             }
             a + b
+        })
+        .sum()
+}
+
+fn throughput() -> f64 {
+    (0..FILL_ITEMS)
+        .into_par_iter()
+        .map(|i| {
+            // 24 chains of two lanes each (the SSE2 baseline's width): a multiply and an add
+            // per link, independent across chains, so the pipes never wait.
+            let mut a = [[1.0 + i as f64 * 1e-9; 2]; 24];
+            for _ in 0..FILL_LINKS {
+                for chain in a.iter_mut() {
+                    for x in chain.iter_mut() {
+                        *x = *x * 0.999_999_9 + 1e-9;
+                    }
+                }
+            }
+            a.iter().flatten().sum::<f64>()
         })
         .sum()
 }
@@ -166,8 +193,9 @@ fn region_us(threads: usize) -> f64 {
 pub fn run(rounds: usize) {
     let values: Vec<f32> = (0..STREAM).map(|k| (k % 1000) as f32 * 1e-3).collect();
     let pairs = Pairs::new();
-    let kernels: [(&str, Kernel); 3] = [
+    let kernels: [(&str, Kernel); 4] = [
         ("compute (registers only)", Box::new(compute)),
+        ("throughput (registers, pipes full)", Box::new(throughput)),
         ("stream (48 MB of f32)", Box::new(|| stream(&values))),
         (
             "gather (a pair loop's shape, 40 MB)",
