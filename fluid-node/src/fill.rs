@@ -2,12 +2,22 @@
 //!
 //! The lattice is anchored half a spacing inside the lower corner of all water volumes, so a box
 //! of water against walls gets particles dx/2 from each wall and every particle stands for the
-//! cube dx³ around it (mass ρ0·dx³). Points inside a block, or closer than dx/2 to one, are left
-//! dry. Overlapping volumes share the lattice, so they never double a particle.
+//! cube dx³ around it (mass ρ0·dx³). Overlapping volumes share the lattice, so they never double
+//! a particle.
+//!
+//! Which lattice points next to a block stay dry depends on how the blocks hold the water
+//! (`[fluid] walls`). With boundary particles (the default) only the points inside a block: the
+//! blocks' boundary particles take exactly those ([`crate::walls::WallParticles::sample`]), so
+//! water and walls make one unbroken lattice along any face, on the lattice or off it. (Until
+//! 27 Nov 2026 points closer than dx/2 were left dry as well: right for a face on the lattice's
+//! half-spacing, where no point lies that close, but along a face off it, such as the default
+//! scene's 25° slope, a band dx/2 wide with neither water nor walls, 17 litres there, into which
+//! the water slumped at the start; docs/VALIDATION.md.) With the Eq. 22 penalty alone, which
+//! holds the water half a spacing off a face, points closer than dx/2 stay dry too.
 
 use shared::geometry::Polyhedron;
 use shared::math::{Point, Real, Vector};
-use shared::scene::FluidSpec;
+use shared::scene::{FluidSpec, Walls};
 use std::collections::HashMap;
 
 /// The particles of the initial state.
@@ -105,6 +115,12 @@ pub fn fill_water_with(
         hi = hi.sup(&b.coords);
     }
     let anchor = lo + Vector::repeat(0.5 * dx);
+    // Points this close to a block stay dry (module doc); with boundary particles exactly those
+    // inside, as `WallParticles::sample` takes them (plane distance < 0 there, > 0 depth here).
+    let clearance = match fluid.walls {
+        Walls::Particles => 0.0,
+        Walls::Penalty => 0.5 * dx - 1e-6 * dx,
+    };
     let n: Vec<usize> = (0..3)
         .map(|k| (((hi[k] - lo[k]) / dx).round() as usize).max(1))
         .collect();
@@ -119,7 +135,7 @@ pub fn fill_water_with(
                 let Some(vol) = volumes.iter().position(|v| near_or_inside(v, &p, tol)) else {
                     continue;
                 };
-                if blocks.iter().any(|b| near_or_inside(b, &p, 0.5 * dx - tol)) || dry(&p) {
+                if blocks.iter().any(|b| near_or_inside(b, &p, clearance)) || dry(&p) {
                     continue;
                 }
                 positions.push(p);
@@ -213,25 +229,105 @@ mod tests {
                 max: [1.0, 1.0, 1.0],
             },
         ];
-        let f = spec(0.1, water);
+        // The plane x + z = 0.98 passes between lattice points (their x + z = 0.1, 0.2, …).
         let block = Polyhedron::from_shape(&ShapeSpec::Prism {
             axis: shared::scene::Axis::Y,
-            profile: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+            profile: vec![[0.0, 0.0], [0.98, 0.0], [0.0, 0.98]],
             extent: [-1.0, 2.0],
         })
         .unwrap();
+        let count = |min_sum: f64| {
+            (0..10)
+                .flat_map(|i| (0..10).map(move |k| (0.05 + 0.1 * i as f64, 0.05 + 0.1 * k as f64)))
+                .filter(|(x, z)| x + z >= min_sum)
+                .count()
+                * 10
+        };
+        // Boundary particles: every point outside the block is water, no double from the
+        // overlapping volumes.
+        let mut f = spec(0.1, water.clone());
+        let fill = fill_water(&f, std::slice::from_ref(&block)).unwrap();
+        assert!(
+            fill.positions
+                .iter()
+                .all(|p| !near_or_inside(&block, p, 0.0))
+        );
+        assert_eq!(fill.positions.len(), count(0.98));
+        // Eq. 22 alone: half a spacing off the face, x + z ≥ 0.98 + 0.05·√2.
+        f.walls = Walls::Penalty;
         let fill = fill_water(&f, std::slice::from_ref(&block)).unwrap();
         assert!(
             fill.positions
                 .iter()
                 .all(|p| !near_or_inside(&block, p, 0.05 - 1e-9))
         );
-        // Above the plane x + z = 1 with clearance dx/2: x + z ≥ 1 + 0.05·√2.
-        let expected = (0..10)
-            .flat_map(|i| (0..10).map(move |k| (0.05 + 0.1 * i as f64, 0.05 + 0.1 * k as f64)))
-            .filter(|(x, z)| x + z >= 1.0 + 0.05 * 2f64.sqrt() - 1e-9)
-            .count()
-            * 10;
-        assert_eq!(fill.positions.len(), expected);
+        assert_eq!(fill.positions.len(), count(0.98 + 0.05 * 2f64.sqrt()));
+    }
+
+    /// Along a face off the lattice (the default scene's 25° slope) the water and the block's
+    /// boundary particles take every lattice point once, and the water's particles hold the
+    /// volume the scene asks for.
+    #[test]
+    fn water_and_walls_meet_along_an_inclined_face() {
+        let dx = 0.04;
+        let f = spec(
+            dx,
+            vec![ShapeSpec::Box {
+                min: [0.04, 0.0, 0.0],
+                max: [2.0, 0.4, 0.48],
+            }],
+        );
+        let slope = Polyhedron::from_shape(&ShapeSpec::Prism {
+            axis: shared::scene::Axis::Y,
+            profile: vec![[-0.6, 0.0], [1.5, 0.0], [-0.6, 0.979246]],
+            extent: [-0.2, 1.0],
+        })
+        .unwrap();
+        let fill = fill_water(&f, std::slice::from_ref(&slope)).unwrap();
+        let (lo, hi) = (Vector::new(0.0, 0.0, 0.0), Vector::new(2.0, 0.4, 0.48));
+        let walls = crate::walls::WallParticles::sample(
+            std::slice::from_ref(&slope),
+            &fill.anchor,
+            dx,
+            2.6 * dx,
+            &lo,
+            &hi,
+        );
+        let key = |p: &Vector| crate::terrain::lattice_key(p, &fill.anchor, dx);
+        let water: std::collections::BTreeSet<_> = fill.positions.iter().map(key).collect();
+        let wall: std::collections::BTreeSet<_> = walls.iter().map(key).collect();
+        assert!(
+            water.is_disjoint(&wall),
+            "a lattice point is both water and wall"
+        );
+        // Every lattice point of the water box within the walls' reach of the slope is one of them.
+        for kz in 0..12 {
+            for ky in 0..10 {
+                for kx in 0..49 {
+                    let p = fill.anchor + Vector::new(kx as f64, ky as f64, kz as f64) * dx;
+                    let depth = -slope
+                        .plane_distance(&Point::from(p - slope.centroid.coords))
+                        .0;
+                    if depth <= 2.6 * dx {
+                        let k = key(&p);
+                        assert!(water.contains(&k) || wall.contains(&k), "{p} is neither");
+                    }
+                }
+            }
+        }
+        // The water box minus the slope: ∫ over z of (2 − max(0.04, 1.5 − z/tan 25°)) · 0.4.
+        let t = 25f64.to_radians().tan();
+        let n = 4800;
+        let volume: f64 = (0..n)
+            .map(|k| {
+                let z = (k as f64 + 0.5) * 0.48 / n as f64;
+                (2.0 - (1.5 - z / t).max(0.04)) * 0.4 * 0.48 / n as f64
+            })
+            .sum();
+        let held = fill.positions.len() as f64 * dx.powi(3);
+        assert!(
+            (held - volume).abs() < 0.002 * volume,
+            "the particles hold {held} m³ of {volume} m³"
+        );
     }
 }

@@ -56,7 +56,8 @@ impl Initial {
         let terrain: Arc<[Terrain]> = Terrain::load_all(scene)
             .map_err(SolverError::Failed)?
             .into();
-        // Lattice points inside the ground or closer than dx/2 to it stay dry, as for blocks.
+        // Lattice points inside the ground or closer than dx/2 to it stay dry (blocks leave only
+        // their inside dry since 27 Nov 2026, fill.rs; the terrain's rows are not rerun yet).
         let clearance = 0.5 * fluid.dx * (1.0 - 1e-6);
         let dry = |p: &Vector| crate::terrain::near_or_inside(&terrain, p, clearance);
         let fill = fill_water_with(&fluid, &blocks, &dry).map_err(SolverError::Failed)?;
