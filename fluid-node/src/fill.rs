@@ -81,8 +81,8 @@ pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, Stri
     fill_water_with(fluid, blocks, &|_| false)
 }
 
-/// [`fill_water`], also leaving dry the lattice points where `dry` holds (inside the terrain or
-/// within dx/2 of it: `crate::terrain::near_or_inside`).
+/// [`fill_water`], also leaving dry the lattice points where `dry` holds (those the terrain's
+/// boundary particles take, or with Eq. 22 alone also within dx/2 above it: system.rs).
 pub fn fill_water_with(
     fluid: &FluidSpec,
     blocks: &[Polyhedron],

@@ -56,9 +56,13 @@ impl Initial {
         let terrain: Arc<[Terrain]> = Terrain::load_all(scene)
             .map_err(SolverError::Failed)?
             .into();
-        // Lattice points inside the ground or closer than dx/2 to it stay dry (blocks leave only
-        // their inside dry since 27 Nov 2026, fill.rs; the terrain's rows are not rerun yet).
-        let clearance = 0.5 * fluid.dx * (1.0 - 1e-6);
+        // Lattice points the terrain's boundary particles take (signed distance < 0,
+        // `terrain::sample`) stay dry, so water and terrain make one lattice along a curved bed,
+        // as along a block's face (fill.rs); with Eq. 22 alone also those within dx/2 above it.
+        let clearance = match fluid.walls {
+            Walls::Particles => 0.0,
+            Walls::Penalty => 0.5 * fluid.dx * (1.0 - 1e-6),
+        };
         let dry = |p: &Vector| crate::terrain::near_or_inside(&terrain, p, clearance);
         let fill = fill_water_with(&fluid, &blocks, &dry).map_err(SolverError::Failed)?;
         if fill.positions.is_empty() {
@@ -190,13 +194,21 @@ impl FluidSystem {
             .penalty_damping
             .unwrap_or(2.0 * (ks * mass).sqrt());
         let margin = scene.coupling.margin.unwrap_or(0.5 * dx);
-        // With boundary particles the blocks, fixed and moving, hold the water by pressure;
-        // Eq. 22 is then a backstop that acts only closer than half the margin, so it does not
-        // bear the load.
-        let fixed_margin = if walls == Walls::Particles {
-            0.5 * margin
-        } else {
-            margin
+        // With boundary particles the blocks and the terrain hold the water by pressure; Eq. 22
+        // is then a backstop that acts on a block's water closer than half the margin, so it
+        // does not bear the load, and on the terrain's only under its surface. The fill lays
+        // water anywhere from 0 to dx off a bed that is off the lattice (fill.rs), and a
+        // backstop reaching above the bed would push that water at rest: the synthetic
+        // reservoir's still water sloshed ±0.75 m at dx = 4 m with it reaching dx/4, ±0.2 m
+        // without. The blocks keep it above their faces: a tank's walls are often the domain's
+        // bounds, which a particle must not touch (without it the dam breaks of fluid-validate
+        // stop at a/dx = 6, a particle on the floor at z = −0.0000 m), and the water the fill
+        // lays within dx/4 of a face off the lattice is pushed a little at rest (the default
+        // scene's still water moves ±3.5 mm with it, ±2.8 mm without). The terrain looks for
+        // crossings as deep as the blocks' backstop reaches.
+        let (fixed_margin, terrain_margin) = match walls {
+            Walls::Particles => (0.5 * margin, 0.0),
+            Walls::Penalty => (margin, margin),
         };
         let moving_margin = fixed_margin;
         let moving = scene.moving_blocks();
@@ -285,7 +297,8 @@ impl FluidSystem {
             .iter()
             .map(|g| shared::terrain::bed_elevation(scene, &init.terrain, g.x, g.y))
             .collect();
-        let terrain = TerrainPenalty::new(init.terrain.clone(), ks, kd, fixed_margin);
+        let terrain =
+            TerrainPenalty::new(init.terrain.clone(), ks, kd, terrain_margin, fixed_margin);
         let recorder = Recorder::new(
             ctx.run_dir,
             &scene.gauges,

@@ -124,7 +124,13 @@ pub struct TerrainPenalty {
     pub terrains: Arc<[Terrain]>,
     pub stiffness: Real,
     pub damping: Real,
+    /// Height above the surface where the force begins: with boundary particles 0, so the
+    /// water the fill lays on the bed (anywhere from 0 to dx above it) is never pushed at rest;
+    /// with Eq. 22 alone the margin, dx/2 by default.
     pub margin: Real,
+    /// How far from the surface a particle is looked for (≥ the margin): under the surface, how
+    /// deep a crossing is still pushed back out.
+    pub reach: Real,
     /// Grid cells near the surface, found once.
     cells: Option<Vec<u32>>,
     candidates: Vec<u32>,
@@ -132,12 +138,19 @@ pub struct TerrainPenalty {
 }
 
 impl TerrainPenalty {
-    pub fn new(terrains: Arc<[Terrain]>, stiffness: Real, damping: Real, margin: Real) -> Self {
+    pub fn new(
+        terrains: Arc<[Terrain]>,
+        stiffness: Real,
+        damping: Real,
+        margin: Real,
+        reach: Real,
+    ) -> Self {
         Self {
             terrains,
             stiffness,
             damping,
             margin,
+            reach: reach.max(margin),
             cells: None,
             candidates: Vec::new(),
             forces: Vec::new(),
@@ -148,20 +161,20 @@ impl TerrainPenalty {
         self.terrains.is_empty()
     }
 
-    /// Eq. 22 force on a particle at `x` moving at `v`: zero beyond the margin. A particle that
-    /// has crossed the surface (by less than the margin) is pushed back out along the surface
+    /// Eq. 22 force on a particle at `x` moving at `v`: zero above the margin. A particle that
+    /// has crossed the surface (by less than the reach) is pushed back out along the surface
     /// normal; one deeper in the ground is left to the boundary particles' pressure.
     #[inline]
     pub fn force(&self, x: &Vector, v: &Vector) -> Vector {
         let mut f = Vector::zeros();
         let x = Point::from(*x);
         for t in self.terrains.iter() {
-            // Most candidates are farther than the margin: a box test in the BVH says so
+            // Most candidates are farther than the reach: a box test in the BVH says so
             // without the nearest-point search.
-            if !t.may_be_within(&x, self.margin) {
+            if !t.may_be_within(&x, self.reach) {
                 continue;
             }
-            if let Some(s) = t.nearest(&x, self.margin)
+            if let Some(s) = t.nearest(&x, self.reach)
                 && s.distance < self.margin
             {
                 let d = self.margin - s.distance;
@@ -180,7 +193,7 @@ impl TerrainPenalty {
         }
         let cells = self
             .cells
-            .get_or_insert_with(|| near_cells(&self.terrains, grid, self.margin));
+            .get_or_insert_with(|| near_cells(&self.terrains, grid, self.reach));
         self.candidates.clear();
         for &c in cells.iter() {
             self.candidates
@@ -311,10 +324,56 @@ mod tests {
         }
     }
 
+    /// With boundary particles the fill leaves dry exactly the lattice points the sample takes
+    /// (`near_or_inside` at clearance 0, system.rs): along the slope, off the lattice, every
+    /// point within the sample's depth under the surface or above it is one or the other, never
+    /// both, never neither; with clearance dx/2 (Eq. 22 alone) a layer is neither.
+    #[test]
+    fn the_fill_and_the_sample_meet_along_the_slope() {
+        let t = slope("meet");
+        let terrains = std::slice::from_ref(&t);
+        let (dx, depth) = (0.05, 0.1);
+        let anchor = Vector::repeat(0.025);
+        let key = |p: &Vector| lattice_key(p, &anchor, dx);
+        let under: std::collections::BTreeSet<_> = sample(
+            terrains,
+            &anchor,
+            dx,
+            depth,
+            &Vector::zeros(),
+            &Vector::repeat(1.0),
+        )
+        .iter()
+        .map(key)
+        .collect();
+        let (mut both, mut neither, mut gap, mut water) = (0, 0, 0, 0);
+        for kz in 0..20 {
+            for ky in 0..20 {
+                for kx in 0..20 {
+                    let p = anchor + Vector::new(kx as Real, ky as Real, kz as Real) * dx;
+                    let d = t.nearest(&Point::from(p), Real::MAX).unwrap().distance;
+                    if d < -depth + 1e-9 {
+                        continue; // deeper than the boundary layer: dry, no particle either
+                    }
+                    let wet = !near_or_inside(terrains, &p, 0.0);
+                    let wall = under.contains(&key(&p));
+                    both += usize::from(wet && wall);
+                    neither += usize::from(!wet && !wall);
+                    water += usize::from(wet);
+                    gap += usize::from(near_or_inside(terrains, &p, 0.5 * dx) && !wall);
+                }
+            }
+        }
+        assert_eq!((both, neither), (0, 0));
+        assert!(water > 2000, "{water}");
+        // The old rule's layer: about half a spacing over 1 m² of slope, 200 lattice points.
+        assert!(gap > 100, "{gap}");
+    }
+
     #[test]
     fn eq22_pushes_out_of_the_slope_along_its_normal() {
         let t = slope("force");
-        let pen = TerrainPenalty::new(vec![t].into(), 1000.0, 10.0, 0.02);
+        let pen = TerrainPenalty::new(vec![t].into(), 1000.0, 10.0, 0.02, 0.02);
         let n = Vector::new(-0.1, 0.0, 1.0).normalize();
         let on = Vector::new(0.5, 0.5, 0.25);
         // 0.01 above the surface, at rest: K_S·(margin − 0.01) along n.
@@ -326,6 +385,28 @@ mod tests {
         assert!((f - n * (30.0 + 10.0 * n.z)).norm() < 1e-9, "{f}");
         assert_eq!(
             pen.force(&(on + n * 0.05), &Vector::zeros()),
+            Vector::zeros()
+        );
+    }
+
+    /// With boundary particles the backstop starts at the surface (system.rs): water resting
+    /// on the bed, however close, feels nothing; water that has crossed it, to the reach, is
+    /// pushed back out.
+    #[test]
+    fn the_backstop_leaves_water_on_the_bed_alone() {
+        let t = slope("onset");
+        let pen = TerrainPenalty::new(vec![t].into(), 1000.0, 10.0, 0.0, 0.02);
+        let n = Vector::new(-0.1, 0.0, 1.0).normalize();
+        let on = Vector::new(0.5, 0.5, 0.25);
+        assert_eq!(
+            pen.force(&(on + n * 1e-4), &Vector::zeros()),
+            Vector::zeros()
+        );
+        let f = pen.force(&(on - n * 0.01), &Vector::zeros());
+        assert!((f - n * 10.0).norm() < 1e-9, "{f}");
+        // Deeper than the reach: left to the boundary particles.
+        assert_eq!(
+            pen.force(&(on - n * 0.03), &Vector::zeros()),
             Vector::zeros()
         );
     }

@@ -18,7 +18,14 @@ fn wcsph_still_water_in_a_dem_basin_is_hydrostatic_and_stays_above_the_bed() {
         s.max_error,
         s.probes
     );
-    assert!((s.surface - depth).abs() <= dx, "surface {}", s.surface);
+    // A quarter spacing: the fill meets the terrain's boundary particles, so the water has no
+    // dry layer along the curved bed to settle into (measured +0.03 dx; with the old dx/2
+    // layer −0.38 dx).
+    assert!(
+        (s.surface - depth).abs() <= 0.25 * dx,
+        "surface {} against {depth}",
+        s.surface
+    );
     assert_eq!(
         r.crossed, 0,
         "particles under the bed, the deepest {} m",
