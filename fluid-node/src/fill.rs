@@ -44,6 +44,17 @@ impl Fill {
 }
 
 /// True when the world point `p` is inside `poly` (at its scene pose) or within `clearance` of it.
+/// How close to a wall (a block's face or the terrain's bed) a lattice point may be and still
+/// get water (module doc): with boundary particles any point outside (0, the points they take
+/// are those inside); with the Eq. 22 penalty alone, which holds the water half a spacing off
+/// a wall, dx/2 (less a hair, so a point exactly there on a face on the lattice is kept).
+pub fn dry_clearance(walls: Walls, dx: Real) -> Real {
+    match walls {
+        Walls::Particles => 0.0,
+        Walls::Penalty => 0.5 * dx - 1e-6 * dx,
+    }
+}
+
 pub fn near_or_inside(poly: &Polyhedron, p: &Vector, clearance: Real) -> bool {
     let local = Point::from(p - poly.centroid.coords);
     poly.plane_distance(&local).0 < clearance
@@ -119,12 +130,9 @@ pub fn fill_water_with(
         .map(|k| (((hi[k] - lo[k]) / dx).round() as usize).max(1))
         .collect();
     let tol = 1e-6 * dx;
-    // Points this close to a block stay dry (module doc); with boundary particles exactly those
-    // inside, as `WallParticles::sample` takes them (plane distance < 0 there, > 0 depth here).
-    let clearance = match fluid.walls {
-        Walls::Particles => 0.0,
-        Walls::Penalty => 0.5 * dx - tol,
-    };
+    // Points this close to a block stay dry; with boundary particles exactly those inside, as
+    // `WallParticles::sample` takes them (plane distance < 0 there, > 0 depth here).
+    let clearance = dry_clearance(fluid.walls, dx);
 
     let mut positions = Vec::new();
     let mut hydro = Vec::new();

@@ -59,10 +59,7 @@ impl Initial {
         // Lattice points the terrain's boundary particles take (signed distance < 0,
         // `terrain::sample`) stay dry, so water and terrain make one lattice along a curved bed,
         // as along a block's face (fill.rs); with Eq. 22 alone also those within dx/2 above it.
-        let clearance = match fluid.walls {
-            Walls::Particles => 0.0,
-            Walls::Penalty => 0.5 * fluid.dx * (1.0 - 1e-6),
-        };
+        let clearance = crate::fill::dry_clearance(fluid.walls, fluid.dx);
         let dry = |p: &Vector| crate::terrain::near_or_inside(&terrain, p, clearance);
         let fill = fill_water_with(&fluid, &blocks, &dry).map_err(SolverError::Failed)?;
         if fill.positions.is_empty() {

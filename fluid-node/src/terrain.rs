@@ -325,11 +325,13 @@ mod tests {
     }
 
     /// With boundary particles the fill leaves dry exactly the lattice points the sample takes
-    /// (`near_or_inside` at clearance 0, system.rs): along the slope, off the lattice, every
+    /// (`near_or_inside` at the fill's clearance, system.rs): along the slope, off the lattice, every
     /// point within the sample's depth under the surface or above it is one or the other, never
     /// both, never neither; with clearance dx/2 (Eq. 22 alone) a layer is neither.
     #[test]
     fn the_fill_and_the_sample_meet_along_the_slope() {
+        use crate::fill::dry_clearance;
+        use shared::scene::Walls;
         let t = slope("meet");
         let terrains = std::slice::from_ref(&t);
         let (dx, depth) = (0.05, 0.1);
@@ -355,12 +357,13 @@ mod tests {
                     if d < -depth + 1e-9 {
                         continue; // deeper than the boundary layer: dry, no particle either
                     }
-                    let wet = !near_or_inside(terrains, &p, 0.0);
+                    let wet = !near_or_inside(terrains, &p, dry_clearance(Walls::Particles, dx));
                     let wall = under.contains(&key(&p));
                     both += usize::from(wet && wall);
                     neither += usize::from(!wet && !wall);
                     water += usize::from(wet);
-                    gap += usize::from(near_or_inside(terrains, &p, 0.5 * dx) && !wall);
+                    let penalty = dry_clearance(Walls::Penalty, dx);
+                    gap += usize::from(near_or_inside(terrains, &p, penalty) && !wall);
                 }
             }
         }
