@@ -162,11 +162,17 @@ impl CellGrid {
                 *c = (ix[0] + dims[0] * (ix[1] + dims[1] * ix[2])) as u32;
             });
         let cells = self.cell_count();
-        // One part per thread, but none smaller than 4 096 particles, and no more counters than
-        // about two per particle (a sparse grid over a large domain sorts serially).
+        // One part per thread, but none smaller than 4 096 particles, and no more than
+        // `COUNTERS_PER_PARTICLE` counters in all (a grid far sparser than its particles sorts
+        // serially: clearing and scanning the counters would cost more than the parts save).
+        // The counters are cleared and scanned in parallel (`first_slots`), so a grid with more
+        // cells than particles, as a tank with headroom has, still splits: with the old cap of
+        // two per particle the dam-break bench's grid (two cells per particle) counted and
+        // scattered on one thread, and the second, idle for that long, fell asleep before the
+        // next pass (docs/PERFORMANCE.md, "fifth round").
         let parts = rayon::current_num_threads()
             .min(n / 4096)
-            .min(2 * n / cells.max(1))
+            .min(COUNTERS_PER_PARTICLE * n / cells.max(1))
             .max(1);
         let len = n.div_ceil(parts).max(1);
         self.counts.resize(parts * cells, 0);
@@ -286,6 +292,9 @@ impl CellGrid {
 
 /// Cells per task of [`first_slots`].
 const PREFIX_BLOCK: usize = 4096;
+
+/// The sort's counters (parts × cells) per particle at most: 64 bytes.
+const COUNTERS_PER_PARTICLE: usize = 16;
 
 /// Turns the sort's counts (`counts[part·cells + c]`: part's particles in cell c) into each
 /// (part, cell)'s first slot, cells in order and parts in order within a cell, and `start[c]`

@@ -225,46 +225,52 @@ impl Wcsph {
     }
 
     /// Predictor: keeps (r, v, ρ)^n and moves half a step with the rates in `acceleration`
-    /// and `density_rate`.
+    /// and `density_rate`. One parallel pass, the copies included (three serial copies before
+    /// it kept the second thread idle long enough to fall asleep: docs/PERFORMANCE.md, "fifth
+    /// round").
     fn predict_half_step(sys: &mut FluidSystem, dt: Real) {
         let p = &mut sys.particles;
         let half = 0.5 * dt;
-        p.position0.copy_from_slice(&p.position);
-        p.velocity0.copy_from_slice(&p.velocity);
-        p.density0.copy_from_slice(&p.density);
+        let start = p
+            .position0
+            .par_iter_mut()
+            .zip(p.velocity0.par_iter_mut())
+            .zip(p.density0.par_iter_mut());
+        let rates = p.acceleration.par_iter().zip(p.density_rate.par_iter());
         p.position
             .par_iter_mut()
             .zip(p.velocity.par_iter_mut())
-            .zip(p.acceleration.par_iter())
-            .for_each(|((x, v), a)| {
+            .zip(p.density.par_iter_mut())
+            .zip(start)
+            .zip(rates)
+            .for_each(|((((x, v), r), ((x0, v0), r0)), (a, d))| {
+                (*x0, *v0, *r0) = (*x, *v, *r);
                 *x += *v * half;
                 *v += a * half;
+                *r += d * half;
             });
-        p.density
-            .par_iter_mut()
-            .zip(p.density_rate.par_iter())
-            .for_each(|(r, d)| *r += d * half);
     }
 
     /// Corrector: from (r, v, ρ)^n to n + 1 with the rates at n + 1/2 (evaluated on the
-    /// neighbour lists of the last sort; the lists' skin covers the move).
+    /// neighbour lists of the last sort; the lists' skin covers the move). One parallel pass.
     fn correct(sys: &mut FluidSystem, dt: Real) {
         let p = &mut sys.particles;
         let half = 0.5 * dt;
+        let start = p
+            .velocity0
+            .par_iter()
+            .zip(p.position0.par_iter())
+            .zip(p.density0.par_iter());
+        let rates = p.acceleration.par_iter().zip(p.density_rate.par_iter());
         p.velocity
             .par_iter_mut()
             .zip(p.position.par_iter_mut())
-            .zip(p.velocity0.par_iter().zip(p.position0.par_iter()))
-            .zip(p.acceleration.par_iter())
-            .for_each(|(((v, x), (v0, x0)), a)| {
+            .zip(p.density.par_iter_mut())
+            .zip(start)
+            .zip(rates)
+            .for_each(|((((v, x), r), ((v0, x0), r0)), (a, d))| {
                 *v = v0 + a * dt;
                 *x = x0 + (*v + v0) * half;
-            });
-        p.density
-            .par_iter_mut()
-            .zip(p.density0.par_iter())
-            .zip(p.density_rate.par_iter())
-            .for_each(|((r, r0), d)| {
                 let eps = -d / *r * dt;
                 *r = r0 * (2.0 - eps) / (2.0 + eps);
             });

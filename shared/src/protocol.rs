@@ -16,8 +16,9 @@ use iceoryx2::prelude::ZeroCopySend;
 /// and its answer, and a setup that may resume from a checkpoint. 4: a block's inertia and the
 /// rest of its forces in [`BlockState`], for a fluid that moves the blocks in its pressure solve.
 /// 5: the block's measured response over the coming step ([`BlockState::free_acceleration`],
-/// [`BlockState::mobility`]), and [`LoadsHeader::FOLLOWED`].
-pub const PROTOCOL_VERSION: u32 = 5;
+/// [`BlockState::mobility`]), and [`LoadsHeader::FOLLOWED`]. 6: [`Status::message`] holds
+/// 2 048 bytes (512 cut the solid's energy watch before its conclusion).
+pub const PROTOCOL_VERSION: u32 = 6;
 
 /// Which side of the coupling a node plays.
 #[repr(u32)]
@@ -56,20 +57,38 @@ pub struct Text<const N: usize> {
 // (`as_str` checks the length and the UTF-8).
 unsafe impl<const N: usize> Zeroable for Text<N> {}
 unsafe impl Pod for Text<64> {}
-unsafe impl Pod for Text<512> {}
-const _: () = assert!(size_of::<Text<64>>() == 4 + 64 && size_of::<Text<512>>() == 4 + 512);
+unsafe impl Pod for Text<MESSAGE_BYTES> {}
+const _: () = assert!(
+    size_of::<Text<64>>() == 4 + 64 && size_of::<Text<MESSAGE_BYTES>>() == 4 + MESSAGE_BYTES
+);
+
+/// Capacity of a node's status message: the longest the nodes write (the solid's energy watch
+/// naming the contact that holds the energy and what that means, ~700 bytes) with room to spare.
+pub const MESSAGE_BYTES: usize = 2048;
 
 impl<const N: usize> Text<N> {
-    /// Stores `s`, cut at a character boundary if it does not fit.
+    /// Stores `s`; if it does not fit, cut at a character boundary and ended with "…", so a
+    /// reader sees that something is missing.
     pub fn new(s: &str) -> Self {
-        let mut end = s.len().min(N);
-        while !s.is_char_boundary(end) {
-            end -= 1;
-        }
+        const MORE: &str = "…";
         let mut bytes = [0u8; N];
+        let end = if s.len() <= N {
+            s.len()
+        } else {
+            let mut end = N.saturating_sub(MORE.len());
+            while !s.is_char_boundary(end) {
+                end -= 1;
+            }
+            end
+        };
         bytes[..end].copy_from_slice(&s.as_bytes()[..end]);
+        let mut len = end;
+        if end < s.len() && N >= MORE.len() {
+            bytes[end..end + MORE.len()].copy_from_slice(MORE.as_bytes());
+            len += MORE.len();
+        }
         Self {
-            len: end as u32,
+            len: len as u32,
             bytes,
         }
     }
@@ -234,7 +253,7 @@ pub struct Status {
     /// CPU seconds this node's process has used so far (user + system): with
     /// `compute_seconds` it shows what waiting costs (nothing, when nobody spins).
     pub cpu_seconds: f64,
-    pub message: Text<512>,
+    pub message: Text<MESSAGE_BYTES>,
     /// Explicit padding to the 8-byte alignment (the layout is what it always was; named so
     /// that the message has no uninitialised bytes to send).
     pub _reserved: u32,
@@ -448,5 +467,22 @@ impl BlockLoad {
             force: [0.0, 0.0, fz],
             ..Default::default()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_text_that_does_not_fit_is_cut_at_a_character_and_says_so() {
+        assert_eq!(Text::<64>::new("G1").as_str(), "G1");
+        let exact = "x".repeat(64);
+        assert_eq!(Text::<64>::new(&exact).as_str(), exact);
+        // 'é' is two bytes: the cut falls inside one of them and moves back to its start.
+        let long = "é".repeat(40);
+        let cut = Text::<64>::new(&long);
+        assert_eq!(cut.as_str(), format!("{}…", "é".repeat(30)));
+        assert!(cut.as_str().len() <= 64);
     }
 }
