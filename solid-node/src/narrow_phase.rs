@@ -429,14 +429,16 @@ fn edge_edge(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<C
             // Two faces pressed into each other deeper than the margin, their edges crossing:
             // the crossing points lie at the other block's edges, hardly below its side
             // faces, so the points' depths understate the crossing's; the blocks' own depth
-            // of interpenetration says it is real ([`penetration_depth`]).
+            // of interpenetration says it is real ([`penetration_depth`]). And two corners
+            // overlapping: a crossing point may lie outside the other block, past the corner
+            // one of its faces cuts off, by up to the overlap itself; within the margin plus
+            // the pair's depth it is still local to the overlap (scenes/jointed_slide.toml
+            // under DFSPH: refused, the pair had no contact while it sank 10 cm into itself).
             let real = local_depths(&x, da, db, m)
-                || (da <= m
-                    && db <= m
-                    && -x.gap
-                        <= EDGE_DEPTH_RATIO
-                            * *depth.get_or_insert_with(|| penetration_depth(ba, bb))
-                            + m);
+                || (da.max(db) <= m + (-x.gap).max(0.0) && {
+                    let d = *depth.get_or_insert_with(|| penetration_depth(ba, bb));
+                    da.max(db) <= m + d.max(0.0) && -x.gap <= EDGE_DEPTH_RATIO * d + m
+                });
             if !real {
                 continue;
             }
@@ -606,6 +608,62 @@ mod tests {
         // Normal outward from b (the upper bar, q), i.e. pointing down onto a.
         assert!((c.normal + Vector::z()).norm() < 1e-12);
         assert!((c.point - Point::new(0.0, 0.0, r - 0.5e-4)).norm() < 1e-12);
+    }
+
+    /// Two blocks of `scenes/jointed_slide.toml` as they met corner to corner under DFSPH
+    /// (`rock/17` below, `rock/26`, a triangular prism, above; their vertices at t = 1.3046 s,
+    /// the run's margin): no vertex of either inside the other, the two overlapping 0.76 mm
+    /// where an edge of each crosses the other's, and the crossing's point on the lower edge
+    /// 0.7 mm outside the upper block, past the corner its face cuts off. Past the margin that
+    /// crossing was dropped, so the pair had no contact at all while it sank 10 cm into itself
+    /// (the energy watch then stopped the run). It is kept, at the pair's depth.
+    #[test]
+    fn corner_to_corner_overlap_keeps_its_crossing() {
+        let low = block(
+            BlockKind::Free,
+            vec![
+                [1.615882602256422, 0.7056994157758114, 0.24620020333526454],
+                [1.7996317021225383, 0.7065397274633812, 0.12010010210732486],
+                [1.8035720374725883, 0.7062833556316358, 0.24003511797347224],
+                [1.5997404755866924, 0.7059178253628743, 0.12666598299053772],
+                [1.6034938786396322, 0.7056736159922306, 0.24091119684033752],
+                [1.8041795752341088, 0.5062847789763968, 0.23958764311740774],
+                [1.8002392398840588, 0.5065411508081423, 0.11965262725126037],
+                [1.6164901400179426, 0.5057008391205724, 0.24575272847920004],
+                [1.6003480133482129, 0.5059192487076354, 0.12621850813447322],
+                [1.6041014164011527, 0.5056750393369914, 0.24046372198427304],
+            ],
+        );
+        let high = block(
+            BlockKind::Free,
+            vec![
+                [1.618091995660172, 0.7182066841138806, 0.24510506495977116],
+                [1.8055011666720944, 0.7092554065177108, 0.33303468734988284],
+                [1.805563564051409, 0.7072551060783777, 0.2454889119330763],
+                [1.606422157834889, 0.518599344024612, 0.2496575003100765],
+                [1.793893726226126, 0.5076477659891092, 0.2500413472833816],
+                [1.7938313288468115, 0.5096480664284423, 0.3375871227001882],
+            ],
+        );
+        let params = NarrowParams {
+            margin: 2.7862005497146953e-4,
+            at_start: false,
+        };
+        let depth = penetration_depth(&low, &high);
+        assert!(depth > 2.0 * params.margin, "depth {depth}");
+        for v in &low.world_vertices {
+            assert!(high.plane_distance(v).0 > params.margin, "a vertex inside");
+        }
+        for v in &high.world_vertices {
+            assert!(low.plane_distance(v).0 > params.margin, "a vertex inside");
+        }
+        let mut out = Vec::new();
+        collide(&pair(&low, &high), params, &[], &mut out);
+        let deepest = out.iter().map(|c| -c.gap).fold(0.0, Real::max);
+        assert!(
+            (deepest - depth).abs() < 0.05 * depth,
+            "deepest contact {deepest} m against the pair's depth {depth} m: {out:#?}"
+        );
     }
 
     #[test]
