@@ -22,6 +22,7 @@ pub mod sizes;
 pub mod slides;
 pub mod solid_sweep;
 pub mod speed_accuracy;
+pub mod spread;
 pub mod stability;
 pub mod terrain_bench;
 pub mod wave_maker;

@@ -38,6 +38,9 @@ enum Cmd {
     /// Push each method past its limits (dt factor, contact stiffness, density ratio) and draw
     /// stability maps naming how each failure was detected.
     Stability(coupler::stability::StabilityArgs),
+    /// How far a scene's gauge crests move when knobs that are not physics turn: the scene as
+    /// written and once per value of each --vary, with each gauge's median and range.
+    Spread(coupler::spread::SpreadArgs),
     /// Write the synthetic reservoir of scenes/fjord.toml as an ESRI ASCII grid (.asc).
     MakeSite(coupler::site::SiteArgs),
     /// Time a terrain of many triangles against a box floor, per node (in-process).
@@ -62,6 +65,7 @@ fn main() -> ExitCode {
         Cmd::Run(args) => ExitCode::from(coupler::cli::run(*args)),
         Cmd::Chart(args) => ExitCode::from(coupler::speed_accuracy::run(args)),
         Cmd::Stability(args) => ExitCode::from(coupler::stability::run(args)),
+        Cmd::Spread(args) => ExitCode::from(coupler::spread::run(args)),
         Cmd::MakeSite(args) => ExitCode::from(coupler::site::run(args)),
         Cmd::TerrainBench(args) => ExitCode::from(coupler::terrain_bench::run(args)),
         Cmd::Check { scene, slides_vtk } => {
