@@ -16,7 +16,8 @@
 //! particles, [`walls`] on fixed blocks and [`bodies`] on moving ones), [`penalty`] (paper Eq. 22
 //! both ways), [`terrain`] (the `[[terrain]]` ground: boundary
 //! particles under its surface and Eq. 22 against its triangles), [`dt`] (stable step), [`gauges`] (wave gauges and pressure probes) and
-//! [`system`]. [`validation`] holds the cases run by `fluid-validate` and by the tests.
+//! [`system`]; [`phases`] times a step's phases for `fluid-bench --phases`. [`validation`]
+//! holds the cases run by `fluid-validate` and by the tests.
 
 pub mod bodies;
 pub mod boundary;
@@ -34,6 +35,7 @@ pub mod muller_pairs;
 pub mod neighbors;
 pub mod particles;
 pub mod penalty;
+pub mod phases;
 pub mod scatter;
 pub mod scheme;
 pub mod sph;

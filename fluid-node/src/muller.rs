@@ -11,6 +11,7 @@ use crate::kernels::{Poly6, Spiky, ViscosityKernel};
 use crate::lanes::Packed;
 use crate::muller_pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
 use crate::particles::Carried;
+use crate::phases::Phase;
 use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
 use rayon::prelude::*;
@@ -103,6 +104,7 @@ impl Muller {
     /// average of max(ρ/ρ0 − 1, 0) over all particles (a free surface's low summed densities do
     /// not hide compression elsewhere).
     fn density_and_pressure(&mut self, sys: &mut FluidSystem) -> Real {
+        let t = sys.phases.start();
         let (m, k, rho_ref, clamp) = (sys.mass, self.stiffness, self.rest_density, self.clamp);
         let origin = sys.grid.centre();
         let pc = self.pair_constants();
@@ -135,6 +137,7 @@ impl Muller {
                 ((*rho - rho_ref) / rho_ref).max(0.0)
             })
             .sum();
+        let t = sys.phases.lap(Phase::Density, t);
         let this = &*self;
         sys.boundary
             .update(&this.poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
@@ -142,6 +145,7 @@ impl Muller {
             });
         sys.boundary
             .pack(|x, v, pw, rw| record(x, &origin, v, pw, rw));
+        sys.phases.stop(Phase::WallPressures, t);
         compressed / sys.particles.len().max(1) as Real
     }
 
@@ -274,7 +278,9 @@ impl Scheme for Muller {
 
     fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError> {
         let compression = self.density_and_pressure(sys);
+        let t = sys.phases.start();
         self.accelerate_and_move(sys, dt);
+        sys.phases.stop(Phase::Forces, t);
         let mut report = StepReport::default();
         let steps = sys.steps + 1;
         if compression > COMPRESSION_WARNING

@@ -1,6 +1,7 @@
 //! Any [`Scheme`] as a coupled solver: [`Sph`] implements the coupling interface
 //! ([`Solver`], [`FluidSolver`]) once, for every scheme.
 
+use crate::phases::{Phase, PhaseClock};
 use crate::scheme::Scheme;
 use crate::system::{FluidSystem, Initial};
 use shared::math::Real;
@@ -19,6 +20,9 @@ pub struct Sph<S: Scheme> {
 /// their loops run on a rayon worker, [`crate::validation::run`]).
 pub trait SphSolver: FluidSolver + Send {
     fn system(&self) -> &FluidSystem;
+    /// The system's phase clock, to turn it on and reset it (`fluid-bench --phases`; it is read
+    /// through [`Self::system`]).
+    fn phases_mut(&mut self) -> &mut PhaseClock;
 }
 
 impl<S: Scheme> Sph<S> {
@@ -41,6 +45,10 @@ impl<S: Scheme> Sph<S> {
 impl<S: Scheme> SphSolver for Sph<S> {
     fn system(&self) -> &FluidSystem {
         &self.sys
+    }
+
+    fn phases_mut(&mut self) -> &mut PhaseClock {
+        &mut self.sys.phases
     }
 }
 
@@ -105,14 +113,18 @@ impl<S: Scheme> FluidSolver for Sph<S> {
     fn write_loads(&mut self, loads: &mut [BlockLoad]) {
         if self.scheme.loads_follow_step(&self.sys) {
             // Called after the step: the forces the scheme moved the blocks with.
+            let t = self.sys.phases.start();
             self.scheme.step_loads(&self.sys, loads);
+            self.sys.phases.stop(Phase::BlockLoads, t);
             return;
         }
         // The water's pressure on the moving blocks' boundary particles at the current state:
         // the fluid pressures of the last step's end, the wall pressures extrapolated at the new
         // pose. Then Eq. 22 for the coming step.
         self.sys.prepare_bodies();
+        let t = self.sys.phases.start();
         self.scheme.react(&mut self.sys);
+        self.sys.phases.stop(Phase::BlockLoads, t);
         self.sys.write_loads(loads);
     }
 }

@@ -11,6 +11,7 @@ use crate::kernel::Kernel;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::{Carried, Particles};
 use crate::penalty::{Obstacle, Penalty, resting_state};
+use crate::phases::{Phase, PhaseClock};
 use crate::scheme::Layout;
 use crate::survey::{Rules, Survey};
 use crate::terrain::TerrainPenalty;
@@ -140,6 +141,9 @@ pub struct FluidSystem {
     /// scheme the fluid's step starts from the solid's next pose: a scheme cannot move the
     /// blocks within it.
     pub loads_may_follow_step: bool,
+    /// Wall time per phase of the steps, off unless a caller turns it on (`fluid-bench
+    /// --phases`); the scheme times its own phases on it too.
+    pub phases: PhaseClock,
 }
 
 impl FluidSystem {
@@ -340,6 +344,7 @@ impl FluidSystem {
             penalty_fresh: false,
             penalty_loads: Vec::new(),
             loads_may_follow_step: ctx.scheme == shared::scene::Scheme::Parallel,
+            phases: PhaseClock::default(),
         };
         sys.check_domain()?;
         sys.prepare();
@@ -377,13 +382,18 @@ impl FluidSystem {
     /// Sorts the particles by cell and lists their neighbours, if they moved since the last sort.
     pub fn prepare(&mut self) {
         if !self.grid_valid {
+            let t = self.phases.start();
             let order = self.grid.sort(&self.particles.position);
+            let t = self.phases.lap(Phase::Sort, t);
             self.particles
                 .permute(order, self.carried, &mut self.sorted_at);
+            let t = self.phases.lap(Phase::Permutation, t);
             self.sorts += 1;
             let (pos, radius) = (&self.particles.position, self.grid.radius());
             self.fluid_lists.build(pos, pos, &self.grid, radius, true);
+            let t = self.phases.lap(Phase::FluidLists, t);
             self.boundary.list_fixed(pos, &self.grid, radius);
+            self.phases.stop(Phase::WallLists, t);
             self.grid_valid = true;
             self.bodies_valid = false;
         }
@@ -411,8 +421,10 @@ impl FluidSystem {
     pub fn prepare_bodies(&mut self) {
         self.prepare();
         if !self.bodies_valid {
+            let t = self.phases.start();
             let (pos, radius) = (&self.particles.position, self.grid.radius());
             self.boundary.list_moving(pos, &self.grid, radius);
+            self.phases.stop(Phase::WallLists, t);
             self.bodies_valid = true;
         }
     }
@@ -432,11 +444,14 @@ impl FluidSystem {
     /// [`Boundary::react`] just before).
     pub fn write_loads(&mut self, loads: &mut [BlockLoad]) {
         self.prepare_bodies();
+        let t = self.phases.start();
         self.penalty
             .apply(&mut self.particles, &self.grid, Some(loads));
         self.penalty_loads.clone_from_slice(loads);
         self.terrain.apply(&mut self.particles, &self.grid);
+        let t = self.phases.lap(Phase::Penalty, t);
         self.boundary.add_loads(loads);
+        self.phases.stop(Phase::BlockLoads, t);
         self.penalty_fresh = true;
     }
 
@@ -445,9 +460,11 @@ impl FluidSystem {
     pub fn begin_step(&mut self) {
         self.prepare_bodies();
         if !self.penalty_fresh {
+            let t = self.phases.start();
             let loads = Some(&mut self.penalty_loads[..]).filter(|l| !l.is_empty());
             self.penalty.apply(&mut self.particles, &self.grid, loads);
             self.terrain.apply(&mut self.particles, &self.grid);
+            self.phases.stop(Phase::Penalty, t);
             self.penalty_fresh = true;
         }
     }
@@ -471,6 +488,7 @@ impl FluidSystem {
         // that no particle moves half the skin from its sorted position before then. The next
         // step's move is bounded by twice this step's (|v|·dt, doubled for the speed-up and a
         // longer step).
+        let t = self.phases.start();
         let p = &self.particles;
         let survey = Survey::of(
             &p.position,
@@ -488,6 +506,7 @@ impl FluidSystem {
                 dt,
             },
         );
+        self.phases.stop(Phase::Survey, t);
         if let Some(i) = survey.not_finite {
             return Err(SolverError::Unstable(format!(
                 "{}: NaN/inf limit exceeded: particle {i} has position {:?}, velocity {:?}, density {}",
@@ -532,6 +551,7 @@ impl FluidSystem {
         }
         self.bodies_valid = false;
         self.prepare();
+        let t = self.phases.start();
         let view = FluidView {
             particles: &self.particles,
             grid: &self.grid,
@@ -541,6 +561,7 @@ impl FluidSystem {
             dx: self.dx,
         };
         self.recorder.sample(self.time, &view)?;
+        self.phases.stop(Phase::Gauges, t);
         Ok((survey.v_max, survey.a_max))
     }
 

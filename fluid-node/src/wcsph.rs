@@ -11,6 +11,7 @@ use crate::dt::StepLimits;
 use crate::kernel::Kernel;
 use crate::kernels::WendlandC2;
 use crate::lanes::Packed;
+use crate::phases::Phase;
 use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
 use crate::wcsph_pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
@@ -154,6 +155,7 @@ impl Wcsph {
     /// Pressure of every fluid particle from its density (and the pair loop's f32 copy of its
     /// state, with p/ρ²), then the boundary pressures (Adami).
     fn pressures(&mut self, sys: &mut FluidSystem) {
+        let t = sys.phases.start();
         let (prm, rho0) = (self.constants, self.rest_density);
         let origin = sys.grid.centre();
         let p = &mut sys.particles;
@@ -169,6 +171,7 @@ impl Wcsph {
                 *pr = tait(&prm, rho0, r);
                 *near = fluid_record(&pos[i], &origin, &vel[i], r, rho0, *pr);
             });
+        let t = sys.phases.lap(Phase::Density, t);
         let this = &*self;
         sys.boundary
             .update(&this.kernel, &sys.particles, &sys.gravity, rho0, |pw| {
@@ -176,11 +179,13 @@ impl Wcsph {
             });
         sys.boundary
             .pack(|x, v, pw, rw| boundary_record(x, &origin, v, pw, rw));
+        sys.phases.stop(Phase::WallPressures, t);
     }
 
     /// Momentum and continuity: acceleration and dρ/dt of every particle at the current state.
     fn rates(&mut self, sys: &mut FluidSystem) {
         self.pressures(sys);
+        let t = sys.phases.start();
         let prm = self.constants;
         let (m, g, rho0) = (sys.mass, sys.gravity, sys.rest_density);
         let kernel = &self.kernel;
@@ -222,6 +227,7 @@ impl Wcsph {
                 *a = ai * m + g + pen[i] / m;
                 *d = di * m;
             });
+        sys.phases.stop(Phase::Forces, t);
     }
 
     /// Predictor: keeps (r, v, ρ)^n and moves half a step with the rates in `acceleration`
@@ -280,9 +286,13 @@ impl Wcsph {
     /// at n + 1/2.
     fn symplectic(&mut self, sys: &mut FluidSystem, dt: Real) {
         self.rates(sys);
+        let t = sys.phases.start();
         Self::predict_half_step(sys, dt);
+        sys.phases.stop(Phase::Predictor, t);
         self.rates(sys);
+        let t = sys.phases.start();
         Self::correct(sys, dt);
+        sys.phases.stop(Phase::Integration, t);
     }
 
     /// Drift–kick–drift with one evaluation (see [`Integrator::Leapfrog`]): the predictor with
@@ -293,13 +303,18 @@ impl Wcsph {
         if sys.steps == 0 {
             self.rates(sys);
         }
+        let t = sys.phases.start();
         Self::predict_half_step(sys, dt);
+        sys.phases.stop(Phase::Predictor, t);
         self.rates(sys);
+        let t = sys.phases.start();
         Self::correct(sys, dt);
+        sys.phases.stop(Phase::Integration, t);
     }
 
     fn verlet(&mut self, sys: &mut FluidSystem, dt: Real) {
         self.rates(sys);
+        let t = sys.phases.start();
         let euler = self.verlet_step.is_multiple_of(VERLET_EULER_EVERY);
         self.verlet_step += 1;
         let p = &mut sys.particles;
@@ -332,6 +347,7 @@ impl Wcsph {
                 };
                 *rprev = rn;
             });
+        sys.phases.stop(Phase::Integration, t);
     }
 }
 
@@ -426,12 +442,15 @@ impl Scheme for Wcsph {
             Integrator::Leapfrog => self.leapfrog(sys, dt),
             Integrator::Verlet => self.verlet(sys, dt),
         }
+        // The pressures of the new densities, for the frames and probes: integration's tail.
+        let t = sys.phases.start();
         let (prm, rho0) = (self.constants, self.rest_density);
         let p = &mut sys.particles;
         p.pressure
             .par_iter_mut()
             .zip(p.density.par_iter())
             .for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
+        sys.phases.stop(Phase::Integration, t);
         Ok(StepReport::default())
     }
 

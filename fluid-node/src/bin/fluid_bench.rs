@@ -1,9 +1,10 @@
 //! `fluid-bench [--sizes 10000,100000,1000000] [--threads 1,2] [--solvers NAME,…]
-//! [--param 'KEY = VALUE']… [--from T] [--steps N]` (default: every solver of the registry;
-//! `--param` adds a line to each solver's own table, e.g. `--param 'integrator = "symplectic"'`
-//! for wcsph; `--from` times the steps after T simulated seconds of flow instead of from rest;
-//! `--steps` sets the number of timed steps, by default about 3·10⁶ particle-steps' worth, so a
-//! profiler can be given a longer window):
+//! [--param 'KEY = VALUE']… [--from T] [--steps N] [--phases]` (default: every solver of the
+//! registry; `--param` adds a line to each solver's own table, e.g.
+//! `--param 'integrator = "symplectic"'` for wcsph; `--from` times the steps after T simulated
+//! seconds of flow instead of from rest; `--steps` sets the number of timed steps, by default
+//! about 3·10⁶ particle-steps' worth, so a profiler can be given a longer window; `--phases`
+//! below):
 //! particle-steps per second on a 3D dam break (a water column a × a × 2a at one end of a
 //! 4a × a tank) at about the given particle counts, with each thread count. The timed steps are
 //! the full coupling step as the node runtime drives it (`write_loads` + `advance`), after
@@ -11,6 +12,13 @@
 //! neighbour pairs per particle (fluid and boundary; each force pass visits every one) and the
 //! process's peak resident memory so far (VmHWM; run one size per process to read a size's own
 //! peak).
+//!
+//! `--phases` also times each phase of the timed steps (sort, permutation, fluid and wall
+//! lists, Eq. 22, density pass, wall pressures, forces, DFSPH's solves, integration, survey,
+//! …: the calls a step already makes, `fluid_node::phases`) and prints, after the rows, one
+//! table per solver and size: mean µs per step of each phase per thread count, and with 1 and
+//! 2 threads their 2 ÷ 1 per phase (the `phase_table` module). Off, the clock costs a test of
+//! a flag per phase; on or off, the steps are the same to the bit.
 //!
 //! `fluid-bench --paired BLOCK` instead steps a 1-thread and a 2-thread copy of each solver in
 //! alternating blocks of BLOCK steps and reports their ratio pair by pair (the `paired`
@@ -24,6 +32,8 @@
 mod ceiling;
 #[path = "fluid_bench/paired.rs"]
 mod paired;
+#[path = "fluid_bench/phase_table.rs"]
+mod phase_table;
 
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, TempRunDir, build};
@@ -98,6 +108,10 @@ struct Args {
     /// each pair of blocks.
     #[arg(long, value_name = "BLOCK")]
     paired: Option<usize>,
+    /// Also time each phase of the timed steps and print, after the rows, a table per solver
+    /// and size: µs per step of each phase per thread count, and their 2 ÷ 1.
+    #[arg(long, conflicts_with_all = ["ceiling", "paired"])]
+    phases: bool,
 }
 
 fn main() {
@@ -106,8 +120,14 @@ fn main() {
         ceiling::run(rounds);
         return;
     }
-    let (sizes, threads, params, from, timed) =
-        (args.sizes, args.threads, args.param, args.from, args.steps);
+    let (sizes, threads, params, from, timed, phases) = (
+        args.sizes,
+        args.threads,
+        args.param,
+        args.from,
+        args.steps,
+        args.phases,
+    );
     let solvers: Vec<String> = if args.solvers.is_empty() {
         fluid_node::REGISTRY
             .names()
@@ -125,6 +145,7 @@ fn main() {
         "| solver | particles | threads | from t [s] | steps timed | s/step | particle-steps/s | µs per particle-step | list rebuilds per step | listed pairs per particle (fluid + boundary) | peak RSS so far [MB] |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut timed_phases: Vec<phase_table::Timed> = Vec::new();
     for solver in &solvers {
         for &n in &sizes {
             for &t in &threads {
@@ -159,11 +180,24 @@ fn main() {
                     let sorts = s.system().sorts;
                     // About 3·10⁶ particle-steps per measurement, at least 3 steps.
                     let steps = timed.unwrap_or((3_000_000 / count).clamp(3, 200));
+                    // The timed steps alone (the clock was off until now).
+                    s.phases_mut().reset();
+                    s.phases_mut().set_enabled(phases);
                     let start = Instant::now();
                     for _ in 0..steps {
                         step(&mut s);
                     }
                     let secs = start.elapsed().as_secs_f64();
+                    if phases {
+                        timed_phases.push(phase_table::Timed {
+                            solver: solver.clone(),
+                            particles: count,
+                            threads: t,
+                            steps,
+                            secs,
+                            clock: s.system().phases.clone(),
+                        });
+                    }
                     let rate = (count * steps) as f64 / secs;
                     let (fluid, boundary) = s.system().listed_pairs();
                     let per = |p: usize| p as f64 / count as f64;
@@ -181,4 +215,5 @@ fn main() {
             }
         }
     }
+    phase_table::print(&timed_phases);
 }

@@ -10,6 +10,7 @@ use super::{
 use crate::kernel::{Kernel, lattice_density};
 use crate::kernels::WendlandC2;
 use crate::neighbors::PairValues;
+use crate::phases::Phase;
 use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
 use rayon::prelude::*;
@@ -131,7 +132,9 @@ impl Scheme for Dfsph {
         // positions; what the walls hold over the step (module doc): mirrored, the last
         // step's stiffness that bounds H_ib; extrapolated, their pressure from the last step's
         // (Adami 2012, Eq. 27 at rest).
+        let t = sys.phases.start();
         self.densities_and_factors(sys);
+        let t = sys.phases.lap(Phase::Density, t);
         let rho0 = self.rest_density;
         if self.mirrored {
             let p = &sys.particles;
@@ -144,18 +147,22 @@ impl Scheme for Dfsph {
             sys.boundary
                 .update(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
         }
+        let t = sys.phases.lap(Phase::WallPressures, t);
         let blocks = self.moves_blocks(sys);
         self.motion.fill((Vector::zeros(), Vector::zeros()));
         self.loads.fill(BlockLoad::default());
         if blocks {
             self.block_damping(sys);
         }
+        let t = sys.phases.lap(Phase::Blocks, t);
         // Algorithm 1's divergence solve (Algorithm 2), rotated to the start on the current velocities.
         let kv = std::mem::take(&mut sys.particles.density_rate);
         let (div_it, div_err, kv) = self.solve(sys, dt, false, kv);
         sys.particles.density_rate = kv;
+        let t = sys.phases.lap(Phase::DivergenceSolve, t);
         // Non-pressure forces and predicted velocities.
         self.non_pressure(sys, dt);
+        let t = sys.phases.lap(Phase::Forces, t);
         if blocks {
             // The blocks' non-pressure part: the walls' held pressure, Eq. 22 and the rest of
             // their forces.
@@ -170,10 +177,12 @@ impl Scheme for Dfsph {
                 self.move_blocks(sys, dt, true, |_, pw, rw, _| pw / (rw * rw));
             }
         }
+        let t = sys.phases.lap(Phase::Blocks, t);
         // The constant-density solve (Algorithm 3) on v*.
         let kd = std::mem::take(&mut sys.particles.density0);
         let (it, err, kd) = self.solve(sys, dt, true, kd);
         sys.particles.density0 = kd;
+        let t = sys.phases.lap(Phase::DensitySolve, t);
         // Positions. The pressure the step applied, p = (k_ρ + k_v)ρ², for output and
         // probes; the density the constant-density solve predicts at the new positions.
         if blocks && let Some(bodies) = sys.boundary.bodies_mut() {
@@ -194,6 +203,7 @@ impl Scheme for Dfsph {
                 *pr = (kd + kv) * *r * *r;
                 *r = *pred;
             });
+        sys.phases.stop(Phase::Integration, t);
         self.stats = SolveStats {
             density_iterations: it,
             density_error: err,

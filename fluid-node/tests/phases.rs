@@ -1,0 +1,153 @@
+//! The phase clock (`fluid_node::phases`, `fluid-bench --phases`) reads time and nothing else:
+//! every solver stepped with it on takes the same steps to the bit as with it off, and on it
+//! has seen the phases every step enters.
+
+use fluid_node::REGISTRY;
+use fluid_node::phases::Phase;
+use fluid_node::sph::SphSolver;
+use fluid_node::validation::*;
+use shared::protocol::{BlockLoad, BlockState};
+use shared::scene::Scene;
+
+fn bits(s: &dyn SphSolver) -> Vec<u64> {
+    let p = &s.system().particles;
+    p.position
+        .iter()
+        .chain(&p.velocity)
+        .chain(&p.acceleration)
+        .flat_map(|v| v.iter().copied())
+        .chain(p.density.iter().copied())
+        .chain(p.pressure.iter().copied())
+        .map(f64::to_bits)
+        .collect()
+}
+
+/// Builds `solver` twice on `scene`, the clock on in the second; `drive` steps each the same
+/// way and returns its step sizes. Asserts the two agree to the bit; returns the timed one.
+fn same_with_and_without(
+    solver: &str,
+    scene: &Scene,
+    mut drive: impl FnMut(&mut dyn SphSolver) -> Vec<f64>,
+) -> Box<dyn SphSolver> {
+    let (da, db) = (
+        TempRunDir::new("phases-off").unwrap(),
+        TempRunDir::new("phases-on").unwrap(),
+    );
+    let mut off = build(solver, scene, da.path()).unwrap();
+    let mut on = build(solver, scene, db.path()).unwrap();
+    on.phases_mut().set_enabled(true);
+    let (dt_off, dt_on) = (drive(off.as_mut()), drive(on.as_mut()));
+    assert_eq!(
+        dt_off.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+        dt_on.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+        "{solver}: step sizes"
+    );
+    assert!(
+        bits(off.as_ref()) == bits(on.as_ref()),
+        "{solver}: particles differ"
+    );
+    let clock = &off.system().phases;
+    assert!(
+        Phase::ALL.iter().all(|&p| clock.calls(p) == 0),
+        "{solver}: the clock that was off recorded"
+    );
+    on.finish().unwrap();
+    on
+}
+
+#[test]
+fn every_solver_steps_the_same_with_the_clock_on() {
+    // Every registry solver as configured by default, and WCSPH also with the lists rebuilt
+    // every step and with its two-evaluation integrator. Force passes per step: WCSPH's
+    // leapfrog evaluates once, and on the first step once more (the rates at the start).
+    let steps: u64 = 25;
+    let mut cases: Vec<(&str, &str, u64)> = REGISTRY
+        .names()
+        .iter()
+        .map(|&s| (s, "", if s == "wcsph" { steps + 1 } else { steps }))
+        .collect();
+    cases.push(("wcsph", "skin = 0", steps + 1));
+    cases.push(("wcsph", "integrator = \"symplectic\"", 2 * steps));
+    for (solver, param, forces) in cases {
+        let mut scene = dam_break_scene(solver, 2, 0.1, 6, None);
+        if !param.is_empty() {
+            scene.fluid.as_mut().unwrap().solvers.insert(
+                solver.into(),
+                toml::Value::Table(toml::from_str(param).unwrap()),
+            );
+        }
+        let what = format!("{solver} {param}");
+        let on = same_with_and_without(solver, &scene, |s| {
+            fluid_node::on_pool(|| {
+                (0..steps)
+                    .map(|_| {
+                        s.write_loads(&mut []);
+                        let dt = s.dt_proposal();
+                        s.advance(dt).unwrap();
+                        dt
+                    })
+                    .collect()
+            })
+        });
+        let (clock, sorts) = (&on.system().phases, on.system().sorts);
+        // Every sort but the one at set-up (before the clock was on) is timed, with its lists.
+        for p in [Phase::Sort, Phase::Permutation, Phase::FluidLists] {
+            assert_eq!(clock.calls(p), sorts - 1, "{what}: {p:?}");
+        }
+        for p in [
+            Phase::WallLists,
+            Phase::Penalty,
+            Phase::Density,
+            Phase::WallPressures,
+            Phase::Integration,
+            Phase::Gauges,
+        ] {
+            // Müller's integration is inside its force pass.
+            if solver == "muller" && p == Phase::Integration {
+                continue;
+            }
+            assert!(clock.calls(p) > 0, "{what}: {p:?} never entered");
+        }
+        assert_eq!(clock.calls(Phase::Survey), steps, "{what}");
+        assert_eq!(clock.calls(Phase::Forces), forces, "{what}");
+        assert!(clock.sum() > std::time::Duration::ZERO);
+    }
+}
+
+/// With a moving block: the loads on it and (DFSPH) the blocks in the solve, clock on and off.
+#[test]
+fn every_solver_with_a_moving_block_steps_the_same_with_the_clock_on() {
+    let mut scene = Scene::default_scene();
+    scene.set_dx(0.08);
+    let wedge = scene.moving_blocks()[0];
+    let poly = shared::geometry::Polyhedron::from_shape(&scene.blocks[wedge].shape).unwrap();
+    // The wedge just in the surface over deep water, moving down (as in tests/solvers.rs).
+    let mut state = BlockState {
+        block: wedge as u32,
+        centroid: [poly.centroid.x + 1.2, poly.centroid.y, 0.62],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        velocity: [0.0, 0.0, -1.0],
+        ..Default::default()
+    };
+    state.vertex_count = poly.vertices.len() as u32;
+    for solver in REGISTRY.names() {
+        let on = same_with_and_without(solver, &scene, |s| {
+            fluid_node::on_pool(|| {
+                let mut loads = vec![BlockLoad::default(); 1];
+                (0..5)
+                    .map(|_| {
+                        s.read_geometry(&[state], &[]);
+                        s.write_loads(&mut loads);
+                        let dt = s.dt_proposal().min(scene.time.dt_max);
+                        s.advance(dt).unwrap();
+                        dt
+                    })
+                    .collect()
+            })
+        });
+        assert!(
+            on.system().phases.calls(Phase::BlockLoads) > 0,
+            "{solver}: no loads timed"
+        );
+    }
+}
