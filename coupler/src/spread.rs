@@ -3,8 +3,8 @@
 //! A crest is one number read off one run; whether it is a property of the flow or of the run
 //! is a question only more runs answer. `coupler spread` runs the scene once as written (the
 //! *base*) and once per value of each `--vary KEY=V1,V2,…` (one knob at a time, every other
-//! setting as the scene has it): an artificial viscosity, a sound speed, a step, a solver
-//! tolerance. For each gauge it tables the base run's crest, the members' median, lowest and
+//! setting as the scene has it, after any `--set KEY=VALUE` that every run takes): an
+//! artificial viscosity, a sound speed, a step, a solver tolerance. For each gauge it tables the base run's crest, the members' median, lowest and
 //! highest, and where the base run falls among them; with `--against DIR` (another spread's
 //! directory, e.g. the same scene under another solver) each gauge's median against that
 //! spread's median and range. Crests are read off `gauges.csv` as `coupler run`'s summary reads
@@ -427,6 +427,8 @@ fn run_inner(args: &SpreadArgs) -> Result<(), String> {
     std::fs::create_dir_all(args.out.join("runs"))
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let mut scenes = Vec::new();
+    // The base scene's gauges: the spread's columns, in the scene's (and gauges.csv's) order.
+    let mut gauges: Vec<String> = Vec::new();
     for (i, m) in members.iter().enumerate() {
         let path = args.out.join(format!("member_{i:02}.toml"));
         let body = if m.key.is_empty() && args.set.is_empty() {
@@ -444,12 +446,28 @@ fn run_inner(args: &SpreadArgs) -> Result<(), String> {
         };
         std::fs::write(&path, &body)
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        crate::scenes::load(Some(&path)).map_err(|e| format!("member {i} ({}): {e}", m.label()))?;
+        let scene = crate::scenes::load(Some(&path))
+            .map_err(|e| format!("member {i} ({}): {e}", m.label()))?;
+        if i == 0 {
+            gauges = scene.gauges.iter().map(|g| g.name.clone()).collect();
+            if gauges.is_empty() {
+                return Err(format!(
+                    "{origin} has no [[gauge]]: a spread tables gauge crests. Fix: add a [[gauge]] with name, x and y"
+                ));
+            }
+            if let Some(w) = windows.iter().find(|w| !gauges.contains(&w.0)) {
+                return Err(format!(
+                    "--window {}: the scene has no gauge '{}' (its gauges: {}). Fix: name one of them",
+                    w.0,
+                    w.0,
+                    gauges.join(", ")
+                ));
+            }
+        }
         scenes.push(path);
     }
 
-    let mut gauges: Option<Vec<String>> = None;
-    let mut csv = String::new();
+    let mut csv = csv_header(&gauges) + "\n";
     let csv_path = args.out.join("spread.csv");
     for (i, (m, scene)) in members.iter().zip(&scenes).enumerate() {
         let dir = args.out.join("runs").join(format!("{i:02}"));
@@ -460,22 +478,14 @@ fn run_inner(args: &SpreadArgs) -> Result<(), String> {
         } else {
             Vec::new()
         };
-        // The gauges are the first member's that wrote any; a member without gauges.csv (it
-        // stopped before its first sample) gets empty cells.
-        let names = gauges.get_or_insert_with(|| read.iter().map(|c| c.0.clone()).collect());
-        if names.is_empty() {
-            *names = read.iter().map(|c| c.0.clone()).collect();
-        }
-        let row: Vec<(String, Option<f64>)> = names
+        // A member without gauges.csv (it stopped before its first sample) gets empty cells.
+        let row: Vec<(String, Option<f64>)> = gauges
             .iter()
             .map(|g| {
                 let c = read.iter().find(|c| &c.0 == g).and_then(|c| c.1);
                 (g.clone(), c)
             })
             .collect();
-        if csv.is_empty() {
-            csv = csv_header(names) + "\n";
-        }
         csv.push_str(&csv_row(i, m, &outcome, &row));
         csv.push('\n');
         // Written after every member, so an interrupted spread keeps what it measured.

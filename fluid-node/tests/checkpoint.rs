@@ -3,21 +3,13 @@
 //! (particles, step proposals, gauge and probe rows). Through the coupler and three processes
 //! this is `tests/tests/checkpoint.rs`; here every registry solver and the Verlet integrator.
 
+mod common;
+
+use common::advance;
 use fluid_node::REGISTRY;
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::*;
 use shared::scene::Scene;
-
-fn advance(s: &mut dyn SphSolver, steps: usize) -> Vec<f64> {
-    (0..steps)
-        .map(|_| {
-            s.write_loads(&mut []);
-            let dt = s.dt_proposal();
-            s.advance(dt).unwrap();
-            dt
-        })
-        .collect()
-}
 
 fn bits(s: &dyn SphSolver) -> Vec<u64> {
     let p = &s.system().particles;

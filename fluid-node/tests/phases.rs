@@ -2,6 +2,8 @@
 //! every solver stepped with it on takes the same steps to the bit as with it off, and on it
 //! has seen the phases every step enters.
 
+mod common;
+
 use fluid_node::REGISTRY;
 use fluid_node::phases::Phase;
 use fluid_node::sph::SphSolver;
@@ -78,16 +80,7 @@ fn every_solver_steps_the_same_with_the_clock_on() {
         }
         let what = format!("{solver} {param}");
         let on = same_with_and_without(solver, &scene, |s| {
-            fluid_node::on_pool(|| {
-                (0..steps)
-                    .map(|_| {
-                        s.write_loads(&mut []);
-                        let dt = s.dt_proposal();
-                        s.advance(dt).unwrap();
-                        dt
-                    })
-                    .collect()
-            })
+            fluid_node::on_pool(|| common::advance(s, steps as usize))
         });
         let (clock, sorts) = (&on.system().phases, on.system().sorts);
         // Every sort but the one at set-up (before the clock was on) is timed, with its lists.

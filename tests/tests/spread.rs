@@ -71,7 +71,7 @@ fn a_spread_runs_its_members_and_its_base_is_the_scenes_own_run() {
 }
 
 #[test]
-fn a_misspelt_key_is_named_before_any_run_starts() {
+fn a_misspelt_key_or_gauge_is_named_before_any_run_starts() {
     let (_, out) = fresh("spread-bad");
     let o = spread(&out, &["--vary", "fluid.wcsph.alpah=0,0.02"]);
     assert!(!o.status.success());
@@ -79,5 +79,19 @@ fn a_misspelt_key_is_named_before_any_run_starts() {
     assert!(err.contains("alpah"), "the key is named: {err}");
     let runs = std::fs::read_dir(out.join("runs")).unwrap().count();
     assert_eq!(runs, 0, "no run started");
+    std::fs::remove_dir_all(&out).ok();
+
+    let (_, out) = fresh("spread-bad-window");
+    let o = spread(
+        &out,
+        &["--vary", "fluid.wcsph.alpha=0", "--window", "G9=0.1:0.3"],
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("no gauge 'G9'") && err.contains("G1, G2, G3, G4"),
+        "the window's gauge is named with the scene's: {err}"
+    );
+    assert_eq!(std::fs::read_dir(out.join("runs")).unwrap().count(), 0);
     std::fs::remove_dir_all(&out).ok();
 }
