@@ -137,6 +137,25 @@ fn toml_value(text: &str) -> toml::Value {
         .unwrap_or_else(|| toml::Value::String(text.to_string()))
 }
 
+/// Makes every relative `[[terrain]] file` of a scene's TOML an absolute path from `dir` (the
+/// scene file's directory), as `Scene::load` reads it; true if any was relative.
+fn anchor_files(scene: &mut toml::Table, dir: &Path) -> bool {
+    let mut changed = false;
+    let Some(toml::Value::Array(terrains)) = scene.get_mut("terrain") else {
+        return false;
+    };
+    let dir = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
+    for t in terrains.iter_mut().filter_map(toml::Value::as_table_mut) {
+        if let Some(toml::Value::String(file)) = t.get_mut("file")
+            && Path::new(file.as_str()).is_relative()
+        {
+            *file = dir.join(&*file).display().to_string();
+            changed = true;
+        }
+    }
+    changed
+}
+
 /// Sets the dotted `key` of a scene's TOML to `value`, making the tables on the way
 /// (`fluid.dfsph` need not be in the scene).
 fn set_key(scene: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), String> {
@@ -402,14 +421,19 @@ fn run_inner(args: &SpreadArgs) -> Result<(), String> {
             .map_err(|e| format!("cannot read the scene {}: {e}", p.display()))?,
         None => shared::scene::DEFAULT_SCENE.to_string(),
     };
-    let origin = args
+    let mut origin = args
         .scene
         .as_ref()
         .map_or(shared::scene::DEFAULT_SCENE_ORIGIN.to_string(), |p| {
             p.display().to_string()
         });
     let mut base: toml::Table = toml::from_str(&text).map_err(|e| format!("{origin}: {e}"))?;
-    let mut origin = origin;
+    // The member scenes live in --out: a terrain file named relative to the scene file is
+    // named from the scene file's directory instead.
+    let anchored = match &args.scene {
+        Some(p) => anchor_files(&mut base, p.parent().unwrap_or(Path::new("."))),
+        None => false,
+    };
     for s in &args.set {
         let fixed = parse_vary(s).map_err(|e| e.replace("--vary", "--set"))?;
         let [m] = fixed.as_slice() else {
@@ -431,7 +455,7 @@ fn run_inner(args: &SpreadArgs) -> Result<(), String> {
     let mut gauges: Vec<String> = Vec::new();
     for (i, m) in members.iter().enumerate() {
         let path = args.out.join(format!("member_{i:02}.toml"));
-        let body = if m.key.is_empty() && args.set.is_empty() {
+        let body = if m.key.is_empty() && args.set.is_empty() && !anchored {
             text.clone()
         } else {
             let mut t = base.clone();
@@ -530,6 +554,24 @@ mod tests {
         assert_eq!(t["time"]["end"].as_integer(), Some(3));
         assert_eq!(toml_value("true").as_bool(), Some(true));
         assert_eq!(toml_value("\"mirrored\"").as_str(), Some("mirrored"));
+    }
+
+    #[test]
+    fn a_terrain_file_is_named_from_the_scene_files_directory() {
+        let mut t: toml::Table = toml::from_str(
+            "[[terrain]]\nfile = \"fjord/fjord.asc\"\n[[terrain]]\nfile = \"/abs/a.stl\"\n",
+        )
+        .unwrap();
+        assert!(anchor_files(&mut t, Path::new("/data/scenes")));
+        let files: Vec<&str> = t["terrain"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x["file"].as_str().unwrap())
+            .collect();
+        assert_eq!(files, ["/data/scenes/fjord/fjord.asc", "/abs/a.stl"]);
+        let mut none: toml::Table = toml::from_str("[fluid]\ndx = 0.04\n").unwrap();
+        assert!(!anchor_files(&mut none, Path::new("scenes")));
     }
 
     #[test]
