@@ -8,7 +8,7 @@ use fluid_node::REGISTRY;
 use fluid_node::phases::Phase;
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::*;
-use shared::protocol::{BlockLoad, BlockState};
+use shared::protocol::BlockLoad;
 use shared::scene::Scene;
 
 fn bits(s: &dyn SphSolver) -> Vec<u64> {
@@ -112,17 +112,7 @@ fn every_solver_steps_the_same_with_the_clock_on() {
 fn every_solver_with_a_moving_block_steps_the_same_with_the_clock_on() {
     let mut scene = Scene::default_scene();
     scene.set_dx(0.08);
-    let wedge = scene.moving_blocks()[0];
-    let poly = shared::geometry::Polyhedron::from_shape(&scene.blocks[wedge].shape).unwrap();
-    // The wedge just in the surface over deep water, moving down (as in tests/solvers.rs).
-    let mut state = BlockState {
-        block: wedge as u32,
-        centroid: [poly.centroid.x + 1.2, poly.centroid.y, 0.62],
-        orientation: [0.0, 0.0, 0.0, 1.0],
-        velocity: [0.0, 0.0, -1.0],
-        ..Default::default()
-    };
-    state.vertex_count = poly.vertices.len() as u32;
+    let state = common::wedge_in_surface(&scene);
     for solver in REGISTRY.names() {
         let on = same_with_and_without(solver, &scene, |s| {
             fluid_node::on_pool(|| {

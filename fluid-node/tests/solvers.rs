@@ -1,6 +1,8 @@
 //! The fluid solvers through the `FluidSolver` interface, at coarse resolutions: validation cases
 //! with tolerances (the same code `fluid-validate` runs finer), output files, failure messages.
 
+mod common;
+
 use fluid_node::REGISTRY;
 use fluid_node::validation::*;
 use shared::scene::{Scene, Scheme};
@@ -280,26 +282,14 @@ fn default_scene_couples_with_the_moving_wedge() {
     let mut scene = shared::scene::Scene::default_scene();
     scene.set_dx(0.08);
     let moving = scene.moving_blocks();
-    let wedge = moving[0];
+    let state = common::wedge_in_surface(&scene);
     for solver in REGISTRY.names() {
         let dir = TempRunDir::new("t").unwrap();
         let mut s = REGISTRY.build(solver, &ctx_for(&scene, &dir)).unwrap();
-        let poly = shared::geometry::Polyhedron::from_shape(&scene.blocks[wedge].shape).unwrap();
-        // Put the wedge over deep water, its lowest edge just in the surface (0.035 m under the
-        // still-water line, above the top particle layer: a wedge teleported deeper would put its
-        // boundary particles on top of fluid particles), moving down at 1 m/s.
-        let mut state = shared::protocol::BlockState {
-            block: wedge as u32,
-            centroid: [poly.centroid.x + 1.2, poly.centroid.y, 0.62],
-            orientation: [0.0, 0.0, 0.0, 1.0],
-            velocity: [0.0, 0.0, -1.0],
-            ..Default::default()
-        };
-        state.vertex_count = poly.vertices.len() as u32;
         s.read_geometry(&[state], &[]);
         let mut loads = vec![shared::protocol::BlockLoad::default(); moving.len()];
         s.write_loads(&mut loads);
-        assert_eq!(loads[0].block, wedge as u32);
+        assert_eq!(loads[0].block, moving[0] as u32);
         let f = loads[0].force;
         // The water pushes the wedge up (and the particles down): Eq. 22 both ways.
         assert!(

@@ -1,4 +1,5 @@
 //! Helpers shared by fluid-node's integration tests.
+#![allow(dead_code)] // each test file uses its own part
 
 use fluid_node::sph::SphSolver;
 
@@ -12,4 +13,21 @@ pub fn advance(s: &mut dyn SphSolver, steps: usize) -> Vec<f64> {
             dt
         })
         .collect()
+}
+
+/// The scene's first moving block (the default scene's wedge) placed over deep water, its lowest
+/// edge just in the surface (0.035 m under the still-water line, above the top particle layer:
+/// a block teleported deeper would put its boundary particles on top of fluid particles),
+/// moving down at 1 m/s.
+pub fn wedge_in_surface(scene: &shared::scene::Scene) -> shared::protocol::BlockState {
+    let wedge = scene.moving_blocks()[0];
+    let poly = shared::geometry::Polyhedron::from_shape(&scene.blocks[wedge].shape).unwrap();
+    shared::protocol::BlockState {
+        block: wedge as u32,
+        centroid: [poly.centroid.x + 1.2, poly.centroid.y, 0.62],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        velocity: [0.0, 0.0, -1.0],
+        vertex_count: poly.vertices.len() as u32,
+        ..Default::default()
+    }
 }
