@@ -16,7 +16,7 @@
 //! particles, [`walls`] on fixed blocks and [`bodies`] on moving ones), [`penalty`] (paper Eq. 22
 //! both ways), [`terrain`] (the `[[terrain]]` ground: boundary
 //! particles under its surface and Eq. 22 against its triangles), [`dt`] (stable step), [`gauges`] (wave gauges and pressure probes) and
-//! [`system`]; [`phases`] times a step's phases for `fluid-bench --phases`. [`validation`]
+//! [`system`]; [`tasks`] sets how finely a parallel pass is cut; [`phases`] times a step's phases for `fluid-bench --phases`. [`validation`]
 //! holds the cases run by `fluid-validate` and by the tests.
 
 pub mod bodies;
@@ -41,6 +41,7 @@ pub mod scheme;
 pub mod sph;
 pub mod survey;
 pub mod system;
+pub mod tasks;
 pub mod terrain;
 pub mod validation;
 pub mod walls;

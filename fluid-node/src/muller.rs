@@ -14,6 +14,7 @@ use crate::particles::Carried;
 use crate::phases::Phase;
 use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
+use crate::tasks;
 use rayon::prelude::*;
 use serde::Deserialize;
 use shared::math::Real;
@@ -122,6 +123,7 @@ impl Muller {
             .zip(p.pressure.par_iter_mut())
             .zip(self.records.par_iter_mut())
             .enumerate()
+            .with_max_len(tasks::PARTICLES)
             .map(|(i, ((rho, pr), rec))| {
                 // The fluid neighbours' sum came with this step's lists (rebuilt every step at
                 // these positions, `Layout::poly6_sums`); the boundary's is summed here.
@@ -177,6 +179,7 @@ impl Muller {
             .zip(p.velocity.par_iter_mut())
             .zip(p.position.par_iter_mut())
             .enumerate()
+            .with_max_len(tasks::PARTICLES)
             .for_each(|(i, ((a, v), x))| {
                 let me = &records[i];
                 // Fluid neighbours: Eq. 14 with Müller's symmetric (p_i + p_j)/2, Eq. 18 with

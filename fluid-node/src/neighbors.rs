@@ -11,6 +11,7 @@
 //! the pair loops measure true distances.
 
 use crate::candidates::Candidates;
+use crate::tasks;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 use std::cell::RefCell;
@@ -469,11 +470,15 @@ impl NeighborLists {
             same,
         };
         let near = &self.near;
-        self.chunks.par_iter_mut().enumerate().for_each(|(c, ch)| {
-            let lo = c * CHUNK;
-            let hi = (lo + CHUNK).min(from.len());
-            fill_chunk(ch, &from[lo..hi], lo, to_grid, near, &test);
-        });
+        self.chunks
+            .par_iter_mut()
+            .enumerate()
+            .with_max_len(tasks::CHUNKS)
+            .for_each(|(c, ch)| {
+                let lo = c * CHUNK;
+                let hi = (lo + CHUNK).min(from.len());
+                fill_chunk(ch, &from[lo..hi], lo, to_grid, near, &test);
+            });
     }
 
     /// The neighbours of particle `i`.
@@ -505,6 +510,7 @@ impl NeighborLists {
             .par_iter_mut()
             .zip(self.chunks.par_iter())
             .enumerate()
+            .with_max_len(tasks::CHUNKS)
             .for_each(|(c, (out, ch))| {
                 out.resize(ch.index.len(), T::default());
                 for k in 0..ch.start.len().saturating_sub(1) {

@@ -12,6 +12,7 @@
 
 use crate::neighbors::CellGrid;
 use crate::particles::Particles;
+use crate::tasks;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Real, Vector};
@@ -243,6 +244,7 @@ impl Penalty {
             .penalty
             .par_iter_mut()
             .enumerate()
+            .with_max_len(tasks::PARTICLES)
             .for_each(|(i, f)| {
                 let mut sum = Vector::zeros();
                 for &b in near.of(grid.cell_index(&pos[i])) {

@@ -4,6 +4,7 @@
 //! particles). Violations are reported for the lowest particle index, so the message of an
 //! unstable run is the same at every run and thread count.
 
+use crate::tasks;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 
@@ -96,6 +97,7 @@ impl Survey {
         // v_max and a_max hold squares until the end.
         let squared = (0..n.div_ceil(CHUNK))
             .into_par_iter()
+            .with_max_len(tasks::CHUNKS)
             .map(|c| {
                 let range = c * CHUNK..((c + 1) * CHUNK).min(n);
                 state

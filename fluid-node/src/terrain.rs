@@ -13,6 +13,7 @@
 
 use crate::neighbors::CellGrid;
 use crate::particles::Particles;
+use crate::tasks;
 use rayon::prelude::*;
 use shared::math::{Point, Real, Vector};
 use shared::terrain::Terrain;
@@ -206,6 +207,7 @@ impl TerrainPenalty {
         forces
             .par_iter_mut()
             .zip(this.candidates.par_iter())
+            .with_max_len(tasks::PARTICLES)
             .for_each(|(out, &i)| *out = this.force(&pos[i as usize], &vel[i as usize]));
         for (&i, f) in self.candidates.iter().zip(&forces) {
             particles.penalty[i as usize] += f;

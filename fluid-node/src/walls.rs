@@ -18,6 +18,7 @@ use crate::kernel::Kernel;
 use crate::neighbors::{CellGrid, NeighborLists};
 use crate::particles::Particles;
 use crate::scatter::scatter;
+use crate::tasks;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Point, Real, Vector};
@@ -141,11 +142,14 @@ impl WallParticles {
     ) {
         // The marks are all clear here: set below, cleared again as they are collected.
         let mark = &self.mark.0;
-        (0..fluid.len()).into_par_iter().for_each(|i| {
-            for &w in fluid_to_wall.of(i) {
-                mark[w as usize].store(true, Ordering::Relaxed);
-            }
-        });
+        (0..fluid.len())
+            .into_par_iter()
+            .with_max_len(tasks::PARTICLES)
+            .for_each(|i| {
+                for &w in fluid_to_wall.of(i) {
+                    mark[w as usize].store(true, Ordering::Relaxed);
+                }
+            });
         // Collected in wall order, in parallel (serial, this kept the second thread idle): each
         // part of the marks counts its own, then writes them into its slice of the active list
         // and clears them.

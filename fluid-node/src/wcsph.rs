@@ -14,6 +14,7 @@ use crate::lanes::Packed;
 use crate::phases::Phase;
 use crate::scheme::{Layout, Scheme};
 use crate::system::{FluidSystem, Initial};
+use crate::tasks;
 use crate::wcsph_pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -207,6 +208,7 @@ impl Wcsph {
             .par_iter_mut()
             .zip(p.density_rate.par_iter_mut())
             .enumerate()
+            .with_max_len(tasks::PARTICLES)
             .for_each(|(i, (a, d))| {
                 let me = &near[i];
                 // Fluid neighbours (wcsph_pairs.rs): symmetric pressure gradient and artificial

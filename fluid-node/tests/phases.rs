@@ -11,19 +11,6 @@ use fluid_node::validation::*;
 use shared::protocol::BlockLoad;
 use shared::scene::Scene;
 
-fn bits(s: &dyn SphSolver) -> Vec<u64> {
-    let p = &s.system().particles;
-    p.position
-        .iter()
-        .chain(&p.velocity)
-        .chain(&p.acceleration)
-        .flat_map(|v| v.iter().copied())
-        .chain(p.density.iter().copied())
-        .chain(p.pressure.iter().copied())
-        .map(f64::to_bits)
-        .collect()
-}
-
 /// Builds `solver` twice on `scene`, the clock on in the second; `drive` steps each the same
 /// way and returns its step sizes. Asserts the two agree to the bit; returns the timed one.
 fn same_with_and_without(
@@ -45,7 +32,7 @@ fn same_with_and_without(
         "{solver}: step sizes"
     );
     assert!(
-        bits(off.as_ref()) == bits(on.as_ref()),
+        common::bits(off.as_ref()) == common::bits(on.as_ref()),
         "{solver}: particles differ"
     );
     let clock = &off.system().phases;

@@ -6,6 +6,7 @@ use super::{Dfsph, gradient, hydrostatic};
 use crate::fixed_sum::fixed_sum;
 use crate::kernel::Kernel;
 use crate::system::FluidSystem;
+use crate::tasks;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 
@@ -58,6 +59,7 @@ impl Dfsph {
                     .zip(self.deficient.par_iter_mut()),
             )
             .enumerate()
+            .with_max_len(tasks::PARTICLES)
             .for_each(
                 |(i, (((rho, beta), (grad, wall_grad)), (flux, deficient)))| {
                     let xi = pos[i];
@@ -129,6 +131,7 @@ impl Dfsph {
             .par_iter_mut()
             .zip(self.kbar.par_iter_mut())
             .enumerate()
+            .with_max_len(tasks::PARTICLES)
             .for_each(|(i, (v, kbar))| {
                 let mut acc = grad[i] * dk[i];
                 let mut sum = Vector::zeros();
@@ -166,6 +169,7 @@ impl Dfsph {
         self.wall_flux
             .par_iter_mut()
             .enumerate()
+            .with_max_len(tasks::PARTICLES)
             .for_each(|(i, flux)| {
                 let xi = pos[i];
                 let mut fl = 0.0;
@@ -195,6 +199,7 @@ impl Dfsph {
             .par_iter_mut()
             .zip(self.predicted.par_iter_mut())
             .enumerate()
+            .with_max_len(tasks::PARTICLES)
             .for_each(|(i, (e, pred))| {
                 let mut d = 0.0;
                 let (js, gs) = lists.with_values(pairs, i);
@@ -231,12 +236,18 @@ impl Dfsph {
         let s2 = kernel.support().powi(2);
         let (lists, boundary, pairs) = (&sys.fluid_lists, &sys.boundary, &self.pairs);
         let p = &mut sys.particles;
-        self.v_old.copy_from_slice(&p.velocity);
+        // In parallel: a serial copy left the second thread idle long enough to fall asleep
+        // (tasks.rs).
+        self.v_old
+            .par_iter_mut()
+            .zip(p.velocity.par_iter())
+            .for_each(|(old, v)| *old = *v);
         let (pos, rho, pen, v_old) = (&p.position, &p.density, &p.penalty, &self.v_old);
         p.velocity
             .par_iter_mut()
             .zip(p.acceleration.par_iter_mut())
             .enumerate()
+            .with_max_len(tasks::PARTICLES)
             .for_each(|(i, (v, a))| {
                 let (xi, vi) = (pos[i], v_old[i]);
                 let mut xsph = Vector::zeros();

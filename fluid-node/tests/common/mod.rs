@@ -3,6 +3,20 @@
 
 use fluid_node::sph::SphSolver;
 
+/// Every particle's position, velocity, acceleration, density and pressure, as bits.
+pub fn bits(s: &dyn SphSolver) -> Vec<u64> {
+    let p = &s.system().particles;
+    p.position
+        .iter()
+        .chain(&p.velocity)
+        .chain(&p.acceleration)
+        .flat_map(|v| v.iter().copied())
+        .chain(p.density.iter().copied())
+        .chain(p.pressure.iter().copied())
+        .map(f64::to_bits)
+        .collect()
+}
+
 /// Steps `s` `steps` times at its own proposed step, with no blocks; returns the steps taken.
 pub fn advance(s: &mut dyn SphSolver, steps: usize) -> Vec<f64> {
     (0..steps)
