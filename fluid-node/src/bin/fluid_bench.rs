@@ -9,9 +9,11 @@
 //! 4a × a tank) at about the given particle counts, with each thread count. The timed steps are
 //! the full coupling step as the node runtime drives it (`write_loads` + `advance`), after
 //! warm-up steps that let the reused buffers reach their size. Also printed: the listed
-//! neighbour pairs per particle (fluid and boundary; each force pass visits every one) and the
-//! process's peak resident memory so far (VmHWM; run one size per process to read a size's own
-//! peak).
+//! neighbour pairs per particle (fluid and boundary; each force pass visits every one), how
+//! often per timed step a thread of the process went to sleep (voluntary context switches:
+//! with 2 threads, each is a worker a later pass had to wake, ~30 µs on a virtual machine), and
+//! the process's peak resident memory so far (VmHWM; run one size per process to read a size's
+//! own peak).
 //!
 //! `--phases` also times each phase of the timed steps (sort, permutation, fluid and wall
 //! lists, Eq. 22, density pass, wall pressures, forces, DFSPH's solves, integration, survey,
@@ -69,6 +71,23 @@ fn scene(solver: &str, particles: usize, params: &[String]) -> Scene {
 }
 
 /// VmHWM from /proc/self/status (Linux), in MB.
+/// Voluntary context switches of the process's threads so far (Linux: the sum over
+/// /proc/self/task/*/status): each is a thread that blocked, here a rayon worker that found no
+/// work and went to sleep, and that a later pass had to wake (docs/PERFORMANCE.md, "Inner loops,
+/// sixth round"). Threads that ended are not counted, so only differences over a live pool mean
+/// anything.
+fn thread_sleeps() -> Option<u64> {
+    let mut sum = 0;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let status = std::fs::read_to_string(task.ok()?.path().join("status")).ok()?;
+        let line = status
+            .lines()
+            .find(|l| l.starts_with("voluntary_ctxt_switches:"))?;
+        sum += line.split_whitespace().nth(1)?.parse::<u64>().ok()?;
+    }
+    Some(sum)
+}
+
 fn peak_rss_mb() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
@@ -142,7 +161,7 @@ fn main() {
         return;
     }
     println!(
-        "| solver | particles | threads | from t [s] | steps timed | s/step | particle-steps/s | µs per particle-step | list rebuilds per step | listed pairs per particle (fluid + boundary) | peak RSS so far [MB] |"
+        "| solver | particles | threads | from t [s] | steps timed | s/step | particle-steps/s | µs per particle-step | list rebuilds per step | listed pairs per particle (fluid + boundary) | thread sleeps per step | peak RSS so far [MB] |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut timed_phases: Vec<phase_table::Timed> = Vec::new();
@@ -183,11 +202,17 @@ fn main() {
                     // The timed steps alone (the clock was off until now).
                     s.phases_mut().reset();
                     s.phases_mut().set_enabled(phases);
+                    let sleeps = thread_sleeps();
                     let start = Instant::now();
                     for _ in 0..steps {
                         step(&mut s);
                     }
                     let secs = start.elapsed().as_secs_f64();
+                    let sleeps = sleeps
+                        .zip(thread_sleeps())
+                        .map_or("–".into(), |(a, b)| {
+                            format!("{:.2}", b.saturating_sub(a) as f64 / steps as f64)
+                        });
                     if phases {
                         timed_phases.push(phase_table::Timed {
                             solver: solver.clone(),
@@ -203,7 +228,7 @@ fn main() {
                     let per = |p: usize| p as f64 / count as f64;
                     let rebuilds = (s.system().sorts - sorts) as f64 / steps as f64;
                     println!(
-                        "| {solver} | {count} | {t} | {from} | {steps} | {:.4} | {:.3e} | {:.2} | {rebuilds:.2} | {:.1} + {:.1} | {} |",
+                        "| {solver} | {count} | {t} | {from} | {steps} | {:.4} | {:.3e} | {:.2} | {rebuilds:.2} | {:.1} + {:.1} | {sleeps} | {} |",
                         secs / steps as f64,
                         rate,
                         1e6 / rate,
