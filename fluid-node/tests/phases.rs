@@ -8,7 +8,6 @@ use fluid_node::REGISTRY;
 use fluid_node::phases::Phase;
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::*;
-use shared::protocol::BlockLoad;
 use shared::scene::Scene;
 
 /// Builds `solver` twice on `scene`, the clock on in the second; `drive` steps each the same
@@ -103,15 +102,9 @@ fn every_solver_with_a_moving_block_steps_the_same_with_the_clock_on() {
     for solver in REGISTRY.names() {
         let on = same_with_and_without(solver, &scene, |s| {
             fluid_node::on_pool(|| {
-                let mut loads = vec![BlockLoad::default(); 1];
-                (0..5)
-                    .map(|_| {
-                        s.read_geometry(&[state], &[]);
-                        s.write_loads(&mut loads);
-                        let dt = s.dt_proposal().min(scene.time.dt_max);
-                        s.advance(dt).unwrap();
-                        dt
-                    })
+                common::wedge_steps(s, state, scene.time.dt_max, 5)
+                    .iter()
+                    .map(|(dt, _)| *dt)
                     .collect()
             })
         });

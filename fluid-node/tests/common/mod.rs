@@ -45,3 +45,31 @@ pub fn wedge_in_surface(scene: &shared::scene::Scene) -> shared::protocol::Block
         ..Default::default()
     }
 }
+
+/// Steps `s` `steps` times with the moving wedge held at `state` (read each step), as the
+/// coupler's runtime drives a solver: the loads of the state a step starts from, or, for a
+/// solver whose loads follow its step (DFSPH moving a free block), of the step just taken.
+/// Returns each step's size and the load on the wedge after it.
+pub fn wedge_steps(
+    s: &mut dyn SphSolver,
+    state: shared::protocol::BlockState,
+    dt_max: f64,
+    steps: usize,
+) -> Vec<(f64, shared::protocol::BlockLoad)> {
+    let mut loads = vec![shared::protocol::BlockLoad::default(); 1];
+    (0..steps)
+        .map(|_| {
+            s.read_geometry(&[state], &[]);
+            let after = s.loads_follow_step();
+            if !after {
+                s.write_loads(&mut loads);
+            }
+            let dt = s.dt_proposal().min(dt_max);
+            s.advance(dt).unwrap();
+            if after {
+                s.write_loads(&mut loads);
+            }
+            (dt, loads[0])
+        })
+        .collect()
+}
