@@ -8,7 +8,6 @@ mod common;
 
 use fluid_node::REGISTRY;
 use fluid_node::validation::*;
-use shared::protocol::BlockLoad;
 use shared::scene::Scene;
 
 #[test]
@@ -27,23 +26,11 @@ fn every_solver_gives_the_same_bits_on_one_two_and_three_threads() {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            let mut loads = vec![BlockLoad::default(); 1];
             let steps: Vec<(u64, Vec<u64>)> = pool.install(|| {
-                (0..8)
-                    .map(|_| {
-                        // As the coupler's runtime drives it: the loads of the state a step
-                        // starts from, or (DFSPH moving a free block) of the step just taken.
-                        s.read_geometry(&[state], &[]);
-                        let after = s.loads_follow_step();
-                        if !after {
-                            s.write_loads(&mut loads);
-                        }
-                        let dt = s.dt_proposal().min(scene.time.dt_max);
-                        s.advance(dt).unwrap();
-                        if after {
-                            s.write_loads(&mut loads);
-                        }
-                        let load = loads[0].force.iter().chain(&loads[0].torque);
+                common::wedge_steps(s.as_mut(), state, scene.time.dt_max, 8)
+                    .iter()
+                    .map(|(dt, load)| {
+                        let load = load.force.iter().chain(&load.torque);
                         (dt.to_bits(), load.map(|x| x.to_bits()).collect())
                     })
                     .collect()
