@@ -7,21 +7,8 @@ mod common;
 
 use common::advance;
 use fluid_node::REGISTRY;
-use fluid_node::sph::SphSolver;
 use fluid_node::validation::*;
 use shared::scene::Scene;
-
-fn bits(s: &dyn SphSolver) -> Vec<u64> {
-    let p = &s.system().particles;
-    p.position
-        .iter()
-        .chain(&p.velocity)
-        .flat_map(|v| v.iter().copied())
-        .chain(p.density.iter().copied())
-        .chain(p.pressure.iter().copied())
-        .map(f64::to_bits)
-        .collect()
-}
 
 fn continues_exactly(solver: &str, scene: &Scene, what: &str) {
     let (da, db, scratch) = (
@@ -47,7 +34,7 @@ fn continues_exactly(solver: &str, scene: &Scene, what: &str) {
     let (ta, tb) = (advance(a.as_mut(), 25), advance(b.as_mut(), 25));
     assert_eq!(ta, tb, "{what}: step sizes");
     assert!(
-        bits(a.as_ref()) == bits(b.as_ref()),
+        common::bits(a.as_ref()) == common::bits(b.as_ref()),
         "{what}: particles differ"
     );
     a.finish().unwrap();

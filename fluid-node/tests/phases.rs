@@ -96,9 +96,7 @@ fn every_solver_steps_the_same_with_the_clock_on() {
 /// With a moving block: the loads on it and (DFSPH) the blocks in the solve, clock on and off.
 #[test]
 fn every_solver_with_a_moving_block_steps_the_same_with_the_clock_on() {
-    let mut scene = Scene::default_scene();
-    scene.set_dx(0.08);
-    let state = common::wedge_in_surface(&scene);
+    let (scene, state) = common::wedge_scene();
     for solver in REGISTRY.names() {
         let on = same_with_and_without(solver, &scene, |s| {
             fluid_node::on_pool(|| {

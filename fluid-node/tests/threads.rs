@@ -8,15 +8,12 @@ mod common;
 
 use fluid_node::REGISTRY;
 use fluid_node::validation::*;
-use shared::scene::Scene;
 
 #[test]
 fn every_solver_gives_the_same_bits_on_one_two_and_three_threads() {
     // The default scene, coarse: fixed walls, the wedge moving through the surface (its
     // boundary particles, Eq. 22 and the loads on it), a few thousand particles.
-    let mut scene = Scene::default_scene();
-    scene.set_dx(0.08);
-    let state = common::wedge_in_surface(&scene);
+    let (scene, state) = common::wedge_scene();
     for solver in REGISTRY.names() {
         // Per step: the step size, and the load on the wedge (force, torque), as bits.
         let run = |threads: usize| {

@@ -29,6 +29,15 @@ pub fn advance(s: &mut dyn SphSolver, steps: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The default scene, coarse (dx 0.08 m: a few thousand particles, fixed walls), and its wedge
+/// placed in the surface ([`wedge_in_surface`]).
+pub fn wedge_scene() -> (shared::scene::Scene, shared::protocol::BlockState) {
+    let mut scene = shared::scene::Scene::default_scene();
+    scene.set_dx(0.08);
+    let state = wedge_in_surface(&scene);
+    (scene, state)
+}
+
 /// The scene's first moving block (the default scene's wedge) placed over deep water, its lowest
 /// edge just in the surface (0.035 m under the still-water line, above the top particle layer:
 /// a block teleported deeper would put its boundary particles on top of fluid particles),
