@@ -26,7 +26,7 @@ pub struct CouplerCheckpoint {
     /// The solvers the nodes ran and the coupling scheme: a resumed run uses the same.
     pub fluid_solver: Option<String>,
     pub solid_solver: Option<String>,
-    pub scheme: shared::scene::Scheme,
+    pub scheme: shared::scene::CouplingScheme,
     /// `--dt-factor` of the run (it changes every grant).
     pub dt_factor: f64,
     /// Steps taken and the time reached (the time the step grant continues from).

@@ -6,7 +6,7 @@ use crate::output::{RunDir, Summary};
 use crate::session::{RunOptions, Session};
 use clap::Args;
 use shared::protocol::Role;
-use shared::scene::Scheme;
+use shared::scene::CouplingScheme;
 use shared::transport::{Endpoints, Kind, RunId};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -26,7 +26,7 @@ pub struct RunArgs {
     pub solid_solver: Option<String>,
     /// Coupling scheme (overrides the scene).
     #[arg(long)]
-    pub scheme: Option<Scheme>,
+    pub scheme: Option<CouplingScheme>,
     /// Multi-rate coupling: the solid takes up to N steps of its own per coupling step, with
     /// the water's loads held (overrides the scene's `[coupling] solid_substeps`; 1 is
     /// single-rate).
@@ -480,8 +480,8 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         out.display()
     );
     if fluid_solver.as_deref()
-        == Some(<fluid_node::dfsph::Dfsph as fluid_node::scheme::Scheme>::NAME)
-        && scheme == Scheme::Parallel
+        == Some(<fluid_node::dfsph::Dfsph as fluid_node::scheme::SphMethod>::NAME)
+        && scheme == CouplingScheme::Parallel
         && scene.coupling.added_mass > 0.0
         && fluid_node::dfsph::blocks_in_solve(&scene)
     {

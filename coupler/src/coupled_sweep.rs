@@ -3,7 +3,7 @@
 //! factor, block density, Eq. 22 stiffness) applied as a scene variant or a command-line flag.
 
 use crate::runner::{self, RunOutcome, Scratch};
-use shared::scene::{Scene, Scheme, ShapeSpec};
+use shared::scene::{CouplingScheme, Scene, ShapeSpec};
 use std::path::Path;
 
 /// The floating-block scene, compiled in so the sweeps run from any directory.
@@ -36,7 +36,7 @@ pub fn block_height(scene: &Scene) -> f64 {
 pub struct Config {
     pub fluid: String,
     pub solid: String,
-    pub scheme: Scheme,
+    pub scheme: CouplingScheme,
     pub dx: f64,
     pub dt_factor: f64,
     /// Block density [kg/m³] (None: the scene's 500).

@@ -12,7 +12,7 @@ use crate::checkpoint::CouplerCheckpoint;
 use crate::launch::{NodeCommand, NodeProcess, describe_exit};
 use crate::output::RunDir;
 use shared::protocol::*;
-use shared::scene::{Scene, Scheme};
+use shared::scene::{CouplingScheme, Scene};
 use shared::step::{self, StepRule};
 use shared::transport::{
     self, Bell, Endpoints, Inbox, Kind, Outbox, Party, RunId, Transport, Waiter,
@@ -29,7 +29,7 @@ pub struct RunOptions {
     /// Overrides of the scene's solver choices and scheme.
     pub fluid_solver: Option<String>,
     pub solid_solver: Option<String>,
-    pub scheme: Option<Scheme>,
+    pub scheme: Option<CouplingScheme>,
     pub fluid_cmd: NodeCommand,
     pub solid_cmd: NodeCommand,
     /// Nodes are started by hand (or by another tool) with `--prefix <run id>`.
@@ -284,7 +284,7 @@ impl Session {
         })
     }
 
-    fn scheme(&self) -> Scheme {
+    fn scheme(&self) -> CouplingScheme {
         self.opts.scheme.unwrap_or(self.opts.scene.coupling.scheme)
     }
 
@@ -699,8 +699,8 @@ impl Session {
                 // the serial scheme's fluid for the solid's new geometry. The one waited for
                 // is the hung one (a restart must know which node failed).
                 let waited_for = match self.scheme() {
-                    Scheme::Parallel => Role::Fluid,
-                    Scheme::Serial => Role::Solid,
+                    CouplingScheme::Parallel => Role::Fluid,
+                    CouplingScheme::Serial => Role::Solid,
                 };
                 let silent: Vec<&Peer> = self.peers.iter().filter(|p| !p.answered).collect();
                 let p = silent

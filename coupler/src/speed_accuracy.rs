@@ -17,7 +17,7 @@ use crate::resolution::{self, ConvergenceFit};
 use crate::runner::Scratch;
 use crate::solid_sweep;
 use clap::Args;
-use shared::scene::Scheme;
+use shared::scene::CouplingScheme;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, Args)]
@@ -101,7 +101,7 @@ const QUICK: Plan = Plan {
     solid_dt: &[0.5, 1.0],
     coupled_dx: &[0.04, 0.02],
     // The default fluid solver only.
-    coupled_fluid: || vec![<fluid_node::wcsph::Wcsph as fluid_node::scheme::Scheme>::NAME],
+    coupled_fluid: || vec![<fluid_node::wcsph::Wcsph as fluid_node::scheme::SphMethod>::NAME],
     // The paper's scheme only.
     coupled_solid: || vec![solid_node::verification::EXPLICIT],
     coupled_end: 1.0,
@@ -303,7 +303,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
     let mut configs = Vec::new();
     for fluid in (plan.coupled_fluid)() {
         for solid in (plan.coupled_solid)() {
-            for scheme in [Scheme::Parallel, Scheme::Serial] {
+            for scheme in [CouplingScheme::Parallel, CouplingScheme::Serial] {
                 for &dx in plan.coupled_dx {
                     configs.push(Config {
                         fluid: fluid.into(),
@@ -326,7 +326,7 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
         configs.push(Config {
             fluid: "wcsph".into(),
             solid: "explicit".into(),
-            scheme: Scheme::Parallel,
+            scheme: CouplingScheme::Parallel,
             dx,
             dt_factor: 1.0,
             density: None,

@@ -23,7 +23,7 @@ use crate::fluid_sweep;
 use crate::runner::Scratch;
 use crate::solid_sweep;
 use clap::Args;
-use shared::scene::Scheme;
+use shared::scene::CouplingScheme;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -117,14 +117,14 @@ const SUBSTEPS: u32 = 8;
 /// fluid's longer step sets the coupling step and the solid sub-cycles, first with the blocks
 /// held over DFSPH's step (`blocks_in_solve = false`, as those rows were first measured), then
 /// moved in its solve (its default).
-const COUPLED_DT_ROWS: [(&str, Scheme, u32, bool); 7] = [
-    ("wcsph", Scheme::Parallel, 1, false),
-    ("wcsph", Scheme::Serial, 1, false),
-    ("wcsph", Scheme::Parallel, SUBSTEPS, false),
-    ("dfsph", Scheme::Parallel, 1, false),
-    ("dfsph", Scheme::Parallel, SUBSTEPS, false),
-    ("dfsph", Scheme::Parallel, 1, true),
-    ("dfsph", Scheme::Parallel, SUBSTEPS, true),
+const COUPLED_DT_ROWS: [(&str, CouplingScheme, u32, bool); 7] = [
+    ("wcsph", CouplingScheme::Parallel, 1, false),
+    ("wcsph", CouplingScheme::Serial, 1, false),
+    ("wcsph", CouplingScheme::Parallel, SUBSTEPS, false),
+    ("dfsph", CouplingScheme::Parallel, 1, false),
+    ("dfsph", CouplingScheme::Parallel, SUBSTEPS, false),
+    ("dfsph", CouplingScheme::Parallel, 1, true),
+    ("dfsph", CouplingScheme::Parallel, SUBSTEPS, true),
 ];
 
 /// The density map's DFSPH rows, (fluid, solid, scheme, substeps, added mass, blocks in the
@@ -135,13 +135,34 @@ const COUPLED_DT_ROWS: [(&str, Scheme, u32, bool); 7] = [
 /// relax those loads with an artificial added mass of ρ_w V (`[coupling] added_mass = 1`,
 /// `shared::load_relaxation`), which moves that limit; the last rows move the blocks inside
 /// the pressure solve (DFSPH's default), which removes the lag.
-const DFSPH_DENSITY_ROWS: [(&str, &str, Scheme, u32, f64, bool); 6] = [
-    ("dfsph", "explicit", Scheme::Parallel, 1, 0.0, false),
-    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 0.0, false),
-    ("dfsph", "explicit", Scheme::Parallel, 1, 1.0, false),
-    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 1.0, false),
-    ("dfsph", "explicit", Scheme::Parallel, 1, 0.0, true),
-    ("dfsph", "explicit", Scheme::Parallel, SUBSTEPS, 0.0, true),
+const DFSPH_DENSITY_ROWS: [(&str, &str, CouplingScheme, u32, f64, bool); 6] = [
+    ("dfsph", "explicit", CouplingScheme::Parallel, 1, 0.0, false),
+    (
+        "dfsph",
+        "explicit",
+        CouplingScheme::Parallel,
+        SUBSTEPS,
+        0.0,
+        false,
+    ),
+    ("dfsph", "explicit", CouplingScheme::Parallel, 1, 1.0, false),
+    (
+        "dfsph",
+        "explicit",
+        CouplingScheme::Parallel,
+        SUBSTEPS,
+        1.0,
+        false,
+    ),
+    ("dfsph", "explicit", CouplingScheme::Parallel, 1, 0.0, true),
+    (
+        "dfsph",
+        "explicit",
+        CouplingScheme::Parallel,
+        SUBSTEPS,
+        0.0,
+        true,
+    ),
 ];
 
 /// Runs `coupler stability`; returns the exit code.
@@ -413,7 +434,8 @@ fn density_map(
     );
     let mut trials = Vec::new();
     let wcsph = solid_node::REGISTRY.names().into_iter().flat_map(|solid| {
-        [Scheme::Parallel, Scheme::Serial].map(|scheme| ("wcsph", solid, scheme, 1, 0.0, false))
+        [CouplingScheme::Parallel, CouplingScheme::Serial]
+            .map(|scheme| ("wcsph", solid, scheme, 1, 0.0, false))
     });
     for (fluid, solid, scheme, solid_substeps, added_mass, in_solve) in
         wcsph.chain(DFSPH_DENSITY_ROWS)

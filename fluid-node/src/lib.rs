@@ -1,6 +1,6 @@
 //! rockwave's water: SPH solvers behind the [`shared::solver::FluidSolver`] interface.
 //!
-//! A solver is a [`scheme::Scheme`] (what one SPH method does differently: kernel, equation of
+//! A solver is a [`scheme::SphMethod`] (what one SPH method does differently: kernel, equation of
 //! state, forces, integrator, stable step) run by [`sph::Sph`], which implements the coupling
 //! interface once over the [`system::FluidSystem`] every scheme shares. The schemes:
 //!
@@ -48,7 +48,7 @@ pub mod walls;
 pub mod wcsph;
 pub mod wcsph_pairs;
 
-use scheme::Scheme;
+use scheme::SphMethod;
 use shared::registry::{Entry, Registry, check_params};
 use shared::scene::{FieldError, Scene};
 use shared::solver::{SetupContext, SolverError};
@@ -65,7 +65,7 @@ pub static REGISTRY: Registry<dyn SphSolver> = Registry {
 };
 
 /// The registry entry of scheme `S`: built as [`Sph<S>`], its parameters in `[fluid.<S::NAME>]`.
-pub const fn entry<S: Scheme>() -> Entry<dyn SphSolver> {
+pub const fn entry<S: SphMethod>() -> Entry<dyn SphSolver> {
     Entry {
         name: S::NAME,
         description: S::DESCRIPTION,
@@ -74,11 +74,11 @@ pub const fn entry<S: Scheme>() -> Entry<dyn SphSolver> {
     }
 }
 
-fn build_scheme<S: Scheme>(ctx: &SetupContext) -> Result<Box<dyn SphSolver>, SolverError> {
+fn build_scheme<S: SphMethod>(ctx: &SetupContext) -> Result<Box<dyn SphSolver>, SolverError> {
     Ok(Box::new(Sph::<S>::new(ctx)?))
 }
 
-fn check_scheme<S: Scheme>(scene: &Scene) -> Vec<FieldError> {
+fn check_scheme<S: SphMethod>(scene: &Scene) -> Vec<FieldError> {
     match &scene.fluid {
         Some(f) => check_params::<S::Params>(&f.solvers, "fluid", S::NAME),
         None => Vec::new(),

@@ -12,7 +12,7 @@ use crate::lanes::Packed;
 use crate::muller_pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
 use crate::particles::Carried;
 use crate::phases::Phase;
-use crate::scheme::{Layout, Scheme};
+use crate::scheme::{Layout, SphMethod};
 use crate::system::{FluidSystem, Initial};
 use crate::tasks;
 use rayon::prelude::*;
@@ -197,7 +197,7 @@ impl Muller {
     }
 }
 
-impl Scheme for Muller {
+impl SphMethod for Muller {
     const NAME: &'static str = "muller";
     const DESCRIPTION: &'static str = "the paper's SPH (Müller et al. 2003): summed density, linear EOS, spiky pressure, symplectic Euler";
     type Params = MullerParams;

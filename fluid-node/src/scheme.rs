@@ -36,7 +36,9 @@ pub struct Layout {
 /// One SPH method.
 /// Serde: a scheme is saved whole in a checkpoint (its history, e.g. the Verlet step
 /// counter or DFSPH's warm-start factors, affects the steps to come).
-pub trait Scheme: Sized + Send + 'static + serde::Serialize + serde::de::DeserializeOwned {
+pub trait SphMethod:
+    Sized + Send + 'static + serde::Serialize + serde::de::DeserializeOwned
+{
     /// `--solver` name, and the scene table `[fluid.<NAME>]` that holds [`Self::Params`].
     const NAME: &'static str;
     /// One line for `--list` and the docs.

@@ -1,8 +1,8 @@
-//! Any [`Scheme`] as a coupled solver: [`Sph`] implements the coupling interface
+//! Any [`SphMethod`] as a coupled solver: [`Sph`] implements the coupling interface
 //! ([`Solver`], [`FluidSolver`]) once, for every scheme.
 
 use crate::phases::{Phase, PhaseClock};
-use crate::scheme::Scheme;
+use crate::scheme::SphMethod;
 use crate::system::{FluidSystem, Initial};
 use shared::math::Real;
 use shared::protocol::{BlockLoad, BlockState};
@@ -10,7 +10,7 @@ use shared::registry::solver_params;
 use shared::solver::{FluidSolver, SetupContext, Solver, SolverError, StepReport};
 
 /// An SPH solver: the shared system and one scheme.
-pub struct Sph<S: Scheme> {
+pub struct Sph<S: SphMethod> {
     pub sys: FluidSystem,
     pub scheme: S,
     dt_next: Real,
@@ -25,7 +25,7 @@ pub trait SphSolver: FluidSolver + Send {
     fn phases_mut(&mut self) -> &mut PhaseClock;
 }
 
-impl<S: Scheme> Sph<S> {
+impl<S: SphMethod> Sph<S> {
     /// Fills the scene's water and builds the scheme from its table `[fluid.<S::NAME>]`.
     pub fn new(ctx: &SetupContext) -> Result<Self, SolverError> {
         let init = Initial::from_scene(ctx.scene)?;
@@ -42,7 +42,7 @@ impl<S: Scheme> Sph<S> {
     }
 }
 
-impl<S: Scheme> SphSolver for Sph<S> {
+impl<S: SphMethod> SphSolver for Sph<S> {
     fn system(&self) -> &FluidSystem {
         &self.sys
     }
@@ -52,7 +52,7 @@ impl<S: Scheme> SphSolver for Sph<S> {
     }
 }
 
-impl<S: Scheme> Solver for Sph<S> {
+impl<S: SphMethod> Solver for Sph<S> {
     fn name(&self) -> &str {
         S::NAME
     }
@@ -101,7 +101,7 @@ impl<S: Scheme> Solver for Sph<S> {
     }
 }
 
-impl<S: Scheme> FluidSolver for Sph<S> {
+impl<S: SphMethod> FluidSolver for Sph<S> {
     fn read_geometry(&mut self, blocks: &[BlockState], _vertices: &[[f64; 3]]) {
         self.sys.read_geometry(blocks);
     }

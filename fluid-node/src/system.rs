@@ -1,6 +1,6 @@
 //! What every SPH solver here shares: the particles and their grid, the wall particles, the
 //! Eq. 22 coupling with the blocks, the instruments, the stability checks and the frame output.
-//! A scheme ([`crate::scheme::Scheme`]: muller.rs, wcsph.rs) adds its own force evaluation and
+//! A scheme ([`crate::scheme::SphMethod`]: muller.rs, wcsph.rs) adds its own force evaluation and
 //! integrator; [`crate::sph::Sph`] joins the two into a solver.
 
 use crate::bodies::BodyParticles;
@@ -343,7 +343,7 @@ impl FluidSystem {
             sorts: 0,
             penalty_fresh: false,
             penalty_loads: Vec::new(),
-            loads_may_follow_step: ctx.scheme == shared::scene::Scheme::Parallel,
+            loads_may_follow_step: ctx.scheme == shared::scene::CouplingScheme::Parallel,
             phases: PhaseClock::default(),
         };
         sys.check_domain()?;

@@ -12,7 +12,7 @@ use crate::kernel::Kernel;
 use crate::kernels::WendlandC2;
 use crate::lanes::Packed;
 use crate::phases::Phase;
-use crate::scheme::{Layout, Scheme};
+use crate::scheme::{Layout, SphMethod};
 use crate::system::{FluidSystem, Initial};
 use crate::tasks;
 use crate::wcsph_pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
@@ -367,7 +367,7 @@ pub fn tait(p: &WcsphConstants, rho0: Real, rho: Real) -> Real {
     p.b * (xg - 1.0)
 }
 
-impl Scheme for Wcsph {
+impl SphMethod for Wcsph {
     const NAME: &'static str = "wcsph";
     const DESCRIPTION: &'static str = "weakly compressible SPH (DualSPHysics standard): Tait EOS, Wendland C2, δ-SPH, artificial viscosity";
     type Params = WcsphParams;

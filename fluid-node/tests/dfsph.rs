@@ -6,7 +6,7 @@ use fluid_node::REGISTRY;
 use fluid_node::dfsph::Dfsph;
 use fluid_node::sph::Sph;
 use fluid_node::validation::*;
-use shared::scene::{Scene, Scheme};
+use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SetupContext, Solver};
 
 /// Still water with `pressure_tolerance = 5` (the setting for pressure studies; the case sets
@@ -74,7 +74,7 @@ fn ctx_for<'a>(scene: &'a Scene, dir: &'a TempRunDir) -> SetupContext<'a> {
     SetupContext {
         scene,
         run_dir: dir.path(),
-        scheme: Scheme::Parallel,
+        scheme: CouplingScheme::Parallel,
         peer_present: false,
     }
 }

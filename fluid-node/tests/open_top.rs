@@ -3,11 +3,11 @@
 //! it, is said once, and falls back into the tank when a ballistic column would.
 
 use fluid_node::dfsph::Dfsph;
-use fluid_node::scheme::Scheme;
+use fluid_node::scheme::SphMethod;
 use fluid_node::sph::{Sph, SphSolver};
 use fluid_node::validation::*;
 use fluid_node::wcsph::Wcsph;
-use shared::scene::{Scene, Scheme as Coupling};
+use shared::scene::{CouplingScheme as Coupling, Scene};
 use shared::solver::{SetupContext, Solver, SolverError};
 use shared::step::StepRule;
 
@@ -46,7 +46,7 @@ struct Flight {
 
 /// The tank's water within 6 cm of the middle thrown up at 2.5 m/s (a column rising 0.32 m, to
 /// 0.22 m above the top), run to the scene's end.
-fn jet<S: Scheme>(open_top: bool) -> Result<Flight, SolverError> {
+fn jet<S: SphMethod>(open_top: bool) -> Result<Flight, SolverError> {
     let scene = tank_scene(S::NAME, open_top);
     let top = scene.domain.max[2];
     let dir = TempRunDir::new("open-top").unwrap();
@@ -76,7 +76,7 @@ fn jet<S: Scheme>(open_top: bool) -> Result<Flight, SolverError> {
 }
 
 /// The tank's water within 6 cm of the middle given 2.5 m/s upwards.
-fn throw_jet<S: Scheme>(s: &mut Sph<S>) {
+fn throw_jet<S: SphMethod>(s: &mut Sph<S>) {
     let p = &mut s.sys.particles;
     for ((x, v), v0) in p.position.iter().zip(&mut p.velocity).zip(&mut p.velocity0) {
         if (x.x - 0.3).hypot(x.y - 0.3) < 0.06 {
@@ -86,7 +86,7 @@ fn throw_jet<S: Scheme>(s: &mut Sph<S>) {
     }
 }
 
-fn check<S: Scheme>() {
+fn check<S: SphMethod>() {
     let solver = S::NAME;
     let err = jet::<S>(false)
         .err()

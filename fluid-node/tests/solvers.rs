@@ -5,7 +5,7 @@ mod common;
 
 use fluid_node::REGISTRY;
 use fluid_node::validation::*;
-use shared::scene::{Scene, Scheme};
+use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SetupContext, SolverError};
 
 #[test]
@@ -83,7 +83,7 @@ fn ctx_for<'a>(scene: &'a shared::scene::Scene, dir: &'a TempRunDir) -> SetupCon
     SetupContext {
         scene,
         run_dir: dir.path(),
-        scheme: Scheme::Parallel,
+        scheme: CouplingScheme::Parallel,
         peer_present: false,
     }
 }

@@ -137,7 +137,7 @@ pub struct Setup {
     pub scene_toml: String,
     /// Directory the node writes its output files into.
     pub run_dir: std::path::PathBuf,
-    pub scheme: crate::scene::Scheme,
+    pub scheme: crate::scene::CouplingScheme,
     /// Whether the other solver runs (a dry scene has no fluid node, a scene without moving
     /// blocks no solid node).
     pub fluid_present: bool,

@@ -12,7 +12,7 @@
 
 use crate::math::Real;
 use crate::protocol::{BlockLoad, BlockState};
-use crate::scene::{Scene, Scheme};
+use crate::scene::{CouplingScheme, Scene};
 use std::path::Path;
 
 /// What a solver is built from.
@@ -20,7 +20,7 @@ pub struct SetupContext<'a> {
     pub scene: &'a Scene,
     /// Directory for this node's output files (already created).
     pub run_dir: &'a Path,
-    pub scheme: Scheme,
+    pub scheme: CouplingScheme,
     /// Whether the other side runs at all.
     pub peer_present: bool,
 }

@@ -26,7 +26,7 @@
 //! and the limit Δt ≤ 2/ω_max then includes their elastic modes (see [`crate::stability`]).
 
 use crate::energy::EnergyMonitor;
-use crate::integrator::{Integrator, Scheme};
+use crate::integrator::{DdaMethod, Integrator};
 use crate::stability::{self, Estimate};
 use crate::world::World;
 use serde::Deserialize;
@@ -64,7 +64,7 @@ impl SolverParams for ExplicitParams {
     }
 }
 
-impl Scheme for CentralDifference {
+impl DdaMethod for CentralDifference {
     const NAME: &'static str = "explicit";
     const DESCRIPTION: &'static str = "the paper's central difference (Eqs. 5–8): no global matrix, step bounded by safety_factor · 2/ω_max";
     type Params = ExplicitParams;
@@ -147,7 +147,7 @@ fn limit_hint(world: &World, est: &Estimate) -> String {
 
 impl Integrator for CentralDifference {
     fn name(&self) -> &'static str {
-        <Self as Scheme>::NAME
+        <Self as DdaMethod>::NAME
     }
 
     fn save(&self) -> Result<Vec<u8>, String> {

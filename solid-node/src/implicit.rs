@@ -41,7 +41,7 @@ use crate::block::Block;
 use crate::contact::{Contact, ContactState, tangents};
 use crate::energy::EnergyMonitor;
 use crate::friction::Joint;
-use crate::integrator::{Integrator, Scheme};
+use crate::integrator::{DdaMethod, Integrator};
 use crate::linear_system::{BlockMat, BlockSystem, BlockVec, SolveError};
 use crate::penalty::PenaltyModel;
 use crate::stability;
@@ -94,7 +94,7 @@ impl SolverParams for ImplicitParams {
 /// when the scene has a deformable block.
 pub struct Implicit;
 
-impl Scheme for Implicit {
+impl DdaMethod for Implicit {
     const NAME: &'static str = "implicit";
     const DESCRIPTION: &'static str = "Shi's DDA Newmark (β = ½, γ = 1, paper Eq. 4) with open–close iterations: unconditionally stable, damps contact bounces";
     type Params = ImplicitParams;

@@ -10,7 +10,7 @@ use shared::solver::{SolverError, StepReport};
 
 /// A time integration scheme as [`crate::REGISTRY`] lists it: its name, its parameter table
 /// `[solid.<NAME>]` and how it makes its [`Integrator`] for a scene.
-pub trait Scheme {
+pub trait DdaMethod {
     /// As given to `--solver` and in `[solid] solver = "…"`.
     const NAME: &'static str;
     /// One line for `--list` and the docs.
@@ -22,7 +22,7 @@ pub trait Scheme {
 }
 
 pub trait Integrator: Send {
-    /// The `--solver` name (its [`Scheme::NAME`]).
+    /// The `--solver` name (its [`DdaMethod::NAME`]).
     fn name(&self) -> &'static str;
     /// Prepares the scheme's own state from the world at t = 0 (contacts already detected).
     fn init(&mut self, world: &mut World);

@@ -43,7 +43,7 @@ pub mod verification;
 pub mod world;
 
 use dda::DdaSolver;
-use integrator::Scheme;
+use integrator::DdaMethod;
 use shared::registry::{Entry, Registry, check_params, solver_params};
 use shared::scene::{FieldError, Scene};
 use shared::solver::{SetupContext, SolverError};
@@ -61,7 +61,7 @@ pub static REGISTRY: Registry<DdaSolver> = Registry {
 
 /// The registry entry of scheme `S`: a [`DdaSolver`] with `S`'s integrator, its parameters in
 /// `[solid.<S::NAME>]`.
-pub const fn entry<S: Scheme>() -> Entry<DdaSolver> {
+pub const fn entry<S: DdaMethod>() -> Entry<DdaSolver> {
     Entry {
         name: S::NAME,
         description: S::DESCRIPTION,
@@ -70,13 +70,13 @@ pub const fn entry<S: Scheme>() -> Entry<DdaSolver> {
     }
 }
 
-fn build_scheme<S: Scheme>(ctx: &SetupContext) -> Result<Box<DdaSolver>, SolverError> {
+fn build_scheme<S: DdaMethod>(ctx: &SetupContext) -> Result<Box<DdaSolver>, SolverError> {
     let params: S::Params = solver_params(&ctx.scene.solid.solvers, "solid", S::NAME)?;
     let integrator = S::integrator(&params, ctx.scene);
     Ok(Box::new(DdaSolver::new(ctx, integrator)?))
 }
 
-fn check_scheme<S: Scheme>(scene: &Scene) -> Vec<FieldError> {
+fn check_scheme<S: DdaMethod>(scene: &Scene) -> Vec<FieldError> {
     check_params::<S::Params>(&scene.solid.solvers, "solid", S::NAME)
 }
 

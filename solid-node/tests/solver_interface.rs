@@ -3,7 +3,7 @@
 
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
-use shared::scene::{MotionSpec, Scene, Scheme, ShapeSpec};
+use shared::scene::{CouplingScheme, MotionSpec, Scene, ShapeSpec};
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError};
 use solid_node::explicit::ExplicitParams;
 use solid_node::verification::{EXPLICIT, Harness, block_toml, box_corners, floor_toml, scene};
@@ -34,7 +34,7 @@ fn unknown_solver_is_refused_with_the_choices() {
     let ctx = SetupContext {
         scene: &s,
         run_dir: &dir,
-        scheme: Scheme::Parallel,
+        scheme: CouplingScheme::Parallel,
         peer_present: false,
     };
     let Err(SolverError::Failed(msg)) = solid_node::REGISTRY.build("verlet", &ctx) else {
@@ -63,7 +63,7 @@ fn non_convex_block_is_rejected_by_name() {
     let ctx = SetupContext {
         scene: &s,
         run_dir: &dir,
-        scheme: Scheme::Parallel,
+        scheme: CouplingScheme::Parallel,
         peer_present: false,
     };
     let Err(SolverError::Failed(msg)) = solid_node::REGISTRY.build("explicit", &ctx) else {
@@ -488,7 +488,7 @@ fn solver_tables_are_checked_by_the_registry() {
     let ctx = SetupContext {
         scene: &s,
         run_dir: &dir,
-        scheme: Scheme::Parallel,
+        scheme: CouplingScheme::Parallel,
         peer_present: false,
     };
     let Err(SolverError::Failed(msg)) = solid_node::REGISTRY.build("implicit", &ctx) else {

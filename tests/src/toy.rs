@@ -3,7 +3,7 @@
 use nalgebra::{Point3, Vector3};
 use shared::geometry::Polyhedron;
 use shared::protocol::{BlockLoad, BlockState};
-use shared::scene::{BlockKind, Scene, Scheme};
+use shared::scene::{BlockKind, CouplingScheme, Scene};
 use shared::solver::{FluidSolver, SetupContext, SolidSolver, Solver, SolverError, StepReport};
 
 /// A moving block as the toys see it: corners, mass and the scene pose.
@@ -125,7 +125,7 @@ pub struct Checker {
     hover: bool,
     blocks: Vec<ToyBlock>,
     gravity: Vector3<f64>,
-    scheme: Scheme,
+    scheme: CouplingScheme,
     time: f64,
     step: u64,
     error: Option<String>,
@@ -177,7 +177,7 @@ impl FluidSolver for Checker {
             let moved = (s.centroid() - b.centroid).norm();
             let expected = if expect_still {
                 0.0
-            } else if self.scheme == Scheme::Parallel {
+            } else if self.scheme == CouplingScheme::Parallel {
                 (0.5 * self.gravity * self.time * self.time + b.velocity * self.time).norm()
             } else {
                 continue;

@@ -143,7 +143,7 @@
 //! `density0` holds k of the density solve and `density_rate` k of the divergence solve.
 //!
 //! Files: this one holds the constants and the state; `params.rs` reads `[fluid.dfsph]`,
-//! `scheme.rs` is the step (the [`Scheme`] interface), `passes.rs` the passes over a step's
+//! `scheme.rs` is the step (the [`SphMethod`] interface), `passes.rs` the passes over a step's
 //! pairs, `solve.rs` one implicit solve, `blocks.rs` the free blocks inside the solves.
 
 mod blocks;
@@ -154,7 +154,7 @@ mod solve;
 
 use crate::kernels::WendlandC2;
 use crate::neighbors::PairValues;
-use crate::scheme::Scheme;
+use crate::scheme::SphMethod;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
 
@@ -174,7 +174,7 @@ pub fn blocks_in_solve(scene: &shared::scene::Scene) -> bool {
     scene
         .fluid
         .as_ref()
-        .and_then(|f| f.solvers.get(<Dfsph as Scheme>::NAME))
+        .and_then(|f| f.solvers.get(<Dfsph as SphMethod>::NAME))
         .and_then(|t| t.get("blocks_in_solve"))
         .and_then(|v| v.as_bool())
         .unwrap_or(BLOCKS_IN_SOLVE)

@@ -1,4 +1,4 @@
-//! DFSPH as a [`Scheme`] of the SPH core: construction from `[fluid.dfsph]`, the step (2017
+//! DFSPH as a [`SphMethod`] of the SPH core: construction from `[fluid.dfsph]`, the step (2017
 //! Algorithm 1, rotated: densities and factors, divergence solve, non-pressure forces, density
 //! solve, positions), the loads on the blocks and the stable step.
 
@@ -11,14 +11,14 @@ use crate::kernel::{Kernel, lattice_density};
 use crate::kernels::WendlandC2;
 use crate::neighbors::PairValues;
 use crate::phases::Phase;
-use crate::scheme::{Layout, Scheme};
+use crate::scheme::{Layout, SphMethod};
 use crate::system::{FluidSystem, Initial};
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
 use shared::solver::{SolverError, StepReport};
 
-impl Scheme for Dfsph {
+impl SphMethod for Dfsph {
     const NAME: &'static str = "dfsph";
     const DESCRIPTION: &'static str = "divergence-free SPH (Bender & Koschier 2015/2017): summed density, implicit constant-density and divergence-free solves, CFL step on the flow speed";
     type Params = DfsphParams;

@@ -17,7 +17,7 @@
 use crate::REGISTRY;
 use crate::sph::SphSolver;
 use shared::protocol::BlockLoad;
-use shared::scene::{Scene, Scheme, Walls};
+use shared::scene::{CouplingScheme, Scene, Walls};
 use shared::solver::{SetupContext, SolverError, StepReport};
 use shared::step::{StepRule, grant};
 use std::path::Path;
@@ -54,7 +54,7 @@ pub fn build(name: &str, scene: &Scene, dir: &Path) -> Result<Box<dyn SphSolver>
     let ctx = SetupContext {
         scene,
         run_dir: dir,
-        scheme: Scheme::Parallel,
+        scheme: CouplingScheme::Parallel,
         peer_present: false,
     };
     REGISTRY.build(name, &ctx)

@@ -15,7 +15,7 @@ use super::args::NodeArgs;
 use super::control::{self, Control, Fatal};
 use super::serve::{self, Side, StepFailure};
 use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Resume, Role};
-use crate::scene::Scheme;
+use crate::scene::CouplingScheme;
 use crate::solver::{FluidSolver, Solver, StepReport};
 use crate::transport::{Bell, Inbox, Outbox, Transport};
 use std::time::{Duration, Instant};
@@ -84,7 +84,7 @@ struct SolidLink {
 struct Fluid {
     solver: Box<dyn FluidSolver>,
     solid: Solid,
-    scheme: Scheme,
+    scheme: CouplingScheme,
     n_moving: usize,
     /// The last loads sent. In the serial scheme the solid consumes them in the step after the
     /// one that computed them, from a fluid state that is gone by then: a checkpoint between
@@ -198,7 +198,7 @@ impl Side for Fluid {
         resume: Option<&Resume>,
     ) -> Result<(), Fatal> {
         if let Solid::Coupled(link) = &self.solid
-            && self.scheme == Scheme::Serial
+            && self.scheme == CouplingScheme::Serial
         {
             match resume {
                 // The loads of solid step k were computed in fluid step k − 1 (from G_k,
@@ -241,13 +241,14 @@ impl Side for Fluid {
                 // The geometry read and the loads' tag: this step (parallel) or the next
                 // (serial, which reads the solid's newest geometry).
                 let tag = match self.scheme {
-                    Scheme::Parallel => cmd.step,
-                    Scheme::Serial => cmd.step + 1,
+                    CouplingScheme::Parallel => cmd.step,
+                    CouplingScheme::Serial => cmd.step + 1,
                 };
                 compute += link.receive_geometry(control, self.solver.as_mut(), tag)?;
                 // The loads of the step about to be taken are sent after it (the solid waits
                 // for them); the others before.
-                let follow = self.scheme == Scheme::Parallel && self.solver.loads_follow_step();
+                let follow =
+                    self.scheme == CouplingScheme::Parallel && self.solver.loads_follow_step();
                 let report = if follow {
                     let t = Instant::now();
                     let report = self.solver.advance(cmd.dt)?;

@@ -288,7 +288,7 @@ fn default_friction() -> f64 {
 pub struct CouplingSpec {
     /// `parallel` (the paper's: both sides use data from t_n) or `serial` (solid first).
     #[serde(default)]
-    pub scheme: Scheme,
+    pub scheme: CouplingScheme,
     /// K_S of paper Eq. 22 [N/m] per particle; default derived from particle mass and dt.
     pub penalty_stiffness: Option<f64>,
     /// K_D of paper Eq. 22 [N·s/m] per particle; default critical damping of the K_S spring.
@@ -315,7 +315,7 @@ fn one() -> u32 {
 impl Default for CouplingSpec {
     fn default() -> Self {
         Self {
-            scheme: Scheme::default(),
+            scheme: CouplingScheme::default(),
             penalty_stiffness: None,
             penalty_damping: None,
             margin: None,
@@ -328,7 +328,7 @@ impl Default for CouplingSpec {
 /// Coupling scheme.
 #[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
-pub enum Scheme {
+pub enum CouplingScheme {
     /// Both solvers advance from data at t_n (the paper's scheme).
     #[default]
     Parallel,
@@ -336,12 +336,12 @@ pub enum Scheme {
     Serial,
 }
 
-impl std::str::FromStr for Scheme {
+impl std::str::FromStr for CouplingScheme {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
-            "parallel" => Ok(Scheme::Parallel),
-            "serial" => Ok(Scheme::Serial),
+            "parallel" => Ok(CouplingScheme::Parallel),
+            "serial" => Ok(CouplingScheme::Serial),
             other => Err(format!(
                 "unknown coupling scheme '{other}': use parallel or serial"
             )),
@@ -349,11 +349,11 @@ impl std::str::FromStr for Scheme {
     }
 }
 
-impl std::fmt::Display for Scheme {
+impl std::fmt::Display for CouplingScheme {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
-            Scheme::Parallel => "parallel",
-            Scheme::Serial => "serial",
+            CouplingScheme::Parallel => "parallel",
+            CouplingScheme::Serial => "serial",
         })
     }
 }

@@ -19,7 +19,7 @@ impl Harness {
         let ctx = SetupContext {
             scene,
             run_dir: dir.path(),
-            scheme: Scheme::Parallel,
+            scheme: CouplingScheme::Parallel,
             peer_present: false,
         };
         let solver = *crate::REGISTRY.build(solver, &ctx)?;

@@ -14,7 +14,7 @@
 use crate::dda::DdaSolver;
 use crate::world::World;
 use shared::math::{Real, Vector};
-use shared::scene::{Scene, Scheme};
+use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SetupContext, Solver, SolverError};
 use shared::step::{StepRule, grant};
 use std::f64::consts::PI;
@@ -26,7 +26,8 @@ pub use shared::report::{Row, Tolerance, markdown};
 
 /// The central difference scheme's registry name: the cases whose reference is that scheme's
 /// own (its limit 2/ω_max, paper Eq. 8; its restitution and period) choose by it.
-pub const EXPLICIT: &str = <crate::explicit::CentralDifference as crate::integrator::Scheme>::NAME;
+pub const EXPLICIT: &str =
+    <crate::explicit::CentralDifference as crate::integrator::DdaMethod>::NAME;
 
 mod contact;
 pub mod deformable;

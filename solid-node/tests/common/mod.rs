@@ -1,7 +1,7 @@
 //! What the solid node's integration tests share: a scratch run directory and a solver built
 //! from a scene as the node builds it.
 
-use shared::scene::{Scene, Scheme};
+use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SetupContext, SolidSolver};
 
 /// A run directory under the system's temporary directory, removed on drop.
@@ -26,7 +26,7 @@ pub fn build(solver: &str, scene: &Scene, dir: &Dir) -> Box<dyn SolidSolver> {
     let ctx = SetupContext {
         scene,
         run_dir: &dir.0,
-        scheme: Scheme::Parallel,
+        scheme: CouplingScheme::Parallel,
         peer_present: false,
     };
     solid_node::REGISTRY.build(solver, &ctx).unwrap()
