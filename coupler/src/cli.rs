@@ -1,9 +1,9 @@
 //! `coupler run`: the command a user types.
 
-use crate::checkpoint::CouplerCheckpoint;
-use crate::launch::NodeCommand;
-use crate::output::{RunDir, Summary};
-use crate::session::{RunOptions, Session};
+use crate::run::checkpoint::CouplerCheckpoint;
+use crate::run::launch::NodeCommand;
+use crate::run::output::{RunDir, Summary};
+use crate::run::session::{RunOptions, Session};
 use clap::Args;
 use shared::protocol::Role;
 use shared::scene::CouplingScheme;
@@ -202,8 +202,8 @@ fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
             dir.display()
         ));
     }
-    let scene = crate::scenes::load(Some(&path)).map_err(|e| e.to_string())?;
-    let Some(ck) = crate::checkpoint::latest(dir)? else {
+    let scene = crate::run::scenes::load(Some(&path)).map_err(|e| e.to_string())?;
+    let Some(ck) = crate::run::checkpoint::latest(dir)? else {
         return Err(format!(
             "--resume {}: the run wrote no complete checkpoint (checkpoints/coupler-*.ckpt). Fix: start it again with --checkpoint-interval or --checkpoint-wall-minutes",
             dir.display()
@@ -211,7 +211,7 @@ fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
     };
     let hash = shared::checkpoint::run_hash(
         &scene,
-        &crate::session::scene_text(&scene).map_err(|e| e.to_string())?,
+        &crate::run::session::scene_text(&scene).map_err(|e| e.to_string())?,
     );
     if hash != ck.scene_hash {
         let terrain: Vec<String> = scene
@@ -285,7 +285,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     }
     let mut scene = match &resume {
         Some(r) => r.scene.clone(),
-        None => crate::scenes::load(args.scene.as_deref()).map_err(|e| e.to_string())?,
+        None => crate::run::scenes::load(args.scene.as_deref()).map_err(|e| e.to_string())?,
     };
     let origin = match (&args.resume, &args.scene) {
         (Some(dir), _) => dir.join("scene.toml").display().to_string(),
@@ -299,13 +299,13 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         scene.set_dx(dx);
     }
     if let Some(target) = args.target_error {
-        let fits = crate::resolution::parse_csv(crate::resolution::EMBEDDED_FIT)?;
+        let fits = crate::run::resolution::parse_csv(crate::run::resolution::EMBEDDED_FIT)?;
         let solver = args
             .fluid_solver
             .clone()
             .or_else(|| scene.fluid.as_ref().map(|f| f.solver.clone()))
             .ok_or("--target-error: the scene has no water, so there is no spacing to choose")?;
-        let choice = crate::resolution::choose_dx(&fits, &solver, &scene, target)?;
+        let choice = crate::run::resolution::choose_dx(&fits, &solver, &scene, target)?;
         eprintln!("coupler: {}", choice.explanation);
         scene.set_dx(choice.dx);
     }
@@ -322,7 +322,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         scene.coupling.added_mass = c;
     }
     // Overrides must leave a valid scene too.
-    let problems = crate::scenes::problems(&scene);
+    let problems = crate::run::scenes::problems(&scene);
     if !problems.is_empty() {
         let list: Vec<String> = problems.iter().map(|e| format!("  {e}")).collect();
         return Err(format!(
@@ -330,7 +330,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
             list.join("\n")
         ));
     }
-    for line in crate::slides::describe(&scene) {
+    for line in crate::run::slides::describe(&scene) {
         eprintln!("coupler: {line}");
     }
     // Stepped as the run's fluid solver steps: a resumed run keeps the one it was started with.
@@ -338,7 +338,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         .as_ref()
         .and_then(|r| r.checkpoint.fluid_solver.as_deref())
         .or(args.fluid_solver.as_deref());
-    if let Some(e) = crate::sizes::estimate(&scene, stepped_by) {
+    if let Some(e) = crate::run::sizes::estimate(&scene, stepped_by) {
         eprintln!("coupler: estimate: {}", e.describe());
     }
     for (flag, v) in [
@@ -388,10 +388,10 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     };
     // Before anything of the run exists: a second coupler on a live run's id would stop that
     // run and remove its files.
-    let _lock = crate::lock::RunLock::acquire(&run_id)?;
+    let _lock = crate::run::lock::RunLock::acquire(&run_id)?;
     // A coupler killed by SIGKILL could not remove its lock file (its nodes remove the run's
     // shared memory, not the lock): the next run sweeps such free locks, so they do not pile up.
-    crate::lock::remove_stale_locks();
+    crate::run::lock::remove_stale_locks();
     // The id is ours; files a killed run of the same id left behind would confuse the services.
     if !shared::transport::run_has_live_nodes(&run_id)
         && shared::transport::remove_run_files(&run_id) > 0
@@ -427,7 +427,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         Some(r) => {
             let mut dir = RunDir::open_existing(&out, &scene);
             let ck = &r.checkpoint;
-            crate::checkpoint::rollback(&out, ck)?;
+            crate::run::checkpoint::rollback(&out, ck)?;
             dir.restore_series(ck.particles.clone(), ck.blocks.clone())
                 .map_err(|e| {
                     format!("cannot rewrite the .pvd series in '{}': {e}", out.display())
@@ -528,7 +528,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         // The paper rendered with POV-Ray: scene files always, pictures when povray is here.
         let render = std::env::var_os("PATH")
             .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("povray").is_file()));
-        match crate::povray::export(&out, render, 960, 540) {
+        match crate::run::povray::export(&out, render, 960, 540) {
             Ok(files) => eprintln!(
                 "coupler: {} POV-Ray frame(s) in {}{}",
                 files.len(),

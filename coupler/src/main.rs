@@ -34,17 +34,17 @@ enum Cmd {
     },
     /// Speed against accuracy: run the validation cases over solvers, resolutions, dt factors
     /// and coupling schemes; write CSV, SVG and PNG charts with the Pareto front.
-    Chart(coupler::speed_accuracy::ChartArgs),
+    Chart(coupler::studies::speed_accuracy::ChartArgs),
     /// Push each method past its limits (dt factor, contact stiffness, density ratio) and draw
     /// stability maps naming how each failure was detected.
-    Stability(coupler::stability::StabilityArgs),
+    Stability(coupler::studies::stability::StabilityArgs),
     /// How far a scene's gauge crests move when knobs that are not physics turn: the scene as
     /// written and once per value of each --vary, with each gauge's median and range.
-    Spread(coupler::spread::SpreadArgs),
+    Spread(coupler::studies::spread::SpreadArgs),
     /// Write the synthetic reservoir of scenes/fjord.toml as an ESRI ASCII grid (.asc).
-    MakeSite(coupler::site::SiteArgs),
+    MakeSite(coupler::studies::site::SiteArgs),
     /// Time a terrain of many triangles against a box floor, per node (in-process).
-    TerrainBench(coupler::terrain_bench::TerrainBenchArgs),
+    TerrainBench(coupler::studies::terrain_bench::TerrainBenchArgs),
     /// Write POV-Ray scene files for every frame of a run directory (and render them).
     Povray {
         /// A run directory written by `coupler run`.
@@ -63,13 +63,13 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Cmd::Run(args) => ExitCode::from(coupler::cli::run(*args)),
-        Cmd::Chart(args) => ExitCode::from(coupler::speed_accuracy::run(args)),
-        Cmd::Stability(args) => ExitCode::from(coupler::stability::run(args)),
-        Cmd::Spread(args) => ExitCode::from(coupler::spread::run(args)),
-        Cmd::MakeSite(args) => ExitCode::from(coupler::site::run(args)),
-        Cmd::TerrainBench(args) => ExitCode::from(coupler::terrain_bench::run(args)),
+        Cmd::Chart(args) => ExitCode::from(coupler::studies::speed_accuracy::run(args)),
+        Cmd::Stability(args) => ExitCode::from(coupler::studies::stability::run(args)),
+        Cmd::Spread(args) => ExitCode::from(coupler::studies::spread::run(args)),
+        Cmd::MakeSite(args) => ExitCode::from(coupler::studies::site::run(args)),
+        Cmd::TerrainBench(args) => ExitCode::from(coupler::studies::terrain_bench::run(args)),
         Cmd::Check { scene, slides_vtk } => {
-            let loaded = coupler::scenes::load_as_written(scene.as_deref());
+            let loaded = coupler::run::scenes::load_as_written(scene.as_deref());
             match loaded {
                 Ok(s) => {
                     println!(
@@ -93,11 +93,11 @@ fn main() -> ExitCode {
                             return ExitCode::from(1);
                         }
                     }
-                    for line in coupler::slides::describe(&s) {
+                    for line in coupler::run::slides::describe(&s) {
                         println!("{line}");
                     }
                     if let Some(path) = &slides_vtk {
-                        match coupler::slides::write_vtk(&s, path) {
+                        match coupler::run::slides::write_vtk(&s, path) {
                             Ok(n) => println!("wrote {n} slide block(s) to {}", path.display()),
                             Err(e) => {
                                 eprintln!("coupler: error: {e}");
@@ -105,10 +105,10 @@ fn main() -> ExitCode {
                             }
                         }
                     }
-                    if let Some(e) = coupler::sizes::estimate(&s, None) {
+                    if let Some(e) = coupler::run::sizes::estimate(&s, None) {
                         println!("estimate: {}", e.describe());
                     }
-                    println!("solvers:\n{}", coupler::scenes::solver_list());
+                    println!("solvers:\n{}", coupler::run::scenes::solver_list());
                     ExitCode::SUCCESS
                 }
                 Err(e) => {
@@ -122,7 +122,7 @@ fn main() -> ExitCode {
             render,
             width,
             height,
-        } => match coupler::povray::export(&run_dir, render, width, height) {
+        } => match coupler::run::povray::export(&run_dir, render, width, height) {
             Ok(files) => {
                 println!(
                     "wrote {} POV-Ray frame(s) in {}",
@@ -152,7 +152,7 @@ fn main() -> ExitCode {
                     cleaned += 1;
                 }
             }
-            let locks = coupler::lock::remove_stale_locks();
+            let locks = coupler::run::lock::remove_stale_locks();
             println!("removed the files of {cleaned} dead run(s) and {locks} stale run lock(s)");
             ExitCode::SUCCESS
         }

@@ -8,9 +8,9 @@
 //! The run talks through `shared::transport`'s seam: iceoryx2 shared memory by default, zenoh
 //! over TCP with `--transport zenoh` (nodes on other hosts). The session is the same for both.
 
-use crate::checkpoint::CouplerCheckpoint;
-use crate::launch::{NodeCommand, NodeProcess, describe_exit};
-use crate::output::RunDir;
+use crate::run::checkpoint::CouplerCheckpoint;
+use crate::run::launch::{NodeCommand, NodeProcess, describe_exit};
+use crate::run::output::RunDir;
 use shared::protocol::*;
 use shared::scene::{CouplingScheme, Scene};
 use shared::step::{self, StepRule};
@@ -358,19 +358,21 @@ impl Session {
             failures.push(failure);
             restarts += 1;
             transport::remove_run_files(&id);
-            let back = match crate::checkpoint::latest(dir.path()) {
-                Ok(Some(ck)) => crate::checkpoint::rollback(dir.path(), &ck)
+            let back = match crate::run::checkpoint::latest(dir.path()) {
+                Ok(Some(ck)) => crate::run::checkpoint::rollback(dir.path(), &ck)
                     .and_then(|_| {
                         dir.restore_series(ck.particles.clone(), ck.blocks.clone())
                             .map_err(|e| format!("cannot rewrite the .pvd series: {e}"))
                     })
                     .map(|_| Some(ck)),
-                Ok(None) => crate::checkpoint::rollback_to_start(dir.path(), dir.static_blocks())
-                    .and_then(|_| {
-                        dir.restore_series(Vec::new(), Vec::new())
-                            .map_err(|e| format!("cannot rewrite the .pvd series: {e}"))
-                    })
-                    .map(|_| None),
+                Ok(None) => {
+                    crate::run::checkpoint::rollback_to_start(dir.path(), dir.static_blocks())
+                        .and_then(|_| {
+                            dir.restore_series(Vec::new(), Vec::new())
+                                .map_err(|e| format!("cannot rewrite the .pvd series: {e}"))
+                        })
+                        .map(|_| None)
+                }
                 Err(e) => Err(e),
             };
             match back {
@@ -757,7 +759,7 @@ impl Session {
         let dt_max = scene.time.dt_max;
         let rule = StepRule::new(dt_max, scene.time.dt_min).with_factor(self.opts.dt_factor);
         let roles: Vec<Role> = self.peers.iter().map(|p| p.role).collect();
-        let progress = crate::progress::Progress::new(self.opts.progress, end);
+        let progress = crate::run::progress::Progress::new(self.opts.progress, end);
         // Step wall times, for the median and tail the benchmark reports.
         let expected_steps = (end / dt_max.max(1e-12)).min(1e7) as usize;
         let mut step_walls: Vec<f32> = Vec::with_capacity(expected_steps);
@@ -879,7 +881,7 @@ impl Session {
             time: self.time,
             cause: format!("checkpoint: {e}"),
         };
-        let series = crate::checkpoint::series_lengths(dir.path()).map_err(fail)?;
+        let series = crate::run::checkpoint::series_lengths(dir.path()).map_err(fail)?;
         let (particles, blocks) = dir.series();
         self.stats.checkpoints += 1;
         let ck = CouplerCheckpoint {

@@ -2,7 +2,7 @@
 //! each solver registry's check of the solver tables (`[fluid.<name>]`, `[solid.<name>]`), so a
 //! bad solver parameter is named with its field and line before any node starts, the terrain
 //! files' checks (`shared::terrain::check_scene`), and the size
-//! check (`crate::sizes`): a scene that cannot fit in this machine's memory is refused.
+//! check (`crate::run::sizes`): a scene that cannot fit in this machine's memory is refused.
 
 use shared::scene::{DEFAULT_SCENE, DEFAULT_SCENE_ORIGIN, FieldError, Scene, SceneError};
 use std::path::Path;
@@ -22,7 +22,7 @@ pub fn solver_checks(scene: &Scene) -> Vec<FieldError> {
 pub fn run_checks(scene: &Scene) -> Vec<FieldError> {
     let all = solver_checks(scene);
     if all.is_empty() && scene.validate().is_empty() {
-        return crate::sizes::check(scene, None);
+        return crate::run::sizes::check(scene, None);
     }
     all
 }

@@ -12,13 +12,13 @@
 //! still water), within `--window GAUGE=T0:T1` where one is given.
 //!
 //! Every member is a real `coupler run` of its own (its own nodes, shared memory and run
-//! directory, [`crate::runner`]); its scene is the base scene's TOML with one key set, written
+//! directory, [`crate::studies::runner`]); its scene is the base scene's TOML with one key set, written
 //! beside its run directory, so each member can be rerun alone. All member scenes are checked
 //! before the first run starts: a misspelt key is named at once, not after an hour of runs.
 //! A member that stops (unstable, failed) is tabled with its status and left out of the
 //! statistics; a crest whose window the run did not reach is left empty.
 
-use crate::runner::{self, RunOutcome, Table};
+use crate::studies::runner::{self, RunOutcome, Table};
 use clap::Args;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -470,7 +470,7 @@ fn run_inner(args: &SpreadArgs) -> Result<(), String> {
         };
         std::fs::write(&path, &body)
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        let scene = crate::scenes::load(Some(&path))
+        let scene = crate::run::scenes::load(Some(&path))
             .map_err(|e| format!("member {i} ({}): {e}", m.label()))?;
         if i == 0 {
             gauges = scene.gauges.iter().map(|g| g.name.clone()).collect();

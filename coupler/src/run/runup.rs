@@ -6,7 +6,7 @@
 //! time only to the output interval (a peak between two frames is missed; a finer
 //! `[output] interval` resolves it better).
 
-use crate::povray::read_vtp;
+use crate::run::povray::read_vtp;
 use shared::geometry::Polyhedron;
 use shared::scene::{BlockKind, Scene};
 use std::collections::HashMap;
@@ -85,7 +85,7 @@ fn scan(run_dir: &Path, scene: &Scene) -> Option<(RunUp, Vec<Option<RunUp>>)> {
                 })
         })
     };
-    let frames = crate::povray::pvd_frames(&run_dir.join("particles.pvd"));
+    let frames = crate::run::povray::pvd_frames(&run_dir.join("particles.pvd"));
     let first = read_vtp(&run_dir.join(&frames.first()?.1)).ok()?;
     let level = first
         .points

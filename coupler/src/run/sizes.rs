@@ -267,7 +267,7 @@ mod tests {
     /// sound-speed estimate said 68 000.
     #[test]
     fn dfsph_steps_are_estimated_on_the_flow_not_the_sound_speed() {
-        let text = include_str!("../../scenes/wave_maker.toml");
+        let text = include_str!("../../../scenes/wave_maker.toml");
         let mut s = Scene::parse(text, "wave_maker").unwrap();
         let e = estimate(&s, None).unwrap();
         assert!((e.steps - 4_000.0).abs() < 1.0, "{e:?}");

@@ -17,11 +17,11 @@
 //! It also measures the numerical damping of Shi's scheme (restitution of an undamped bounce
 //! against exp(−πΩ/4)), written to `stability_implicit_damping.csv`.
 
-use crate::chart::{self, Trial};
-use crate::coupled_sweep::{self, Config};
-use crate::fluid_sweep;
-use crate::runner::Scratch;
-use crate::solid_sweep;
+use crate::studies::chart::{self, Trial};
+use crate::studies::coupled_sweep::{self, Config};
+use crate::studies::fluid_sweep;
+use crate::studies::runner::Scratch;
+use crate::studies::solid_sweep;
 use clap::Args;
 use shared::scene::CouplingScheme;
 use std::io::Write;
@@ -283,7 +283,7 @@ fn coupled_trial(scratch: &Scratch, method: &str, value: f64, config: &Config) -
         .unwrap_or_default();
     let detail = if stable && sinks {
         let h = coupled_sweep::block_height(&coupled_sweep::floating_scene());
-        match crate::runner::final_block(&r.outcome.dir, coupled_sweep::BLOCK, h) {
+        match crate::studies::runner::final_block(&r.outcome.dir, coupled_sweep::BLOCK, h) {
             Ok((bottom, v)) => format!(
                 "completed; sank: block bottom at z = {bottom:.4} m, speed {v:.3} m/s at t = {}{warned}",
                 config.end

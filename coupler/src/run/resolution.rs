@@ -12,7 +12,7 @@
 use shared::scene::{Scene, ShapeSpec};
 
 /// The fit compiled into the coupler (written by `coupler chart`).
-pub const EMBEDDED_FIT: &str = include_str!("../../docs/charts/fluid_convergence.csv");
+pub const EMBEDDED_FIT: &str = include_str!("../../../docs/charts/fluid_convergence.csv");
 
 /// e(N) ≈ C·N^(−p) for one fluid solver, N = depth/dx, measured over [n_min, n_max].
 #[derive(Debug, Clone, PartialEq)]

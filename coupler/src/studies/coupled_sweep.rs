@@ -2,12 +2,12 @@
 //! processes through `coupler run`, with the knobs a sweep turns (solvers, scheme, dx, dt
 //! factor, block density, Eq. 22 stiffness) applied as a scene variant or a command-line flag.
 
-use crate::runner::{self, RunOutcome, Scratch};
+use crate::studies::runner::{self, RunOutcome, Scratch};
 use shared::scene::{CouplingScheme, Scene, ShapeSpec};
 use std::path::Path;
 
 /// The floating-block scene, compiled in so the sweeps run from any directory.
-pub const FLOATING_BLOCK: &str = include_str!("../../scenes/validation/floating_block.toml");
+pub const FLOATING_BLOCK: &str = include_str!("../../../scenes/validation/floating_block.toml");
 
 /// Name of the floating block in the scene.
 pub const BLOCK: &str = "block";

@@ -9,7 +9,7 @@
 //! - `summary.json`: how the run went, and the numbers a user looks for first (every field:
 //!   docs/ARCHITECTURE.md "Run directory").
 
-use crate::session::{RunError, RunStats};
+use crate::run::session::{RunError, RunStats};
 use shared::geometry::Polyhedron;
 use shared::protocol::Role;
 use shared::scene::{BlockKind, Scene};
@@ -279,16 +279,16 @@ pub struct Summary {
     pub final_block_positions: BTreeMap<String, [f64; 3]>,
     /// Highest water on a shore (slope, beach, wall) above the still-water level, from the
     /// particle frames (resolved to the output interval).
-    pub max_runup: Option<crate::runup::RunUp>,
+    pub max_runup: Option<crate::run::runup::RunUp>,
     /// The same per `[[runup]]` box, by name (null where no water rose above the still-water
     /// level on a shore in the box).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
-    pub runup: BTreeMap<String, Option<crate::runup::RunUp>>,
+    pub runup: BTreeMap<String, Option<crate::run::runup::RunUp>>,
     /// For a piston wave maker (one kinematic block moving sinusoidally, paper Example 1):
     /// the first harmonic at the gauges in front of it against linear theory
-    /// ([`crate::wave_maker`]).
+    /// ([`crate::run::wave_maker`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub wave_maker: Option<crate::wave_maker::WaveMakerSummary>,
+    pub wave_maker: Option<crate::run::wave_maker::WaveMakerSummary>,
 }
 
 impl Summary {
@@ -309,7 +309,7 @@ impl Summary {
             Err(_) => "failed",
         };
         let wall = stats.wall_seconds.max(1e-9);
-        let runups = crate::runup::runups(&dir.path, scene);
+        let runups = crate::run::runup::runups(&dir.path, scene);
         let series = gauge_series(&dir.path.join("gauges.csv"));
         let gauges = gauge_summaries(&series, scene);
         let mut compute_share = BTreeMap::new();
@@ -329,7 +329,7 @@ impl Summary {
             scheme,
             stats: stats.clone(),
             compute_share,
-            wave_maker: crate::wave_maker::summarise(scene, &series, &gauges),
+            wave_maker: crate::run::wave_maker::summarise(scene, &series, &gauges),
             gauges,
             fluid: std::fs::read_to_string(dir.path.join("fluid.json"))
                 .ok()

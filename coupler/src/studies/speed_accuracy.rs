@@ -10,12 +10,12 @@
 //! The fluid runs at dt factor 1 also give the convergence curve `--target-error` inverts
 //! (`fluid_convergence.csv`, see `resolution`).
 
-use crate::chart::{self, Sample};
-use crate::coupled_sweep::{self, Config};
-use crate::fluid_sweep::{self, DamRun};
-use crate::resolution::{self, ConvergenceFit};
-use crate::runner::Scratch;
-use crate::solid_sweep;
+use crate::run::resolution::{self, ConvergenceFit};
+use crate::studies::chart::{self, Sample};
+use crate::studies::coupled_sweep::{self, Config};
+use crate::studies::fluid_sweep::{self, DamRun};
+use crate::studies::runner::Scratch;
+use crate::studies::solid_sweep;
 use clap::Args;
 use shared::scene::CouplingScheme;
 use std::path::{Path, PathBuf};
