@@ -11,7 +11,7 @@
 //! the .pvd series from the recorded entries, so that the continued run writes exactly what an
 //! uninterrupted one would have.
 
-use crate::run::session::RunStats;
+use crate::run::stats::RunStats;
 use shared::checkpoint as files;
 use std::path::{Path, PathBuf};
 

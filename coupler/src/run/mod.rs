@@ -5,6 +5,8 @@
 //! Nothing here uses [`crate::studies`]: the studies are built on runs, not the other way.
 
 pub mod checkpoint;
+pub mod error;
+pub mod gauges;
 pub mod launch;
 pub mod linear_waves;
 pub mod lock;
@@ -17,4 +19,5 @@ pub mod scenes;
 pub mod session;
 pub mod sizes;
 pub mod slides;
+pub mod stats;
 pub mod wave_maker;

@@ -9,8 +9,10 @@
 //! over TCP with `--transport zenoh` (nodes on other hosts). The session is the same for both.
 
 use crate::run::checkpoint::CouplerCheckpoint;
+use crate::run::error::RunError;
 use crate::run::launch::{NodeCommand, NodeProcess, describe_exit};
 use crate::run::output::RunDir;
+use crate::run::stats::RunStats;
 use shared::protocol::*;
 use shared::scene::{CouplingScheme, Scene};
 use shared::step::{self, StepRule};
@@ -59,141 +61,6 @@ pub struct RunOptions {
     /// How often a node that dies or hangs is restarted, every node rolling back to the last
     /// checkpoint (or to t = 0 without one).
     pub retries: u32,
-}
-
-/// How a run ended, when it did not complete.
-#[derive(Debug, thiserror::Error)]
-pub enum RunError {
-    #[error("{0}")]
-    Input(String),
-    #[error("{node} went unstable at step {step}, t = {time:.6} s: {cause}")]
-    Unstable {
-        node: String,
-        step: u64,
-        time: f64,
-        cause: String,
-    },
-    #[error("{node} failed at step {step}, t = {time:.6} s: {cause}")]
-    Failed {
-        node: String,
-        step: u64,
-        time: f64,
-        cause: String,
-    },
-    #[error("{node} died at step {step}, t = {time:.6} s: the process {how}")]
-    Died {
-        node: String,
-        step: u64,
-        time: f64,
-        how: String,
-    },
-    #[error("{node} hung at step {step}, t = {time:.6} s: no answer within {waited:.1} s")]
-    Hung {
-        node: String,
-        step: u64,
-        time: f64,
-        waited: f64,
-    },
-    #[error("start-up failed: {0}")]
-    Handshake(String),
-    #[error(
-        "step collapsed at step {step}, t = {time:.6} s: {node} proposed dt = {dt:e} s, below dt_min = {dt_min:e} s"
-    )]
-    Collapsed {
-        node: String,
-        step: u64,
-        time: f64,
-        dt: f64,
-        dt_min: f64,
-    },
-    #[error("interrupted at step {step}, t = {time:.6} s")]
-    Interrupted { step: u64, time: f64 },
-    #[error("transport: {0}")]
-    Transport(String),
-    #[error("{cause} (again, after a restart from step {from_step}: the run stops)")]
-    Again {
-        cause: Box<RunError>,
-        from_step: u64,
-    },
-}
-
-impl RunError {
-    /// The process exit code for this outcome.
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            RunError::Input(_) => 1,
-            RunError::Unstable { .. } | RunError::Failed { .. } | RunError::Collapsed { .. } => 2,
-            RunError::Died { .. }
-            | RunError::Hung { .. }
-            | RunError::Handshake(_)
-            | RunError::Transport(_) => 3,
-            RunError::Interrupted { .. } => 130,
-            RunError::Again { cause, .. } => cause.exit_code(),
-        }
-    }
-
-    /// The node ("fluid node (...)") and step of a death or hang, which a restart may cure.
-    fn restartable(&self) -> Option<(String, u64)> {
-        match self {
-            RunError::Died { node, step, .. } | RunError::Hung { node, step, .. } => {
-                let role = node.split(" node").next().unwrap_or(node).to_string();
-                Some((role, *step))
-            }
-            _ => None,
-        }
-    }
-}
-
-impl From<transport::TransportError> for RunError {
-    fn from(e: transport::TransportError) -> Self {
-        RunError::Transport(e.to_string())
-    }
-}
-
-/// What a run did, completed or not.
-#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
-pub struct RunStats {
-    pub steps: u64,
-    /// Simulated time reached [s].
-    pub time: f64,
-    pub wall_seconds: f64,
-    /// Seconds each node spent computing (solver work plus writing or reading coupling data).
-    pub fluid_compute_seconds: f64,
-    pub solid_compute_seconds: f64,
-    /// Smallest and largest step granted [s].
-    pub dt_min: f64,
-    pub dt_max: f64,
-    pub warnings: u64,
-    pub last_warning: Option<String>,
-    /// Output frames written (including frame 0).
-    pub frames: u32,
-    /// CPU seconds each process used over the run; compare with the compute seconds: the
-    /// difference is what waiting and talking cost.
-    pub fluid_cpu_seconds: f64,
-    pub solid_cpu_seconds: f64,
-    pub coupler_cpu_seconds: f64,
-    /// Peak resident memory of each process [bytes]: the nodes' `VmHWM` read from /proc just
-    /// before they are told to stop (None if a node was already gone), the coupler's own from
-    /// getrusage at the end.
-    pub fluid_peak_rss_bytes: Option<u64>,
-    pub solid_peak_rss_bytes: Option<u64>,
-    pub coupler_peak_rss_bytes: u64,
-    /// Median and 99th percentile of the wall time of one step, command to last status [µs].
-    pub step_wall_median_us: f64,
-    pub step_wall_p99_us: f64,
-    /// Solvers the nodes actually run (a node may be started with its own `--solver`).
-    pub fluid_solver: Option<String>,
-    pub solid_solver: Option<String>,
-    /// Checkpoints written (over the whole run, resumed parts included).
-    #[serde(default)]
-    pub checkpoints: u64,
-    /// Node restarts after a death or hang (`--retries`), in this invocation.
-    #[serde(default)]
-    pub restarts: u32,
-    /// The step this invocation resumed from (`--resume`, or its last restart); null if it ran
-    /// from the start.
-    #[serde(default)]
-    pub resumed_from_step: Option<u64>,
 }
 
 /// One node as the coupler sees it.

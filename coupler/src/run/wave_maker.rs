@@ -13,8 +13,8 @@
 //! before a reflection from the far end of the water could return (2·L − x)/c_g. A gauge whose
 //! window holds no whole period, or whose bed is not the piston's (a beach), is left out.
 
+use crate::run::gauges::{GaugeSummary, Level};
 use crate::run::linear_waves::PistonWave;
-use crate::run::output::{GaugeSummary, Level};
 use shared::scene::{BlockKind, MotionSpec, Scene};
 use std::collections::BTreeMap;
 use std::f64::consts::TAU;
