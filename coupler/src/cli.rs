@@ -1,15 +1,66 @@
-//! `coupler run`: the command a user types.
+//! The command line: the arguments of every `coupler` command. `main.rs` dispatches them to
+//! [`crate::run`] (run, check, clean, povray) and [`crate::studies`] (the rest).
 
-use crate::run::checkpoint::CouplerCheckpoint;
-use crate::run::launch::NodeCommand;
-use crate::run::output::{RunDir, Summary};
-use crate::run::session::{RunOptions, Session};
-use clap::Args;
-use shared::protocol::Role;
+use clap::{Args, Parser, Subcommand};
 use shared::scene::CouplingScheme;
-use shared::transport::{Endpoints, Kind, RunId};
+use shared::transport::Kind;
 use std::path::PathBuf;
-use std::time::Duration;
+
+#[derive(Debug, Parser)]
+#[command(
+    version,
+    about = "rockwave: coupled SPH (water) and 3D-DDA (rock blocks), after Geraili Mikola & Sitar (2014)"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Cmd,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Cmd {
+    /// Run a scene: starts the fluid and solid nodes and steps them to the end time.
+    Run(Box<RunArgs>),
+    /// Check a scene file and print what would run.
+    Check {
+        /// Scene file; default: the embedded default scene.
+        scene: Option<std::path::PathBuf>,
+        /// Write the blocks cut from the scene's `[[slide]]`s to this VTK file (.vtp) to
+        /// inspect them before the run.
+        #[arg(long, value_name = "FILE")]
+        slides_vtk: Option<std::path::PathBuf>,
+    },
+    /// Remove shared memory left behind by runs whose processes were all killed: every dead
+    /// run with a generated id (rw…), and the runs named here (ids given with --run-id).
+    Clean {
+        /// Run ids to clean besides the generated ones, e.g. `mytest`.
+        run_ids: Vec<String>,
+    },
+    /// Speed against accuracy: run the validation cases over solvers, resolutions, dt factors
+    /// and coupling schemes; write CSV, SVG and PNG charts with the Pareto front.
+    Chart(crate::studies::speed_accuracy::ChartArgs),
+    /// Push each method past its limits (dt factor, contact stiffness, density ratio) and draw
+    /// stability maps naming how each failure was detected.
+    Stability(crate::studies::stability::StabilityArgs),
+    /// How far a scene's gauge crests move when knobs that are not physics turn: the scene as
+    /// written and once per value of each --vary, with each gauge's median and range.
+    Spread(crate::studies::spread::SpreadArgs),
+    /// Write the synthetic reservoir of scenes/fjord.toml as an ESRI ASCII grid (.asc).
+    MakeSite(crate::studies::site::SiteArgs),
+    /// Time a terrain of many triangles against a box floor, per node (in-process).
+    TerrainBench(crate::studies::terrain_bench::TerrainBenchArgs),
+    /// Write POV-Ray scene files for every frame of a run directory (and render them).
+    Povray {
+        /// A run directory written by `coupler run`.
+        run_dir: std::path::PathBuf,
+        /// Render each frame to PNG with `povray` (must be installed).
+        #[arg(long)]
+        render: bool,
+        #[arg(long, default_value_t = 960)]
+        width: u32,
+        #[arg(long, default_value_t = 540)]
+        height: u32,
+    },
+}
 
 #[derive(Debug, Args)]
 pub struct RunArgs {
@@ -118,445 +169,4 @@ pub struct RunArgs {
     /// same step stops the run.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub retries: u32,
-}
-
-/// Where the coupler listens and connects (zenoh), and what the nodes it starts connect to.
-fn zenoh_endpoints(args: &RunArgs) -> Result<(Endpoints, Vec<String>), String> {
-    if args.transport != Kind::Zenoh {
-        if !args.listen.is_empty() || !args.connect.is_empty() {
-            return Err(
-                "--listen and --connect are zenoh endpoints. Fix: add --transport zenoh, or drop them"
-                    .into(),
-            );
-        }
-        return Ok((Endpoints::default(), Vec::new()));
-    }
-    for e in args.listen.iter().chain(&args.connect) {
-        let ok = e
-            .split_once('/')
-            .is_some_and(|(proto, addr)| !proto.is_empty() && addr.contains(':'));
-        if !ok {
-            return Err(format!(
-                "'{e}' is not a zenoh endpoint. Fix: write PROTOCOL/HOST:PORT, e.g. tcp/0.0.0.0:7447"
-            ));
-        }
-    }
-    let listen = if !args.listen.is_empty() {
-        args.listen.clone()
-    } else if args.attach {
-        return Err(
-            "--attach with --transport zenoh: the nodes on other hosts need an address to connect to. Fix: add --listen tcp/0.0.0.0:7447 (or this host's address and a free port)"
-                .into(),
-        );
-    } else {
-        vec![format!("tcp/127.0.0.1:{}", free_port()?)]
-    };
-    // The nodes this coupler starts run on this host: "all interfaces" is reached locally.
-    let node_connect = listen
-        .iter()
-        .map(|e| {
-            e.replace("/0.0.0.0:", "/127.0.0.1:")
-                .replace("/[::]:", "/[::1]:")
-        })
-        .collect();
-    Ok((
-        Endpoints {
-            listen,
-            connect: args.connect.clone(),
-        },
-        node_connect,
-    ))
-}
-
-/// A TCP port free on 127.0.0.1 right now (the system's choice; the coupler binds it moments
-/// later).
-fn free_port() -> Result<u16, String> {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .map_err(|e| format!("cannot find a free TCP port on 127.0.0.1: {e}"))
-}
-
-/// Runs `coupler run`; returns the process exit code.
-pub fn run(args: RunArgs) -> u8 {
-    match run_inner(args) {
-        Ok(code) => code,
-        Err(msg) => {
-            eprintln!("coupler: error: {msg}");
-            1
-        }
-    }
-}
-
-/// The scene, last checkpoint and settings of a run to resume (`--resume RUN_DIR`).
-struct Resumed {
-    scene: shared::scene::Scene,
-    checkpoint: CouplerCheckpoint,
-}
-
-fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
-    let path = dir.join("scene.toml");
-    if !path.is_file() {
-        return Err(format!(
-            "--resume {}: no scene.toml there: not a run directory of `coupler run`. Fix: name the directory the run wrote (its --out)",
-            dir.display()
-        ));
-    }
-    let scene = crate::run::scenes::load(Some(&path)).map_err(|e| e.to_string())?;
-    let Some(ck) = crate::run::checkpoint::latest(dir)? else {
-        return Err(format!(
-            "--resume {}: the run wrote no complete checkpoint (checkpoints/coupler-*.ckpt). Fix: start it again with --checkpoint-interval or --checkpoint-wall-minutes",
-            dir.display()
-        ));
-    };
-    let hash = shared::checkpoint::run_hash(
-        &scene,
-        &crate::run::session::scene_text(&scene).map_err(|e| e.to_string())?,
-    );
-    if hash != ck.scene_hash {
-        let terrain: Vec<String> = scene
-            .terrain
-            .iter()
-            .map(|t| format!("'{}'", t.file.display()))
-            .collect();
-        let (what, fix) = if terrain.is_empty() {
-            (
-                "scene.toml is".to_string(),
-                "restore the run's own scene.toml",
-            )
-        } else {
-            (
-                format!("scene.toml or its terrain file ({}) is", terrain.join(", ")),
-                "restore the run's own scene.toml and terrain files (a terrain file changed under the same path is another run)",
-            )
-        };
-        return Err(format!(
-            "--resume {}: {what} not what the checkpoint at step {} was written for (hash {hash:016x}, checkpoint {:016x}). Fix: {fix}",
-            dir.display(),
-            ck.step,
-            ck.scene_hash
-        ));
-    }
-    for (flag, given, saved) in [
-        ("--fluid-solver", &args.fluid_solver, &ck.fluid_solver),
-        ("--solid-solver", &args.solid_solver, &ck.solid_solver),
-    ] {
-        if let (Some(g), Some(s)) = (given, saved)
-            && g != s
-        {
-            return Err(format!(
-                "--resume: {flag} {g}, but the checkpoint was written by solver '{s}'. Fix: drop {flag} (a resumed run keeps its solvers)"
-            ));
-        }
-    }
-    if let Some(scheme) = args.scheme
-        && scheme != ck.scheme
-    {
-        return Err(format!(
-            "--resume: --scheme {scheme}, but the run was coupled {}. Fix: drop --scheme",
-            ck.scheme
-        ));
-    }
-    if args.dt_factor != 1.0 && args.dt_factor != ck.dt_factor {
-        return Err(format!(
-            "--resume: --dt-factor {}, but the run was started with {}. Fix: drop --dt-factor",
-            args.dt_factor, ck.dt_factor
-        ));
-    }
-    Ok(Resumed {
-        scene,
-        checkpoint: ck,
-    })
-}
-
-fn run_inner(args: RunArgs) -> Result<u8, String> {
-    let resume = match &args.resume {
-        Some(dir) => Some(resumed(&args, dir)?),
-        None => None,
-    };
-    if let Some(r) = &resume {
-        let ck = &r.checkpoint;
-        eprintln!(
-            "coupler: resuming {} from its checkpoint at step {} (t = {:.6} s)",
-            args.resume.as_ref().expect("resuming").display(),
-            ck.step,
-            ck.time
-        );
-    }
-    let mut scene = match &resume {
-        Some(r) => r.scene.clone(),
-        None => crate::run::scenes::load(args.scene.as_deref()).map_err(|e| e.to_string())?,
-    };
-    let origin = match (&args.resume, &args.scene) {
-        (Some(dir), _) => dir.join("scene.toml").display().to_string(),
-        (None, Some(path)) => path.display().to_string(),
-        (None, None) => shared::scene::DEFAULT_SCENE_ORIGIN.to_string(),
-    };
-    if let Some(dx) = args.dx {
-        if !(dx.is_finite() && dx > 0.0) {
-            return Err(format!("--dx {dx}: must be a positive length in metres"));
-        }
-        scene.set_dx(dx);
-    }
-    if let Some(target) = args.target_error {
-        let fits = crate::run::resolution::parse_csv(crate::run::resolution::EMBEDDED_FIT)?;
-        let solver = args
-            .fluid_solver
-            .clone()
-            .or_else(|| scene.fluid.as_ref().map(|f| f.solver.clone()))
-            .ok_or("--target-error: the scene has no water, so there is no spacing to choose")?;
-        let choice = crate::run::resolution::choose_dx(&fits, &solver, &scene, target)?;
-        eprintln!("coupler: {}", choice.explanation);
-        scene.set_dx(choice.dx);
-    }
-    if let Some(end) = args.end {
-        scene.time.end = end;
-    }
-    if let Some(dt) = args.dt_max {
-        scene.time.dt_max = dt;
-    }
-    if let Some(n) = args.solid_substeps {
-        scene.coupling.solid_substeps = n;
-    }
-    if let Some(c) = args.added_mass {
-        scene.coupling.added_mass = c;
-    }
-    // Overrides must leave a valid scene too.
-    let problems = crate::run::scenes::problems(&scene);
-    if !problems.is_empty() {
-        let list: Vec<String> = problems.iter().map(|e| format!("  {e}")).collect();
-        return Err(format!(
-            "scene '{origin}' after command-line overrides:\n{}",
-            list.join("\n")
-        ));
-    }
-    for line in crate::run::slides::describe(&scene) {
-        eprintln!("coupler: {line}");
-    }
-    // Stepped as the run's fluid solver steps: a resumed run keeps the one it was started with.
-    let stepped_by = resume
-        .as_ref()
-        .and_then(|r| r.checkpoint.fluid_solver.as_deref())
-        .or(args.fluid_solver.as_deref());
-    if let Some(e) = crate::run::sizes::estimate(&scene, stepped_by) {
-        eprintln!("coupler: estimate: {}", e.describe());
-    }
-    for (flag, v) in [
-        ("--connect-timeout", args.connect_timeout),
-        ("--step-timeout", args.step_timeout),
-        ("--setup-timeout", args.setup_timeout),
-    ] {
-        if !(v.is_finite() && v > 0.0 && v < 1e9) {
-            return Err(format!("{flag} {v}: must be a positive number of seconds"));
-        }
-    }
-    let (endpoints, node_connect) = zenoh_endpoints(&args)?;
-    if args.attach && args.retries > 0 {
-        return Err(format!(
-            "--retries {} with --attach: the coupler can only restart nodes it started itself. Fix: drop --attach, or --retries (and resume by hand with --resume)",
-            args.retries
-        ));
-    }
-    for (flag, v) in [
-        ("--checkpoint-interval", args.checkpoint_interval),
-        ("--checkpoint-wall-minutes", args.checkpoint_wall_minutes),
-    ] {
-        if let Some(v) = v
-            && !(v.is_finite() && v > 0.0)
-        {
-            return Err(format!(
-                "{flag} {v}: must be a positive number. Fix: leave it out for no checkpoints"
-            ));
-        }
-    }
-    let checkpoint_interval = args
-        .checkpoint_interval
-        .or(scene.output.checkpoint_interval);
-    let checkpoint_wall_minutes = args
-        .checkpoint_wall_minutes
-        .or(scene.output.checkpoint_wall_minutes)
-        .or((args.retries > 0 && checkpoint_interval.is_none()).then_some(10.0));
-    if !(args.dt_factor.is_finite() && args.dt_factor > 0.0) {
-        return Err(format!(
-            "--dt-factor {}: must be a positive number",
-            args.dt_factor
-        ));
-    }
-    let run_id = match &args.run_id {
-        Some(s) => RunId::parse(s).map_err(|e| format!("--run-id: {e}"))?,
-        None => RunId::fresh(),
-    };
-    // Before anything of the run exists: a second coupler on a live run's id would stop that
-    // run and remove its files.
-    let _lock = crate::run::lock::RunLock::acquire(&run_id)?;
-    // A coupler killed by SIGKILL could not remove its lock file (its nodes remove the run's
-    // shared memory, not the lock): the next run sweeps such free locks, so they do not pile up.
-    crate::run::lock::remove_stale_locks();
-    // The id is ours; files a killed run of the same id left behind would confuse the services.
-    if !shared::transport::run_has_live_nodes(&run_id)
-        && shared::transport::remove_run_files(&run_id) > 0
-    {
-        eprintln!("coupler: removed shared memory left by an earlier, dead run {run_id}");
-    }
-    let fluid_cmd = match &args.fluid_cmd {
-        Some(c) => NodeCommand::given(Role::Fluid, c),
-        None => NodeCommand::beside_me(Role::Fluid)?,
-    };
-    let solid_cmd = match &args.solid_cmd {
-        Some(c) => NodeCommand::given(Role::Solid, c),
-        None => NodeCommand::beside_me(Role::Solid)?,
-    };
-    // A missing node binary is reported before anything is written.
-    let roles = Session::roles(&scene);
-    if !args.attach {
-        for role in &roles {
-            let cmd = if *role == Role::Fluid {
-                &fluid_cmd
-            } else {
-                &solid_cmd
-            };
-            cmd.check()?;
-        }
-    }
-    let out = match (&args.resume, &args.out) {
-        (Some(dir), _) => dir.clone(),
-        (None, Some(out)) => out.clone(),
-        (None, None) => PathBuf::from("runs").join(format!("{}-{}", scene.name, run_id)),
-    };
-    let mut dir = match &resume {
-        Some(r) => {
-            let mut dir = RunDir::open_existing(&out, &scene);
-            let ck = &r.checkpoint;
-            crate::run::checkpoint::rollback(&out, ck)?;
-            dir.restore_series(ck.particles.clone(), ck.blocks.clone())
-                .map_err(|e| {
-                    format!("cannot rewrite the .pvd series in '{}': {e}", out.display())
-                })?;
-            dir
-        }
-        None => RunDir::create(&out, &scene)?,
-    };
-
-    // Cheap housekeeping: files of runs whose processes were all killed long ago.
-    let stale = shared::transport::remove_stale_runs(Duration::from_secs(60));
-    if !stale.is_empty() {
-        eprintln!(
-            "coupler: removed shared memory left by {} dead run(s)",
-            stale.len()
-        );
-    }
-
-    let saved = resume.as_ref().map(|r| &r.checkpoint);
-    let scheme = saved
-        .map(|c| c.scheme)
-        .or(args.scheme)
-        .unwrap_or(scene.coupling.scheme);
-    let args_fluid_solver = saved
-        .and_then(|c| c.fluid_solver.clone())
-        .or(args.fluid_solver.clone());
-    let args_solid_solver = saved
-        .and_then(|c| c.solid_solver.clone())
-        .or(args.solid_solver.clone());
-    let dt_factor = saved.map_or(args.dt_factor, |c| c.dt_factor);
-    let fluid_solver = roles.contains(&Role::Fluid).then(|| {
-        args_fluid_solver.clone().unwrap_or_else(|| {
-            scene
-                .fluid
-                .as_ref()
-                .map(|f| f.solver.clone())
-                .unwrap_or_default()
-        })
-    });
-    let solid_solver = roles.contains(&Role::Solid).then(|| {
-        args_solid_solver
-            .clone()
-            .unwrap_or_else(|| scene.solid.solver.clone())
-    });
-    eprintln!(
-        "coupler: scene '{}' ({origin}); run {run_id}; fluid: {}; solid: {}; scheme {scheme}; output in {}",
-        scene.name,
-        fluid_solver.as_deref().unwrap_or("none (no water)"),
-        solid_solver.as_deref().unwrap_or("none (no moving blocks)"),
-        out.display()
-    );
-    if fluid_solver.as_deref()
-        == Some(<fluid_node::dfsph::Dfsph as fluid_node::scheme::SphMethod>::NAME)
-        && scheme == CouplingScheme::Parallel
-        && scene.coupling.added_mass > 0.0
-        && fluid_node::dfsph::blocks_in_solve(&scene)
-    {
-        eprintln!(
-            "coupler: warning: [coupling] added_mass = {} relaxes the loads of blocks that DFSPH already moves inside its pressure solve (its default in the parallel scheme): the solid then moves them otherwise than the water predicted (docs/REFERENCES.md §4.1b). Fix: drop --added-mass, or set [fluid.dfsph] blocks_in_solve = false to relax lagged loads instead",
-            scene.coupling.added_mass
-        );
-    }
-    let opts = RunOptions {
-        scene: scene.clone(),
-        fluid_solver: args_fluid_solver,
-        solid_solver: args_solid_solver,
-        scheme: Some(scheme),
-        fluid_cmd,
-        solid_cmd,
-        attach: args.attach,
-        run_id: run_id.clone(),
-        transport: args.transport,
-        endpoints,
-        node_connect,
-        connect_timeout: Duration::from_secs_f64(args.connect_timeout),
-        step_timeout: Duration::from_secs_f64(args.step_timeout),
-        setup_timeout: Duration::from_secs_f64(args.setup_timeout),
-        dt_factor,
-        progress: !args.quiet,
-        checkpoint_interval,
-        checkpoint_wall: checkpoint_wall_minutes.map(|m| Duration::from_secs_f64(m * 60.0)),
-        resume: resume.map(|r| r.checkpoint),
-        retries: args.retries,
-    };
-    let (stats, outcome) = Session::execute(opts, &mut dir);
-    let summary = Summary::gather(
-        &dir,
-        &scene,
-        run_id.as_str(),
-        &stats,
-        &outcome,
-        scheme.to_string(),
-    );
-    if let Err(e) = dir.write_summary(&summary) {
-        eprintln!("coupler: cannot write summary.json: {e}");
-    }
-    if scene.output.povray {
-        // The paper rendered with POV-Ray: scene files always, pictures when povray is here.
-        let render = std::env::var_os("PATH")
-            .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("povray").is_file()));
-        match crate::run::povray::export(&out, render, 960, 540) {
-            Ok(files) => eprintln!(
-                "coupler: {} POV-Ray frame(s) in {}{}",
-                files.len(),
-                out.join("povray").display(),
-                if render {
-                    ", rendered"
-                } else {
-                    " (install povray to render them)"
-                }
-            ),
-            Err(e) => eprintln!("coupler: POV-Ray export failed: {e}"),
-        }
-    }
-    match outcome {
-        Ok(()) => {
-            eprintln!(
-                "coupler: done: {} steps to t = {:.4} s in {:.1} s wall; results in {}",
-                stats.steps,
-                stats.time,
-                stats.wall_seconds,
-                out.display()
-            );
-            Ok(0)
-        }
-        Err(e) => {
-            eprintln!("coupler: error: {e}");
-            eprintln!("coupler: results written so far are in {}", out.display());
-            Ok(e.exit_code())
-        }
-    }
 }

@@ -4,7 +4,10 @@
 //!
 //! Nothing here uses [`crate::studies`]: the studies are built on runs, not the other way.
 
+pub mod check;
 pub mod checkpoint;
+pub mod clean;
+pub mod command;
 pub mod error;
 pub mod gauges;
 pub mod launch;
@@ -14,9 +17,11 @@ pub mod output;
 pub mod povray;
 pub mod progress;
 pub mod resolution;
+pub mod resume;
 pub mod runup;
 pub mod scenes;
 pub mod session;
+pub mod settings;
 pub mod sizes;
 pub mod slides;
 pub mod stats;

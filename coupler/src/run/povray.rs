@@ -158,6 +158,24 @@ pub fn scene_file(
     s
 }
 
+/// Runs `coupler povray` on a run directory; returns the process exit code.
+pub fn run(run_dir: &Path, render: bool, width: u32, height: u32) -> u8 {
+    match export(run_dir, render, width, height) {
+        Ok(files) => {
+            println!(
+                "wrote {} POV-Ray frame(s) in {}",
+                files.len(),
+                run_dir.join("povray").display()
+            );
+            0
+        }
+        Err(e) => {
+            eprintln!("coupler: error: {e}");
+            1
+        }
+    }
+}
+
 /// Writes `povray/frame_NNNNN.pov` for every frame in the run directory's .pvd series and, when
 /// `render` is set, renders each to PNG with `povray`. Returns the scene files written.
 pub fn export(

@@ -1,0 +1,192 @@
+//! `coupler run`'s settings: the scene with the command line's overrides and its checks, the
+//! estimate printed before the run, and the flags checked before anything of the run exists.
+
+use crate::cli::RunArgs;
+use crate::run::resume::Resumed;
+use shared::scene::Scene;
+use shared::transport::{Endpoints, Kind};
+
+/// The scene to run (the resumed run's, the file's or the embedded default) with the command
+/// line's overrides, checked again; and where it came from, for the messages.
+pub fn scene(args: &RunArgs, resume: Option<&Resumed>) -> Result<(Scene, String), String> {
+    let mut scene = match resume {
+        Some(r) => r.scene.clone(),
+        None => crate::run::scenes::load(args.scene.as_deref()).map_err(|e| e.to_string())?,
+    };
+    let origin = match (&args.resume, &args.scene) {
+        (Some(dir), _) => dir.join("scene.toml").display().to_string(),
+        (None, Some(path)) => path.display().to_string(),
+        (None, None) => shared::scene::DEFAULT_SCENE_ORIGIN.to_string(),
+    };
+    if let Some(dx) = args.dx {
+        if !(dx.is_finite() && dx > 0.0) {
+            return Err(format!("--dx {dx}: must be a positive length in metres"));
+        }
+        scene.set_dx(dx);
+    }
+    if let Some(target) = args.target_error {
+        let fits = crate::run::resolution::parse_csv(crate::run::resolution::EMBEDDED_FIT)?;
+        let solver = args
+            .fluid_solver
+            .clone()
+            .or_else(|| scene.fluid.as_ref().map(|f| f.solver.clone()))
+            .ok_or("--target-error: the scene has no water, so there is no spacing to choose")?;
+        let choice = crate::run::resolution::choose_dx(&fits, &solver, &scene, target)?;
+        eprintln!("coupler: {}", choice.explanation);
+        scene.set_dx(choice.dx);
+    }
+    if let Some(end) = args.end {
+        scene.time.end = end;
+    }
+    if let Some(dt) = args.dt_max {
+        scene.time.dt_max = dt;
+    }
+    if let Some(n) = args.solid_substeps {
+        scene.coupling.solid_substeps = n;
+    }
+    if let Some(c) = args.added_mass {
+        scene.coupling.added_mass = c;
+    }
+    // Overrides must leave a valid scene too.
+    let problems = crate::run::scenes::problems(&scene);
+    if !problems.is_empty() {
+        let list: Vec<String> = problems.iter().map(|e| format!("  {e}")).collect();
+        return Err(format!(
+            "scene '{origin}' after command-line overrides:\n{}",
+            list.join("\n")
+        ));
+    }
+    Ok((scene, origin))
+}
+
+/// Prints the slides' blocks and the estimate of the run's size.
+pub fn describe(scene: &Scene, args: &RunArgs, resume: Option<&Resumed>) {
+    for line in crate::run::slides::describe(scene) {
+        eprintln!("coupler: {line}");
+    }
+    // Stepped as the run's fluid solver steps: a resumed run keeps the one it was started with.
+    let stepped_by = resume
+        .and_then(|r| r.checkpoint.fluid_solver.as_deref())
+        .or(args.fluid_solver.as_deref());
+    if let Some(e) = crate::run::sizes::estimate(scene, stepped_by) {
+        eprintln!("coupler: estimate: {}", e.describe());
+    }
+}
+
+/// The flags' settings once checked.
+pub struct Checked {
+    /// Where the coupler listens and connects (zenoh), and what the nodes it starts connect to.
+    pub endpoints: Endpoints,
+    pub node_connect: Vec<String>,
+    /// Checkpoint every this many simulated seconds and wall-clock minutes.
+    pub checkpoint_interval: Option<f64>,
+    pub checkpoint_wall_minutes: Option<f64>,
+}
+
+/// Checks the timeouts, the transport's endpoints, retries, checkpoints and the dt factor.
+pub fn check_flags(args: &RunArgs, scene: &Scene) -> Result<Checked, String> {
+    for (flag, v) in [
+        ("--connect-timeout", args.connect_timeout),
+        ("--step-timeout", args.step_timeout),
+        ("--setup-timeout", args.setup_timeout),
+    ] {
+        if !(v.is_finite() && v > 0.0 && v < 1e9) {
+            return Err(format!("{flag} {v}: must be a positive number of seconds"));
+        }
+    }
+    let (endpoints, node_connect) = zenoh_endpoints(args)?;
+    if args.attach && args.retries > 0 {
+        return Err(format!(
+            "--retries {} with --attach: the coupler can only restart nodes it started itself. Fix: drop --attach, or --retries (and resume by hand with --resume)",
+            args.retries
+        ));
+    }
+    for (flag, v) in [
+        ("--checkpoint-interval", args.checkpoint_interval),
+        ("--checkpoint-wall-minutes", args.checkpoint_wall_minutes),
+    ] {
+        if let Some(v) = v
+            && !(v.is_finite() && v > 0.0)
+        {
+            return Err(format!(
+                "{flag} {v}: must be a positive number. Fix: leave it out for no checkpoints"
+            ));
+        }
+    }
+    let checkpoint_interval = args
+        .checkpoint_interval
+        .or(scene.output.checkpoint_interval);
+    let checkpoint_wall_minutes = args
+        .checkpoint_wall_minutes
+        .or(scene.output.checkpoint_wall_minutes)
+        .or((args.retries > 0 && checkpoint_interval.is_none()).then_some(10.0));
+    if !(args.dt_factor.is_finite() && args.dt_factor > 0.0) {
+        return Err(format!(
+            "--dt-factor {}: must be a positive number",
+            args.dt_factor
+        ));
+    }
+    Ok(Checked {
+        endpoints,
+        node_connect,
+        checkpoint_interval,
+        checkpoint_wall_minutes,
+    })
+}
+
+/// Where the coupler listens and connects (zenoh), and what the nodes it starts connect to.
+fn zenoh_endpoints(args: &RunArgs) -> Result<(Endpoints, Vec<String>), String> {
+    if args.transport != Kind::Zenoh {
+        if !args.listen.is_empty() || !args.connect.is_empty() {
+            return Err(
+                "--listen and --connect are zenoh endpoints. Fix: add --transport zenoh, or drop them"
+                    .into(),
+            );
+        }
+        return Ok((Endpoints::default(), Vec::new()));
+    }
+    for e in args.listen.iter().chain(&args.connect) {
+        let ok = e
+            .split_once('/')
+            .is_some_and(|(proto, addr)| !proto.is_empty() && addr.contains(':'));
+        if !ok {
+            return Err(format!(
+                "'{e}' is not a zenoh endpoint. Fix: write PROTOCOL/HOST:PORT, e.g. tcp/0.0.0.0:7447"
+            ));
+        }
+    }
+    let listen = if !args.listen.is_empty() {
+        args.listen.clone()
+    } else if args.attach {
+        return Err(
+            "--attach with --transport zenoh: the nodes on other hosts need an address to connect to. Fix: add --listen tcp/0.0.0.0:7447 (or this host's address and a free port)"
+                .into(),
+        );
+    } else {
+        vec![format!("tcp/127.0.0.1:{}", free_port()?)]
+    };
+    // The nodes this coupler starts run on this host: "all interfaces" is reached locally.
+    let node_connect = listen
+        .iter()
+        .map(|e| {
+            e.replace("/0.0.0.0:", "/127.0.0.1:")
+                .replace("/[::]:", "/[::1]:")
+        })
+        .collect();
+    Ok((
+        Endpoints {
+            listen,
+            connect: args.connect.clone(),
+        },
+        node_connect,
+    ))
+}
+
+/// A TCP port free on 127.0.0.1 right now (the system's choice; the coupler binds it moments
+/// later).
+fn free_port() -> Result<u16, String> {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .map_err(|e| format!("cannot find a free TCP port on 127.0.0.1: {e}"))
+}
