@@ -1,6 +1,6 @@
 //! `coupler run`: from the command line to a finished run directory, in the order a run takes:
 //! the run to resume, the scene and its overrides, the flags, the run id and its lock, the node
-//! commands, the run directory, the session's steps (run/session.rs), the summary.
+//! commands, the run directory, the session's steps ([`crate::run::session`]), the summary.
 
 use crate::cli::RunArgs;
 use crate::run::launch::NodeCommand;
