@@ -4,10 +4,11 @@
 
 use crate::cli::RunArgs;
 use crate::run::launch::NodeCommand;
-use crate::run::output::{RunDir, Summary};
+use crate::run::output::RunDir;
 use crate::run::resume::Resumed;
 use crate::run::session::{RunOptions, Session};
 use crate::run::settings::Checked;
+use crate::run::summary::Summary;
 use crate::run::{error::RunError, lock::RunLock, stats::RunStats};
 use shared::protocol::Role;
 use shared::scene::{CouplingScheme, Scene};
@@ -248,14 +249,14 @@ fn finish(
     out: &Path,
 ) -> u8 {
     let summary = Summary::gather(
-        dir,
+        dir.path(),
         scene,
         run_id.as_str(),
         stats,
         &outcome,
         scheme.to_string(),
     );
-    if let Err(e) = dir.write_summary(&summary) {
+    if let Err(e) = summary.write(dir.path()) {
         eprintln!("coupler: cannot write summary.json: {e}");
     }
     if scene.output.povray {

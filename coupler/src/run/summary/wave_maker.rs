@@ -4,7 +4,7 @@
 //! water's depth is a piston wave maker (paper Example 1). At each gauge in front of it over the piston's depth, the
 //! summary gives the height of the first harmonic of the record at the piston's period, 2·|a₁|
 //! with a₁ = (2/τ) ∫ η(t) e^{−iωt} dt over a window τ of whole periods, and its ratio to
-//! Biesel's linear wave ([`crate::run::linear_waves`]). The first harmonic, not crest minus trough:
+//! Biesel's linear wave ([`crate::run::summary::linear_waves`]). The first harmonic, not crest minus trough:
 //! a wave of H/h ≈ 0.3 carries a bound second harmonic that raises crests and flattens troughs
 //! without changing it (second-order wave-maker theory keeps the first order's amplitude).
 //!
@@ -13,8 +13,8 @@
 //! before a reflection from the far end of the water could return (2·L − x)/c_g. A gauge whose
 //! window holds no whole period, or whose bed is not the piston's (a beach), is left out.
 
-use crate::run::gauges::{GaugeSummary, Level};
-use crate::run::linear_waves::PistonWave;
+use crate::run::summary::gauges::{GaugeSummary, Level};
+use crate::run::summary::linear_waves::PistonWave;
 use shared::scene::{BlockKind, MotionSpec, Scene};
 use std::collections::BTreeMap;
 use std::f64::consts::TAU;
@@ -212,7 +212,7 @@ mod tests {
 
     #[test]
     fn the_wave_maker_scene_is_summarised_at_its_flat_gauges_only() {
-        let text = include_str!("../../../scenes/wave_maker.toml");
+        let text = include_str!("../../../../scenes/wave_maker.toml");
         let scene = shared::scene::Scene::parse(text, "wave_maker").unwrap();
         let wave = PistonWave::new(0.2, 3.0, 1.0, 9.81);
         // Every gauge records linear theory's wave arriving at c_g; a beach gauge too.
