@@ -5,9 +5,10 @@
 //! The error of a resolution is estimated the Richardson way, from the change to the next finer
 //! run: |Z_N − Z_2N| ≈ C N^−p (1 − 2^−p), so e(N) = |Z_N − Z_2N| / (1 − 2^−p). It is the error
 //! against the converged solution of the same equations; what the method misses of the
-//! experiment (gate, bed friction: WCSPH runs 5–15 % ahead of Martin & Moyce 1952, see
-//! docs/REFERENCES.md §1.2) no resolution removes, and the chart reports it separately. The fit goes into `docs/charts/fluid_convergence.csv` (committed,
-//! and compiled into the coupler), so a run picks dx from a measured curve, not a guess.
+//! experiment (gate, bed friction: WCSPH runs ahead of Martin & Moyce 1952, see
+//! docs/REFERENCES.md §1.2) no resolution removes, and the chart reports it separately. The fit
+//! goes into `docs/charts/fluid_convergence.csv` (committed, and compiled into the coupler), so
+//! a run picks dx from a measured curve, not a guess.
 
 use shared::scene::{Scene, ShapeSpec};
 

@@ -2,9 +2,8 @@
 //! the refusal of a scene that cannot fit in this machine's memory (naming `fluid.dx`).
 //!
 //! The memory figure is measured, not derived: the fluid node's peak resident set (VmHWM) on the
-//! sliding wedge at dx = 0.02 m was 138 MB for 191 520 water particles and about 238 000
-//! estimated boundary particles (below), i.e. about [`BYTES_PER_PARTICLE`] per particle, over a
-//! base of about 25 MB (the same scene at dx = 0.04 m).
+//! sliding wedge at dx = 0.02 m over its water and estimated boundary particles (below) gives
+//! [`BYTES_PER_PARTICLE`], over a base of [`BASE_BYTES`] (the same scene at dx = 0.04 m).
 
 use shared::geometry::Polyhedron;
 use shared::scene::{BlockKind, FieldError, Scene, Walls};
@@ -14,8 +13,8 @@ use shared::terrain::Terrain;
 pub const BYTES_PER_PARTICLE: f64 = 320.0;
 /// Peak resident bytes of the fluid node with no particles.
 pub const BASE_BYTES: f64 = 25e6;
-/// Bytes of one particle in one ASCII VTK frame (particles_NNNNN.vtp at dx = 0.02: 15.8 MB for
-/// 191 520 particles).
+/// Bytes of one particle in one ASCII VTK frame (a particles_NNNNN.vtp of the sliding wedge at
+/// dx = 0.02 m over its particles).
 pub const VTK_BYTES_PER_PARTICLE: f64 = 83.0;
 /// Bytes of one particle in one binary VTK frame, exactly: position, velocity (3 × 8), density,
 /// pressure (8 each), connectivity and offset (Int64, 8 each).
@@ -263,15 +262,16 @@ mod tests {
         assert_eq!(check(&s, Some(8e9)).len(), 1);
     }
 
-    /// Example 1 with DFSPH took 4 001 steps of its 10 ms limit (docs/PERFORMANCE.md); the
-    /// sound-speed estimate said 68 000.
+    /// Example 1 with DFSPH steps at its 10 ms limit, the flow's step, not the sound speed's
+    /// (docs/journal/2026-11-performance.md "Example 1 runs DFSPH by default: the wave maker
+    /// against linear theory").
     #[test]
     fn dfsph_steps_are_estimated_on_the_flow_not_the_sound_speed() {
         let text = include_str!("../../../scenes/wave_maker.toml");
         let mut s = Scene::parse(text, "wave_maker").unwrap();
         let e = estimate(&s, None).unwrap();
         assert!((e.steps - 4_000.0).abs() < 1.0, "{e:?}");
-        // `coupler run --fluid-solver wcsph`: WCSPH took 69 280 steps of 0.58 ms.
+        // `coupler run --fluid-solver wcsph`: WCSPH steps by the sound speed.
         let e = estimate(&s, Some("wcsph")).unwrap();
         assert!((60_000.0..80_000.0).contains(&e.steps), "{e:?}");
         s.fluid.as_mut().unwrap().solver = "wcsph".into();

@@ -1,22 +1,22 @@
 //! `coupler spread`: how far a scene's gauge crests move when knobs that are not physics turn.
 //!
-//! A crest is one number read off one run; whether it is a property of the flow or of the run
-//! is a question only more runs answer. `coupler spread` runs the scene once as written (the
-//! *base*) and once per value of each `--vary KEY=V1,V2,…` (one knob at a time, every other
-//! setting as the scene has it, after any `--set KEY=VALUE` that every run takes): an
-//! artificial viscosity, a sound speed, a step, a solver tolerance. For each gauge it tables the base run's crest, the members' median, lowest and
-//! highest, and where the base run falls among them; with `--against DIR` (another spread's
-//! directory, e.g. the same scene under another solver) each gauge's median against that
-//! spread's median and range. Crests are read off `gauges.csv` as `coupler run`'s summary reads
-//! them (the surface column, not `<name>_spray`; height above the gauge's first reading, the
-//! still water), within `--window GAUGE=T0:T1` where one is given.
+//! A crest is one number read off one run; whether it is a property of the flow or of the run is a
+//! question only more runs answer. `coupler spread` runs the scene once as written (the *base*) and
+//! once per value of each `--vary KEY=V1,V2,…` (one knob at a time, every other setting as the
+//! scene has it, after any `--set KEY=VALUE` that every run takes): an artificial viscosity, a
+//! sound speed, a step, a solver tolerance. For each gauge it tables the base run's crest, the
+//! members' median, lowest and highest, and where the base run falls among them; with `--against
+//! DIR` (another spread's directory, e.g. the same scene under another solver) each gauge's median
+//! against that spread's median and range. Crests are read off `gauges.csv` as `coupler run`'s
+//! summary reads them (the surface column, not `<name>_spray`; height above the gauge's first
+//! reading, the still water), within `--window GAUGE=T0:T1` where one is given.
 //!
-//! Every member is a real `coupler run` of its own (its own nodes, shared memory and run
-//! directory, [`crate::studies::runner`]); its scene is the base scene's TOML with one key set, written
-//! beside its run directory, so each member can be rerun alone. All member scenes are checked
-//! before the first run starts: a misspelt key is named at once, not after an hour of runs.
-//! A member that stops (unstable, failed) is tabled with its status and left out of the
-//! statistics; a crest whose window the run did not reach is left empty.
+//! Every member is a real `coupler run` of its own (its own nodes, shared memory and run directory,
+//! [`crate::studies::runner`]); its scene is the base scene's TOML with one key set, written beside
+//! its run directory, so each member can be rerun alone. All member scenes are checked before the
+//! first run starts: a misspelt key is named at once, not after an hour of runs. A member that
+//! stops (unstable, failed) is tabled with its status and left out of the statistics; a crest whose
+//! window the run did not reach is left empty.
 
 use crate::studies::runner::{self, RunOutcome, Table};
 use clap::Args;

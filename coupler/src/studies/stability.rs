@@ -115,8 +115,7 @@ const SUBSTEPS: u32 = 8;
 /// the solve). WCSPH under both schemes, single-rate and sub-cycled (its own step binds, so
 /// sub-cycling changes nothing: the row says so); DFSPH single-rate and sub-cycled, where the
 /// fluid's longer step sets the coupling step and the solid sub-cycles, first with the blocks
-/// held over DFSPH's step (`blocks_in_solve = false`, as those rows were first measured), then
-/// moved in its solve (its default).
+/// held over DFSPH's step (`blocks_in_solve = false`), then moved in its solve (its default).
 const COUPLED_DT_ROWS: [(&str, CouplingScheme, u32, bool); 7] = [
     ("wcsph", CouplingScheme::Parallel, 1, false),
     ("wcsph", CouplingScheme::Serial, 1, false),
