@@ -1,6 +1,9 @@
-//! One coupled run, as `coupler run`, `check` and `clean` do it: the scene and its checks,
-//! the node processes and the run lock, the session that steps them, checkpoints, and the run
-//! directory with its summary (gauges, run-up, wave maker) and POV-Ray frames.
+//! One coupled run, as `coupler run`, `check` and `clean` do it. Read `coupler run` from
+//! `command.rs` (the run in order), with `resume.rs` and `settings.rs` (the scene, its overrides
+//! and the flags), `lock.rs` and `launch.rs` (the run id, the node processes), `output.rs` (the
+//! run directory), `session/` (the coupled steps), `checkpoint.rs`, and `summary/`
+//! (`summary.json`). `scenes.rs`, `sizes.rs`, `slides.rs` and `resolution.rs` check and size a
+//! scene; `povray.rs` renders a run directory.
 //!
 //! Nothing here uses [`crate::studies`]: the studies are built on runs, not the other way.
 
