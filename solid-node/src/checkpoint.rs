@@ -7,15 +7,15 @@
 //! history (shear spring, open–close state, normal force) and the previous step's contacts they
 //! carry over from, the broad phase's sort order (sweep and prune starts from it), the loads
 //! read for the coming step and the last contact forces. Then the integrator's own history
-//! ([`crate::integrator::Integrator::save`]), the energy monitor and where `blocks.csv` is in
+//! ([`crate::integrators::Integrator::save`]), the energy monitor and where `blocks.csv` is in
 //! its sampling. Not saved: what never changes after set-up (shapes, masses, materials,
 //! prescribed motions), built again from the scene.
 
-use crate::block::Block;
-use crate::broad_phase::BroadPhase;
+use crate::blocks::block::Block;
+use crate::blocks::elastic::Elastic;
 use crate::contact::Contact;
-use crate::elastic::Elastic;
-use crate::energy::EnergyMonitor;
+use crate::contact::broad_phase::BroadPhase;
+use crate::integrators::energy::EnergyMonitor;
 use crate::world::World;
 use shared::math::{Point, Real, Rotation, Vector};
 use shared::strain::Strain;

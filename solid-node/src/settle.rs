@@ -16,9 +16,9 @@
 //! The settled poses differ from the scene's by the springs' elastic deflection (μm for the
 //! default contact stiffness). Deterministic: a fixed sequence of steps from the scene.
 
-use crate::block::Block;
-use crate::energy::EnergyMonitor;
-use crate::integrator::Integrator;
+use crate::blocks::block::Block;
+use crate::integrators::Integrator;
+use crate::integrators::energy::EnergyMonitor;
 use crate::world::World;
 use shared::math::{Real, Vector};
 use shared::scene::BlockKind;

@@ -1,14 +1,14 @@
 //! The block system both integrators advance: blocks, contacts, loads and the checks that end a
 //! run when the method has gone wrong.
 
-use crate::block::Block;
-use crate::broad_phase::BroadPhase;
+use crate::blocks::block::Block;
+use crate::contact::broad_phase::BroadPhase;
+use crate::contact::friction::Joint;
+use crate::contact::joints::SlideJoints;
+use crate::contact::narrow_phase::{self, NarrowParams};
+use crate::contact::springs::PenaltyModel;
+use crate::contact::terrain::{self as terrain_contact, TerrainBody};
 use crate::contact::{self, Contact};
-use crate::friction::Joint;
-use crate::joints::SlideJoints;
-use crate::narrow_phase::{self, NarrowParams};
-use crate::penalty::PenaltyModel;
-use crate::terrain_contact::{self, TerrainBody};
 use rayon::prelude::*;
 use shared::math::{Point, Real, Vector};
 use shared::scene::{ContactSpec, Scene};

@@ -21,7 +21,7 @@
 //! steps, nothing of them kept. The fluid waits for the response, so its core is free: trials
 //! 1, 3 and 5 run on a copy of the block system on the second thread (`rayon::join`), beside
 //! 0, 2, 4 and 6; each starts from the same state, so the split changes no bit. Trial steps
-//! skip the explicit scheme's ω_max estimate ([`crate::integrator::Integrator::begin_trial`]),
+//! skip the explicit scheme's ω_max estimate ([`crate::integrators::Integrator::begin_trial`]),
 //! which only sizes and reports the kept steps. In a cut rock mass of 27 blocks
 //! (scenes/jointed_slide.toml under DFSPH) the two took the solid's compute from 59 to 28 s.
 //! All free rigid blocks are perturbed together (a block's response to its neighbours' loads
@@ -30,9 +30,9 @@
 //! deformable blocks always are (their strains are not in a fluid's rigid motion).
 
 use super::{DdaSolver, decode_into};
-use crate::block::Block;
-use crate::energy::EnergyMonitor;
-use crate::integrator::Integrator;
+use crate::blocks::block::Block;
+use crate::integrators::Integrator;
+use crate::integrators::energy::EnergyMonitor;
 use crate::world::World;
 use shared::math::{Matrix6, Point, Real, Rotation, Vector6};
 use shared::solver::SolverError;

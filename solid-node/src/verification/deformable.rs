@@ -6,7 +6,7 @@
 //!   εz with −m g H/2 through T_eᵀ; gravity, uniform, loads no strain; V D e balances it.)
 //! - free vibration of a cube in space from an initial strain: the constant-strain modes have
 //!   ω = sqrt(24 μ/ρ)/L (shear and deviatoric) and sqrt(36 K/ρ)/L (volumetric), from
-//!   M_e = ρ V L²/12 (normal), ρ V L²/24 (shear) and V·D ([`crate::elastic::cube_frequencies`]).
+//!   M_e = ρ V L²/12 (normal), ρ V L²/24 (shear) and V·D ([`crate::blocks::elastic::cube_frequencies`]).
 //!   Central difference keeps the amplitude and its period is 2π Δt/θ, cos θ = 1 − Ω²/2;
 //!   Shi's Newmark (β = ½, γ = 1) multiplies the amplitude by ρ = (1 + Ω²/2)^(−½) per step and
 //!   turns the phase by θ, cos θ = (1 + (1 − Ω²)/(1 + Ω²/2))/(2ρ) (the same formula as the
@@ -18,7 +18,7 @@
 use super::{
     EXPLICIT, Harness, Incline, Row, Tolerance, block_toml, box_corners, floor_toml, scene,
 };
-use crate::elastic::cube_frequencies;
+use crate::blocks::elastic::cube_frequencies;
 use shared::math::Real;
 use shared::solver::{Solver, SolverError};
 use shared::strain::Strain;

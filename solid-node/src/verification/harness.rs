@@ -74,7 +74,7 @@ impl Harness {
         Ok(())
     }
 
-    pub fn block(&self, name: &str) -> &crate::block::Block {
+    pub fn block(&self, name: &str) -> &crate::blocks::block::Block {
         let i = self.solver.block_index(name).expect("block exists");
         &self.solver.world.blocks[i]
     }

@@ -288,7 +288,7 @@ pub fn jointed_distance(
 pub const JOINTED_DURATION: Real = 0.6;
 
 /// The planar, hanging and wedge rows of one solver (both model the bonds and their breaking:
-/// the explicit one in [`crate::penalty`], the implicit one in its open–close iterations).
+/// the explicit one in [`crate::contact::springs`], the implicit one in its open–close iterations).
 pub fn jointed_rows(solver: &str) -> Vec<Row> {
     let planar = |fs| Planar {
         psi: 35.0,

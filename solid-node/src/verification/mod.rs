@@ -27,7 +27,7 @@ pub use shared::report::{Row, Tolerance, markdown};
 /// The central difference scheme's registry name: the cases whose reference is that scheme's
 /// own (its limit 2/ω_max, paper Eq. 8; its restitution and period) choose by it.
 pub const EXPLICIT: &str =
-    <crate::explicit::CentralDifference as crate::integrator::DdaMethod>::NAME;
+    <crate::integrators::explicit::CentralDifference as crate::integrators::DdaMethod>::NAME;
 
 mod contact;
 pub mod deformable;

@@ -270,7 +270,7 @@ pub const MESA_SOFT_STIFFNESS: Real = 1e5;
 /// crossings. With the scene's stiff contacts it drops less than 1 mm (the springs'
 /// deflection); with soft ones ([`MESA_SOFT_STIFFNESS`]) it sinks what the eight springs in
 /// parallel give under its weight, W/(8k), within 3 %. Before the ridges' wedge depth
-/// (terrain_contact.rs) the soft cube sank 88 mm onto its corners.
+/// (contact/terrain.rs) the soft cube sank 88 mm onto its corners.
 pub fn mesa_rows(solver: &str) -> Vec<Row> {
     let weight = 2500.0 * (2.0 * MESA.1).powi(3) * G;
     let mut rows = mesa_case_rows(
@@ -352,7 +352,7 @@ pub const RIM_INSET: Real = 5e-4;
 /// ([`MESA_SOFT_STIFFNESS`]), so that its weight presses each corner W/(4k) = 1.65 mm in.
 /// Pressed past RIM_INSET/(√2 − 1) = 1.2 mm, the rim corners' nearest surface point is on the
 /// 45° flank; a contact that followed it pushed them outward along the flank's normal. They
-/// keep the top's triangle they entered by (DDA's reference face, terrain_contact.rs), so the
+/// keep the top's triangle they entered by (DDA's reference face, contact/terrain.rs), so the
 /// slab sinks level and stays in place. Returns the drop of the centroid, the tilt [rad] and
 /// the horizontal drift [m] after `duration`.
 pub fn slab_at_mesa_rim(solver: &str, duration: Real) -> Result<(Real, Real, Real), SolverError> {

@@ -10,7 +10,7 @@ use shared::math::{Real, Vector};
 use shared::scene::ContactSpec;
 
 /// Friction angle and cohesion of one pair of blocks, and for two blocks cut from one slide
-/// across a joint plane, that joint's tensile strength and bond ([`crate::joints`]).
+/// across a joint plane, that joint's tensile strength and bond ([`crate::contact::joints`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Joint {
     pub tan_phi: Real,

@@ -4,8 +4,8 @@
 mod look_ahead;
 
 use crate::checkpoint::SolidState;
-use crate::energy::EnergyMonitor;
-use crate::integrator::Integrator;
+use crate::integrators::Integrator;
+use crate::integrators::energy::EnergyMonitor;
 use crate::output::{self, KinematicsCsv};
 use crate::world::World;
 use shared::math::{Real, Vector};

@@ -9,9 +9,9 @@
 //! being convex, the feature tests below are exact and cheap (plane distances, segment
 //! clipping).
 
-use crate::block::Block;
+use crate::blocks::block::Block;
+use crate::contact::friction::Joint;
 use crate::contact::{self, Contact, ContactKey, Feature};
-use crate::friction::Joint;
 use shared::math::{Point, Real, Vector};
 
 /// How the narrow phase treats history.

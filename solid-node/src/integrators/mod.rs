@@ -1,7 +1,20 @@
-//! What a time integration scheme does with the block system: the seam between the shared
-//! DDA machinery (blocks, contacts, loads) and the explicit or implicit update.
+//! The time integrators: the seam between the shared DDA machinery (blocks, contacts, loads) and
+//! one scheme's update, and what the schemes share.
+//!
+//! - here: [`DdaMethod`] (a scheme as the registry lists it) and [`Integrator`] (what it does with
+//!   the block system);
+//! - [`explicit`]: central differences (paper Eqs. 5–8); [`implicit`]: Shi's Newmark β = ½,
+//!   γ = 1 with open–close iterations (paper Eq. 4);
+//! - [`linear_system`]: the block-sparse system of the implicit scheme;
+//! - [`stability`]: the explicit limit 2/ω_max; [`energy`]: the detection of instability.
 
-use crate::energy::EnergyMonitor;
+pub mod energy;
+pub mod explicit;
+pub mod implicit;
+pub mod linear_system;
+pub mod stability;
+
+use crate::integrators::energy::EnergyMonitor;
 use crate::world::World;
 use shared::math::Real;
 use shared::registry::SolverParams;

@@ -5,12 +5,12 @@
 //! which the lightest free block, resting on one contact, sinks `[solid.contact].allowed_penetration`
 //! (ε, default 1e-4) times its own size under its own weight, `k_n = m g / (ε L)`. Its contact frequency is then
 //! `sqrt(k_n/m) = sqrt(g/(ε L))`, independent of the rock density, and the explicit step
-//! 2/ω_max follows from it (see [`crate::stability`]). Heavier blocks sink proportionally more
+//! 2/ω_max follows from it (see [`crate::integrators::stability`]). Heavier blocks sink proportionally more
 //! (still ≪ their size for piles of a few hundred blocks). With no gravity, 9.81 m/s² is used.
 
-use crate::block::Block;
+use crate::blocks::block::Block;
+use crate::contact::friction::{self, Joint};
 use crate::contact::{Contact, ContactState};
-use crate::friction::{self, Joint};
 use shared::math::{Real, Vector};
 use shared::scene::ContactSpec;
 
@@ -112,7 +112,7 @@ impl PenaltyModel {
     /// material displacement of the contact point over the last step, then clamped to the
     /// Mohr–Coulomb envelope. Sets `state`, `shear`, `normal_force` and `force` (on `p`).
     ///
-    /// A bonded slide joint ([`crate::joints`]) also carries tension, up to `T · A`, and
+    /// A bonded slide joint ([`crate::contact::joints`]) also carries tension, up to `T · A`, and
     /// breaks for good when the tension or the shear passes its limit; the step it breaks,
     /// the shear is clamped to the residual envelope `N tan φ`.
     pub fn update_explicit(&self, c: &mut Contact, p: &Block, q: &Block) {
