@@ -20,6 +20,7 @@ pub mod narrow_phase;
 pub mod springs;
 pub mod terrain;
 
+use friction::{ContactState, Joint};
 use shared::math::{Point, Real, Vector};
 
 /// What touches what. For the pair (a, b) with a < b:
@@ -45,18 +46,6 @@ pub struct ContactKey {
     pub feature: Feature,
     pub i: u32,
     pub j: u32,
-}
-
-/// The three Mohr–Coulomb states of DDA's open–close logic (Shi 1993).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-pub enum ContactState {
-    /// Not touching: no spring.
-    #[default]
-    Open,
-    /// Touching, shear below the Mohr–Coulomb limit: normal and shear springs.
-    Locked,
-    /// Touching, shear at the limit: normal spring, friction force c·A + N·tan φ along the slip.
-    Sliding,
 }
 
 /// One vertex–face or edge–edge contact.
@@ -152,12 +141,7 @@ impl Contact {
     /// joint's tension and its share of the joint's area; a broken (or never bonded) contact
     /// of a bonded pair keeps the residual friction only.
     #[inline]
-    pub fn apply_joint(
-        &mut self,
-        joint: &crate::contact::friction::Joint,
-        fresh: bool,
-        at_start: bool,
-    ) {
+    pub fn apply_joint(&mut self, joint: &Joint, fresh: bool, at_start: bool) {
         if fresh && at_start {
             self.bonded = joint.bonded;
         }

@@ -9,8 +9,8 @@
 //! (still ≪ their size for piles of a few hundred blocks). With no gravity, 9.81 m/s² is used.
 
 use crate::blocks::block::Block;
-use crate::contact::friction::{self, Joint};
-use crate::contact::{Contact, ContactState};
+use crate::contact::Contact;
+use crate::contact::friction::{self, ContactState, Joint};
 use shared::math::{Real, Vector};
 use shared::scene::ContactSpec;
 

@@ -38,9 +38,9 @@
 //! (solving to zero) for its rigid blocks.
 
 use crate::blocks::block::Block;
-use crate::contact::friction::Joint;
+use crate::contact::friction::{ContactState, Joint};
 use crate::contact::springs::PenaltyModel;
-use crate::contact::{Contact, ContactState, tangents};
+use crate::contact::{Contact, tangents};
 use crate::integrators::energy::EnergyMonitor;
 use crate::integrators::linear_system::{BlockMat, BlockSystem, BlockVec, SolveError};
 use crate::integrators::stability;
