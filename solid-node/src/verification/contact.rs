@@ -1,7 +1,12 @@
 //! Contact springs against theory: bounce restitution (exact 1 for central difference,
 //! exp(−πΩ/4) for Shi's Newmark), the explicit stability limit 2/ω, a stack at rest.
 
-use super::*;
+use super::harness::{EXPLICIT, Harness};
+use super::scenes::{G, block_toml, box_corners, floor_toml, scene};
+use shared::math::Real;
+use shared::report::{Row, Tolerance};
+use shared::solver::{Solver, SolverError};
+use std::f64::consts::PI;
 
 /// An undamped bounce: a 0.2 × 0.2 × 0.4 m block (40 kg) moving at 1 m/s onto a fixed floor
 /// with no gravity, four corner springs k_n = 10⁶ N/m and no shear springs, so that the

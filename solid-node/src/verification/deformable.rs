@@ -15,11 +15,12 @@
 //!   unstable, naming the elastic mode, at 2.5.
 //! - rigid against stiff deformable on the sliding incline: the same distance.
 
-use super::{
-    EXPLICIT, Harness, Incline, Row, Tolerance, block_toml, box_corners, floor_toml, scene,
-};
+use super::harness::{EXPLICIT, Harness};
+use super::incline::Incline;
+use super::scenes::{block_toml, box_corners, floor_toml, scene};
 use crate::blocks::elastic::cube_frequencies;
 use shared::math::Real;
+use shared::report::{Row, Tolerance};
 use shared::solver::{Solver, SolverError};
 use shared::strain::Strain;
 use std::f64::consts::PI;
@@ -340,7 +341,7 @@ pub fn elastic_limit(omega_dt: Real, steps: usize) -> Result<Real, SolverError> 
 }
 
 pub fn elastic_limit_rows() -> Vec<Row> {
-    let mut rows = super::limit_rows(
+    let mut rows = super::contact::limit_rows(
         (
             "deformable cube, volumetric mode, ω_elastic·Δt = 1.8, 400 steps",
             elastic_limit(1.8, 400),

@@ -11,23 +11,7 @@
 //! Every case drives the solver through the [`SolidSolver`] interface, as the node runtime
 //! does, with the run directory in a temporary folder.
 
-use crate::dda::DdaSolver;
-use crate::world::World;
-use shared::math::{Real, Vector};
-use shared::scene::{CouplingScheme, Scene};
-use shared::solver::{SetupContext, Solver, SolverError};
-use shared::step::{StepRule, grant};
-use std::f64::consts::PI;
-use std::path::PathBuf;
-
-const G: Real = shared::math::STANDARD_GRAVITY;
-
 pub use shared::report::{Row, Tolerance, markdown};
-
-/// The central difference scheme's registry name: the cases whose reference is that scheme's
-/// own (its limit 2/ω_max, paper Eq. 8; its restitution and period) choose by it.
-pub const EXPLICIT: &str =
-    <crate::integrators::explicit::CentralDifference as crate::integrators::DdaMethod>::NAME;
 
 mod contact;
 pub mod deformable;

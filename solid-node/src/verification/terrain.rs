@@ -3,8 +3,15 @@
 //! Mohr–Coulomb reference and tolerances; and a block set down on a small terrain bump, which
 //! must tip onto it and stay.
 
-use super::*;
+use super::harness::Harness;
+use super::incline::{INCLINE_DAMPING, Incline};
+use super::scenes::{G, block_toml, box_corners, rotate_y, scene};
+use shared::math::Real;
+use shared::report::{Row, Tolerance};
+use shared::scene::Scene;
+use shared::solver::SolverError;
 use shared::terrain::dem::Grid;
+use std::path::PathBuf;
 
 /// A scratch folder for the terrain files of a case (removed on drop).
 struct Files(tempfile::TempDir);
