@@ -7,9 +7,9 @@
 //! inertia and the rest of its forces. Taken on their own, at their last value, those say
 //! nothing of a contact: a block resting on the floor answers the water as if free, while the
 //! solid's contact spring, sub-cycled within the coupling step, answers the same force within
-//! it. The water then cancels the last contact force and the contact re-closes inside the step
-//! (the default scene's wedge at rest under DFSPH at 2 ms: its contact opened and closed at
-//! 70 Hz, 0 to 2.4 block weights, docs/PERFORMANCE.md). The solid's own step, linearised in the
+//! it. The water then cancels the last contact force and the contact re-closes inside the step,
+//! so a resting block's contact opens and closes from step to step (docs/journal/
+//! 2026-11-performance.md "The solid looks ahead"). The solid's own step, linearised in the
 //! water's load, is what a fluid needs instead: the interface Jacobian of quasi-Newton
 //! partitioned coupling (Degroote, Bathe & Vierendeels 2009), here of a rigid block's six
 //! degrees of freedom, by finite differences.
@@ -22,9 +22,8 @@
 //! 1, 3 and 5 run on a copy of the block system on the second thread (`rayon::join`), beside
 //! 0, 2, 4 and 6; each starts from the same state, so the split changes no bit. Trial steps
 //! skip the explicit scheme's ω_max estimate ([`crate::integrators::Integrator::begin_trial`]),
-//! which only sizes and reports the kept steps. In a cut rock mass of 27 blocks
-//! (scenes/jointed_slide.toml under DFSPH) the two took the solid's compute from 59 to 28 s.
-//! All free rigid blocks are perturbed together (a block's response to its neighbours' loads
+//! which only sizes and reports the kept steps: in a cut rock mass, where every block touches its
+//! neighbours face to face, the trials are most of the solid's work. All free rigid blocks are perturbed together (a block's response to its neighbours' loads
 //! is left out). The mean velocities over a trial (displacement over Δt) give a0 and M. A
 //! trial that fails (a contact past its limit) leaves the blocks on their own for that step;
 //! deformable blocks always are (their strains are not in a fluid's rigid motion).
@@ -37,8 +36,8 @@ use crate::world::World;
 use shared::math::{Matrix6, Point, Real, Rotation, Vector6};
 use shared::solver::SolverError;
 
-/// Relative size of the trial loads: a thousandth of the block's weight moves it by
-/// ~10⁻⁸ m over a 2 ms step, far above rounding and far below a contact's penetration.
+/// Relative size of the trial loads: a thousandth of the block's weight moves it by ½ 10⁻³ g Δt²
+/// over a step, far above rounding and far below a contact's penetration.
 const PERTURBATION: Real = 1e-3;
 
 /// A free block's response over the coming step (module doc).

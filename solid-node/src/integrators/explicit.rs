@@ -93,10 +93,10 @@ pub struct CentralDifference {
     /// instability report names: by the time the energy has grown, the contact configuration
     /// is anything).
     first_excess: Option<(Real, Estimate)>,
-    /// Trial steps ([`Integrator::begin_trial`]): the estimate of ω_max from the contacts is
-    /// not renewed after each (a quarter of a step's cost in a cut rock mass, `solid-bench
-    /// --scene scenes/jointed_slide.toml`); it only sizes the next kept step and names an
-    /// excess, and a trial's state is thrown away. Not saved: a restore ends the trials.
+    /// Trial steps ([`Integrator::begin_trial`]): the estimate of ω_max from the contacts (an
+    /// eigenvalue problem per block in contact, a large part of a step in a cut rock mass) is
+    /// not renewed after each; it only sizes the next kept step and names an excess, and a
+    /// trial's state is thrown away. Not saved: a restore ends the trials.
     #[serde(skip)]
     trial: bool,
 }

@@ -271,8 +271,7 @@ pub const FLUSH_COLUMN_STIFFNESS: Real = 2e5;
 /// of both coincide, each corner has a spring of either block on the other's face, eight in
 /// all, and the joint j boxes from the top carries j weights: Σ_{j<n} j W/(8 k). A contact
 /// that took the flush side face for its reference (depth 0, no force) let each box sink
-/// through the one below (0.90 m, the column's whole height less a box, before
-/// contact/narrow_phase.rs's `over_face`).
+/// through the one below (what contact/narrow_phase.rs's `over_face` prevents).
 pub fn flush_column_sink(solver: &str, n: usize) -> Result<(Real, Real), SolverError> {
     let (a, hgt, density) = (0.4, 0.3, 2500.0);
     let mut blocks = vec![block_toml(

@@ -276,8 +276,8 @@ pub const MESA_SOFT_STIFFNESS: Real = 1e5;
 /// The mesa case as rows: the cube stays on the rim, level and in place, held by its eight edge
 /// crossings. With the scene's stiff contacts it drops less than 1 mm (the springs'
 /// deflection); with soft ones ([`MESA_SOFT_STIFFNESS`]) it sinks what the eight springs in
-/// parallel give under its weight, W/(8k), within 3 %. Before the ridges' wedge depth
-/// (contact/terrain.rs) the soft cube sank 88 mm onto its corners.
+/// parallel give under its weight, W/(8k), within 3 %. Without the ridges' wedge depth
+/// (contact/terrain.rs) the soft cube sinks onto its corners.
 pub fn mesa_rows(solver: &str) -> Vec<Row> {
     let weight = 2500.0 * (2.0 * MESA.1).powi(3) * G;
     let mut rows = mesa_case_rows(
@@ -381,8 +381,8 @@ pub fn slab_at_mesa_rim(solver: &str, duration: Real) -> Result<(Real, Real, Rea
     ))
 }
 
-/// The rim case as rows: the slab sinks W/(4k) (3 %), level and in place (10⁻⁵ rad and m,
-/// against 0.5 mrad and 1.1 mm for a contact that took the nearest surface point).
+/// The rim case as rows: the slab sinks W/(4k) (3 %), level and in place (10⁻⁵ rad and m; a
+/// contact that took the nearest surface point tilts and shifts it far beyond that).
 pub fn rim_rows(solver: &str) -> Vec<Row> {
     let case = "slab with two corners 0.5 mm inside a mesa's rim, soft contacts pressed in";
     let weight = 2500.0 * 0.3 * 0.3 * 0.3 * G;
