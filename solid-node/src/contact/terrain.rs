@@ -3,7 +3,7 @@
 //!
 //! The terrain enters the block system as one fixed [`Block`] whose shape is its bounding box:
 //! the broad phase pairs it with the free blocks over it like any fixed block, and everything
-//! downstream of the narrow phase (springs, Mohr–Coulomb, both integrators, the stability
+//! downstream of the narrow phase (springs, Mohr–Coulomb, every integrator, the stability
 //! bound) sees ordinary contacts whose face owner is a fixed block. Only the narrow phase
 //! differs (here), with DDA's feature pairs kept so the shear history follows them:
 //!

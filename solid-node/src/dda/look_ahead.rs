@@ -21,8 +21,8 @@
 //! steps, nothing of them kept. The fluid waits for the response, so its core is free: trials
 //! 1, 3 and 5 run on a copy of the block system on the second thread (`rayon::join`), beside
 //! 0, 2, 4 and 6; each starts from the same state, so the split changes no bit. Trial steps
-//! skip the explicit scheme's ω_max estimate ([`crate::integrators::Integrator::begin_trial`]),
-//! which only sizes and reports the kept steps: in a cut rock mass, where every block touches its
+//! may skip what only sizes and reports the kept steps
+//! ([`crate::integrators::Integrator::begin_trial`]): in a cut rock mass, where every block touches its
 //! neighbours face to face, the trials are most of the solid's work. All free rigid blocks are perturbed together (a block's response to its neighbours' loads
 //! is left out). The mean velocities over a trial (displacement over Δt) give a0 and M. A
 //! trial that fails (a contact past its limit) leaves the blocks on their own for that step;

@@ -177,7 +177,7 @@ impl Integrator for CentralDifference {
         self.half_rate = world.blocks.iter().map(|b| b.strain_rate()).collect();
         self.dt_prev = 0.0;
         self.first_excess = None;
-        world.update_contact_forces_explicit();
+        world.update_contact_forces();
         self.floor = stability::resting_floor(world);
         self.now = stability::current(world, &mut self.scratch);
     }
@@ -261,7 +261,7 @@ impl Integrator for CentralDifference {
         world.check_state(self.name())?;
 
         world.detect(world.penalty.margin);
-        world.update_contact_forces_explicit();
+        world.update_contact_forces();
         let mut work_end = 0.0;
         for &i in &world.moving {
             let b = &world.blocks[i];

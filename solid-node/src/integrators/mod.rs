@@ -71,7 +71,7 @@
 //!
 //!     fn init(&mut self, world: &mut World) {
 //!         // Contacts are detected at t = 0; their forces are the scheme's to evaluate.
-//!         world.update_contact_forces_explicit();
+//!         world.update_contact_forces();
 //!     }
 //!
 //!     fn advance(
@@ -95,7 +95,7 @@
 //!         energy.add_work(work);
 //!         world.check_state(self.name())?;
 //!         world.detect(world.penalty.margin);
-//!         world.update_contact_forces_explicit();
+//!         world.update_contact_forces();
 //!         energy.check(world, self.name(), || 0.0, || "reduce [solid.euler] fraction".into())?;
 //!         Ok(StepReport::default())
 //!     }

@@ -12,6 +12,12 @@ use shared::step::{StepRule, grant};
 pub const EXPLICIT: &str =
     <crate::integrators::explicit::CentralDifference as crate::integrators::DdaMethod>::NAME;
 
+/// Shi's implicit scheme's registry name: for the studies of its own numerical damping (its
+/// restitution against [`super::newmark_restitution`], paper Eq. 4), as [`EXPLICIT`] is for
+/// the central difference's.
+pub const IMPLICIT: &str =
+    <crate::integrators::implicit::Implicit as crate::integrators::DdaMethod>::NAME;
+
 /// A solver with its own temporary run directory (removed on drop).
 pub struct Harness {
     pub solver: DdaSolver,

@@ -30,7 +30,7 @@ pub use motion::*;
 pub use scenes::*;
 pub use terrain::*;
 
-/// All cases for both solvers (`quick` shortens the stack run to 3 s).
+/// All cases for every solver of the registry (`quick` shortens the stack run to 3 s).
 pub fn run_all(quick: bool) -> Vec<Row> {
     let mut rows = Vec::new();
     let solvers = crate::REGISTRY.names();
