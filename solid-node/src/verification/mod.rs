@@ -8,8 +8,8 @@
 //! (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints them as a table; the tests
 //! run the same functions.
 //!
-//! Every case drives the solver through the [`SolidSolver`] interface, as the node runtime
-//! does, with the run directory in a temporary folder.
+//! Every case drives the solver through the [`SolidSolver`](shared::solver::SolidSolver)
+//! interface, as the node runtime does, with the run directory in a temporary folder.
 
 pub use shared::report::{Row, Tolerance, markdown};
 

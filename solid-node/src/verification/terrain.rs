@@ -95,7 +95,8 @@ pub fn incline_on_terrain_scene(inc: &Incline, cell: Real, dir: &std::path::Path
 }
 
 /// The sliding and sticking incline cases on a terrain mesh of 0.5 m triangles (2 × 48² of
-/// them): d(1 s) against ½[g(sin α − cos α tan φ) − cA/m]t², the tolerances of [`incline_rows`].
+/// them): d(1 s) against ½[g(sin α − cos α tan φ) − cA/m]t², the tolerances of
+/// [`incline_rows`](super::incline_rows).
 pub fn incline_on_terrain_rows(solver: &str) -> Vec<Row> {
     let cases = [
         (
