@@ -7,17 +7,19 @@
 //! history (shear spring, open–close state, normal force) and the previous step's contacts they
 //! carry over from, the broad phase's sort order (sweep and prune starts from it), the loads
 //! read for the coming step and the last contact forces. Then the integrator's own history
-//! ([`crate::integrator::Integrator::save`]), the energy monitor and where `blocks.csv` is in
+//! ([`crate::integrators::Integrator::save`]), the energy monitor and where `blocks.csv` is in
 //! its sampling. Not saved: what never changes after set-up (shapes, masses, materials,
 //! prescribed motions), built again from the scene.
 
-use crate::block::Block;
-use crate::broad_phase::BroadPhase;
+use crate::blocks::block::Block;
+use crate::blocks::elastic::Elastic;
 use crate::contact::Contact;
-use crate::elastic::Elastic;
-use crate::energy::EnergyMonitor;
+use crate::contact::broad_phase::BroadPhase;
+use crate::integrators::Integrator;
+use crate::integrators::energy::EnergyMonitor;
 use crate::world::World;
 use shared::math::{Point, Real, Rotation, Vector};
+use shared::solver::SolverError;
 use shared::strain::Strain;
 
 /// The parts of a block that move.
@@ -149,4 +151,37 @@ impl SolidState {
         world.contact_strain = self.contact_strain;
         Ok((self.integrator, self.energy, self.csv))
     }
+}
+
+/// The block system, its integrator and `blocks.csv`'s mark `csv` as a checkpoint has them
+/// ([`SolidState`]), with `extra` after them.
+pub(crate) fn encode<T: serde::Serialize>(
+    world: &mut World,
+    integrator: &dyn Integrator,
+    energy: &EnergyMonitor,
+    csv: (Option<Real>, usize),
+    extra: &T,
+) -> Result<Vec<u8>, SolverError> {
+    let integrator = integrator.save().map_err(SolverError::Failed)?;
+    let state = SolidState::save(world, integrator, energy, csv);
+    let bytes = shared::checkpoint::encode(&(&state, extra)).map_err(SolverError::Failed);
+    state.give_back(world);
+    bytes
+}
+
+/// Restores [`encode`] into any block system of the scene (the solver's, or the look-ahead's
+/// copy); returns its `extra` and `blocks.csv`'s mark.
+pub(crate) fn decode<T: serde::de::DeserializeOwned>(
+    world: &mut World,
+    integrator: &mut dyn Integrator,
+    energy: &mut EnergyMonitor,
+    bytes: &[u8],
+    what: &str,
+) -> Result<(T, (Option<Real>, usize)), SolverError> {
+    let (state, extra): (SolidState, T) =
+        shared::checkpoint::decode(bytes, what).map_err(SolverError::Failed)?;
+    let (saved, monitor, mark) = state.restore(world).map_err(SolverError::Failed)?;
+    integrator.restore(&saved).map_err(SolverError::Failed)?;
+    *energy = monitor;
+    Ok((extra, mark))
 }

@@ -2,60 +2,45 @@
 //! asks, deformable with Shi's constant strain (12 unknowns), after Shi (1993) and the
 //! explicit 3D-DDA of Geraili Mikola & Sitar (the paper, §2).
 //!
-//! - [`block`]: a block's shape, mass properties, pose and world geometry;
-//! - [`elastic`]: the strain state and matrices of a deformable block (co-rotational);
-//! - [`rotation`]: exact rotation updates (no growth of rotating blocks);
-//! - [`broad_phase`], [`narrow_phase`], [`contact`]: finding vertex–face and edge–edge contacts;
-//! - [`terrain_contact`]: blocks against the fixed `[[terrain]]` mesh (BVH queries);
-//! - [`penalty`], [`friction`]: normal and shear springs, Mohr–Coulomb with cohesion;
-//! - [`joints`]: the bonded joints between blocks cut from one `[[slide]]` (tension cut-off,
-//!   residual friction once broken); [`settle`]: their gravity loading before t = 0;
-//! - [`world`]: the block system shared by the integrators;
-//! - [`explicit`] (paper Eqs. 5–8) and [`implicit`] (Shi's Newmark β = ½, γ = 1, paper Eq. 4);
-//! - [`stability`], [`energy`]: the explicit limit 2/ω_max and the detection of instability;
+//! - [`blocks`]: a block's shape, mass properties, pose and world geometry, its strain when
+//!   deformable, and exact rotation updates;
+//! - [`contact`]: finding vertex–face and edge–edge contacts (between blocks and against the
+//!   fixed `[[terrain]]` mesh), the normal and shear springs, Mohr–Coulomb with cohesion, and the
+//!   bonded joints between blocks cut from one `[[slide]]`;
+//! - [`integrators`]: the time integrators ([`integrators::Integrator`], one file each) and what
+//!   they share: the linear system, the explicit limit 2/ω_max and the energy check;
+//! - [`world`]: the block system shared by the integrators; [`settle`]: the slides' gravity
+//!   loading before t = 0;
 //! - [`checkpoint`]: what a checkpoint saves of the block system to continue exactly;
 //! - [`dda`]: the [`shared::solver::SolidSolver`] the node runtime drives, built by a scheme
 //!   of [`REGISTRY`] (read by the node binary, `solid-validate`, `solid-bench` and the
 //!   coupler's sweeps); [`output`]: CSV and VTK files;
 //! - [`verification`]: the cases `solid-validate` runs and the tests reuse.
 
-pub mod block;
-pub mod broad_phase;
+pub mod blocks;
 pub mod checkpoint;
 pub mod contact;
 pub mod dda;
-pub mod elastic;
-pub mod energy;
-pub mod explicit;
-pub mod friction;
-pub mod implicit;
-pub mod integrator;
-pub mod joints;
-pub mod linear_system;
-pub mod narrow_phase;
+pub mod integrators;
 pub mod output;
-pub mod penalty;
-pub mod rotation;
 pub mod settle;
-pub mod stability;
-pub mod terrain_contact;
 pub mod verification;
 pub mod world;
 
 use dda::DdaSolver;
-use integrator::DdaMethod;
+use integrators::DdaMethod;
 use shared::registry::{Entry, Registry, check_params, solver_params};
 use shared::scene::{FieldError, Scene};
 use shared::solver::{SetupContext, SolverError};
 
 /// Every solid solver, by name: add a scheme here with one `entry` line. Each builds the same
-/// [`DdaSolver`] (blocks, contacts, loads, outputs) around its own [`integrator::Integrator`];
+/// [`DdaSolver`] (blocks, contacts, loads, outputs) around its own [`integrators::Integrator`];
 /// its parameters sit in `[solid.<name>]`, the contact physics in `[solid.contact]`.
 pub static REGISTRY: Registry<DdaSolver> = Registry {
     role: "solid",
     entries: &[
-        entry::<explicit::CentralDifference>(),
-        entry::<implicit::Implicit>(),
+        entry::<integrators::explicit::CentralDifference>(),
+        entry::<integrators::implicit::Implicit>(),
     ],
 };
 

@@ -167,7 +167,7 @@ pub fn write_blocks_vtp(
         ("speed", &speed),
         ("contact_force", &contact),
     ];
-    let per_block = |f: &dyn Fn(&crate::elastic::Elastic) -> f64| -> Vec<f64> {
+    let per_block = |f: &dyn Fn(&crate::blocks::elastic::Elastic) -> f64| -> Vec<f64> {
         scene_blocks
             .iter()
             .map(|b| b.elastic.as_ref().map_or(0.0, |e| f(e)))

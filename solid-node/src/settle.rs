@@ -4,21 +4,20 @@
 //! that hold the slope statically. A real slope carries its weight already, so the solid node
 //! first brings the slides' blocks to static equilibrium with every contact held elastic (no
 //! slip, bonds without strength limit: the rock mass in place before it is released), by
-//! dynamic relaxation with kinetic damping: the explicit steps run on, and whenever the
+//! dynamic relaxation with kinetic damping: the integrator's steps run on, and whenever the
 //! slides' kinetic energy falls (the motion has passed through the equilibrium it oscillates
 //! about) their velocities are zeroed. This converges in about as many steps as the slowest
 //! mode's period holds, where Shi's static analysis (velocities zeroed every step, Shi 1988)
-//! needs its square (15 451 steps against 515 for a slide of 22 blocks). Then the
-//! joints' strength and the friction apply from t = 0: a slope past its limit fails at the first step, one within it
-//! stands. Blocks that are not cut from a slide keep their scene state meanwhile (put back
+//! needs its square. Then the joints' strength and the friction apply from t = 0: a slope past
+//! its limit fails at the first step, one within it stands. Blocks that are not cut from a slide keep their scene state meanwhile (put back
 //! after every settling step, so a block given an initial velocity starts with it).
 //!
 //! The settled poses differ from the scene's by the springs' elastic deflection (μm for the
 //! default contact stiffness). Deterministic: a fixed sequence of steps from the scene.
 
-use crate::block::Block;
-use crate::energy::EnergyMonitor;
-use crate::integrator::Integrator;
+use crate::blocks::block::Block;
+use crate::integrators::Integrator;
+use crate::integrators::energy::EnergyMonitor;
 use crate::world::World;
 use shared::math::{Real, Vector};
 use shared::scene::BlockKind;

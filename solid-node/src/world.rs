@@ -1,14 +1,14 @@
-//! The block system both integrators advance: blocks, contacts, loads and the checks that end a
+//! The block system every integrator advances: blocks, contacts, loads and the checks that end a
 //! run when the method has gone wrong.
 
-use crate::block::Block;
-use crate::broad_phase::BroadPhase;
+use crate::blocks::block::Block;
+use crate::contact::broad_phase::BroadPhase;
+use crate::contact::friction::Joint;
+use crate::contact::joints::SlideJoints;
+use crate::contact::narrow_phase::{self, NarrowParams};
+use crate::contact::springs::PenaltyModel;
+use crate::contact::terrain::{self as terrain_contact, TerrainBody};
 use crate::contact::{self, Contact};
-use crate::friction::Joint;
-use crate::joints::SlideJoints;
-use crate::narrow_phase::{self, NarrowParams};
-use crate::penalty::PenaltyModel;
-use crate::terrain_contact::{self, TerrainBody};
 use rayon::prelude::*;
 use shared::math::{Point, Real, Vector};
 use shared::scene::{ContactSpec, Scene};
@@ -48,7 +48,7 @@ pub struct World {
     pub time: Real,
     /// The scene's `[time].dt_max`: the proposal when nothing limits the step.
     pub dt_max: Real,
-    /// The scene's `[time].dt_min`: the implicit scheme gives up below it.
+    /// The scene's `[time].dt_min`: an integrator that cuts its step gives up below it.
     pub dt_min: Real,
     pub broad: BroadPhase,
     /// The bonded joints between blocks cut from one slide.
@@ -216,14 +216,13 @@ impl World {
         self.detected = true;
     }
 
-    /// Explicit penalty forces of all contacts (see [`PenaltyModel::update_explicit`]), summed
+    /// The forces of all contacts at the current configuration (see [`PenaltyModel::update`]), summed
     /// into [`World::contact_force`] / [`World::contact_torque`].
-    pub fn update_contact_forces_explicit(&mut self) {
+    pub fn update_contact_forces(&mut self) {
         let blocks = &self.blocks;
         let penalty = &self.penalty;
-        let work = |c: &mut Contact| {
-            penalty.update_explicit(c, &blocks[c.p as usize], &blocks[c.q as usize])
-        };
+        let work =
+            |c: &mut Contact| penalty.update(c, &blocks[c.p as usize], &blocks[c.q as usize]);
         if self.contacts.len() >= PARALLEL_MIN {
             self.contacts.par_iter_mut().with_min_len(64).for_each(work);
         } else {

@@ -5,7 +5,7 @@ use shared::math::{Matrix, Point, Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::solver::{SolidSolver, Solver};
 use shared::strain::{self, Strain};
-use solid_node::explicit::ExplicitParams;
+use solid_node::integrators::explicit::ExplicitParams;
 use solid_node::verification::{EXPLICIT, Harness, block_toml, box_corners, scene};
 
 const ELASTIC: &str = "elastic = { young_modulus = 5e6, poisson_ratio = 0.25 }";
@@ -94,7 +94,7 @@ fn rigid_explicit_proposal_has_no_elastic_mode() {
     // E = 5e8: ω_elastic = sqrt(36 K/ρ)/L = 4899 rad/s, above sqrt(6k/m) = 155 rad/s.
     let s = cube("elastic = { young_modulus = 5e8, poisson_ratio = 0.25 }");
     let h = Harness::new(&s, "explicit").unwrap();
-    let w_el = solid_node::elastic::cube_frequencies(5e8, 0.25, 2000.0, 0.5).0;
+    let w_el = solid_node::blocks::elastic::cube_frequencies(5e8, 0.25, 2000.0, 0.5).0;
     let soft = h.solver.dt_proposal();
     assert!(soft < rigid, "{soft} vs {rigid}");
     assert!(soft * w_el <= 2.0 * safety_factor(&s) + 1e-12);

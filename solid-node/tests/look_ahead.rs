@@ -52,13 +52,11 @@ fn mean_change(before: &BlockState, after: &BlockState, dt: Real) -> Vector6 {
 
 /// With the water's load changed by a tenth of the block's weight (and a torque) between the
 /// look-ahead and the step, the response predicts the step's mean velocities to 1 % of the
-/// load's effect with the explicit scheme (measured: 10⁻⁸ m/s against 5·10⁻³) and 10 % with
-/// the implicit one (measured 6 %: its open–close iterations are not linear in the load); the
-/// block taken on its own (its mass, its
-/// last forces: what a fluid assumed before) misses by more than ten times that (measured:
-/// by more than the load's effect). On the incline the contact holds the block against the
-/// plane: M along the normal is under half of M along the slope (a free block's M is the same
-/// along both; measured 0.32).
+/// load's effect with the explicit scheme and 10 % with the implicit one (its open–close
+/// iterations are not linear in the load); the block taken on its own (its mass, its last
+/// forces: what a fluid assumed before) misses by more than ten times that. On the incline the
+/// contact holds the block against the plane: M along the normal is under half of M along the
+/// slope (a free block's M is the same along both).
 #[test]
 fn the_response_predicts_the_next_step_under_a_new_load() {
     for solver in solid_node::REGISTRY.names() {

@@ -5,7 +5,7 @@ use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::scene::{CouplingScheme, MotionSpec, Scene, ShapeSpec};
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError};
-use solid_node::explicit::ExplicitParams;
+use solid_node::integrators::explicit::ExplicitParams;
 use solid_node::verification::{EXPLICIT, Harness, block_toml, box_corners, floor_toml, scene};
 
 fn space_scene(extra_blocks: &[String]) -> Scene {

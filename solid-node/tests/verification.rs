@@ -57,7 +57,7 @@ fn stack_stays_at_rest() {
 }
 
 /// Boxes cut by one joint set, flush, pressed several contact margins deep: each holds the
-/// one above on its springs (before narrow_phase.rs's `over_face` the column sank 0.90 m
+/// one above on its springs (without contact/narrow_phase.rs's `over_face` the column sinks
 /// into itself).
 #[test]
 fn flush_column_holds_on_its_springs() {

@@ -1,14 +1,15 @@
-//! `cargo run --release -p solid-node --bin solid-bench`: step cost of both solvers for piles
+//! `cargo run --release -p solid-node --bin solid-bench`: step cost of every solver for piles
 //! of 10, 100 and 1000 blocks (boxes dropped in layers onto a floor, jittered and turned so
 //! that vertex–face and edge–edge contacts both occur). Prints a markdown table.
 //!
 //! Options: `--steps N` timed steps per case (default 200), `--warm N` steps before timing
-//! (default 300), `--sizes 10,100,1000`, `--solvers explicit,implicit` (default: every solver
-//! of `solid_node::REGISTRY`), `--elastic E` to make every block of the pile deformable
+//! (default 300), `--sizes 10,100,1000`, `--solvers A,B` (default: every solver of
+//! `solid_node::REGISTRY`), `--elastic E` to make every block of the pile deformable
 //! (12 unknowns) with Young's modulus E [Pa], ν = 0.25, `--elastic-one E` only the first (the
-//! rest rigid: what a scene with one deformable block costs the implicit scheme, whose blocks
-//! are then all 12×12), `--scene FILE` the blocks of a scene instead of the piles (its solid
-//! alone, dry: a cut rock mass of `[[slide]]`s, say, sliding and breaking up without water).
+//! rest rigid: what a scene with one deformable block costs a scheme with a global matrix,
+//! whose blocks are then all 12×12), `--scene FILE` the blocks of a scene instead of the piles
+//! (its solid alone, dry: a cut rock mass of `[[slide]]`s, say, sliding and breaking up without
+//! water).
 
 use shared::step::StepRule;
 use solid_node::verification::{Harness, block_toml, box_corners, scene};

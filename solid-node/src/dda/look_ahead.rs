@@ -7,9 +7,9 @@
 //! inertia and the rest of its forces. Taken on their own, at their last value, those say
 //! nothing of a contact: a block resting on the floor answers the water as if free, while the
 //! solid's contact spring, sub-cycled within the coupling step, answers the same force within
-//! it. The water then cancels the last contact force and the contact re-closes inside the step
-//! (the default scene's wedge at rest under DFSPH at 2 ms: its contact opened and closed at
-//! 70 Hz, 0 to 2.4 block weights, docs/PERFORMANCE.md). The solid's own step, linearised in the
+//! it. The water then cancels the last contact force and the contact re-closes inside the step,
+//! so a resting block's contact opens and closes from step to step (docs/journal/
+//! 2026-11-performance.md "The solid looks ahead"). The solid's own step, linearised in the
 //! water's load, is what a fluid needs instead: the interface Jacobian of quasi-Newton
 //! partitioned coupling (Degroote, Bathe & Vierendeels 2009), here of a rigid block's six
 //! degrees of freedom, by finite differences.
@@ -21,24 +21,23 @@
 //! steps, nothing of them kept. The fluid waits for the response, so its core is free: trials
 //! 1, 3 and 5 run on a copy of the block system on the second thread (`rayon::join`), beside
 //! 0, 2, 4 and 6; each starts from the same state, so the split changes no bit. Trial steps
-//! skip the explicit scheme's ω_max estimate ([`crate::integrator::Integrator::begin_trial`]),
-//! which only sizes and reports the kept steps. In a cut rock mass of 27 blocks
-//! (scenes/jointed_slide.toml under DFSPH) the two took the solid's compute from 59 to 28 s.
-//! All free rigid blocks are perturbed together (a block's response to its neighbours' loads
+//! may skip what only sizes and reports the kept steps
+//! ([`crate::integrators::Integrator::begin_trial`]): in a cut rock mass, where every block touches its
+//! neighbours face to face, the trials are most of the solid's work. All free rigid blocks are perturbed together (a block's response to its neighbours' loads
 //! is left out). The mean velocities over a trial (displacement over Δt) give a0 and M. A
 //! trial that fails (a contact past its limit) leaves the blocks on their own for that step;
 //! deformable blocks always are (their strains are not in a fluid's rigid motion).
 
-use super::{DdaSolver, decode_into};
-use crate::block::Block;
-use crate::energy::EnergyMonitor;
-use crate::integrator::Integrator;
+use crate::blocks::block::Block;
+use crate::checkpoint;
+use crate::integrators::Integrator;
+use crate::integrators::energy::EnergyMonitor;
 use crate::world::World;
 use shared::math::{Matrix6, Point, Real, Rotation, Vector6};
 use shared::solver::SolverError;
 
-/// Relative size of the trial loads: a thousandth of the block's weight moves it by
-/// ~10⁻⁸ m over a 2 ms step, far above rounding and far below a contact's penetration.
+/// Relative size of the trial loads: a thousandth of the block's weight moves it by ½ 10⁻³ g Δt²
+/// over a step, far above rounding and far below a contact's penetration.
 const PERTURBATION: Real = 1e-3;
 
 /// A free block's response over the coming step (module doc).
@@ -65,110 +64,97 @@ impl Start {
     }
 }
 
-impl DdaSolver {
-    /// Measures each free rigid block's [`Response`] over a step of `dt` in `substeps` with
-    /// the loads held (module doc); `None` clears them (the blocks on their own).
-    pub(super) fn measure_response(
-        &mut self,
-        step: Option<(Real, u32)>,
-    ) -> Result<(), SolverError> {
-        self.response.clear();
-        let Some((dt, substeps)) = step else {
-            return Ok(());
-        };
-        let world = &self.world;
-        let starts: Vec<Start> = world
-            .free
-            .iter()
-            .filter(|&&i| !world.blocks[i].is_deformable())
-            .map(|&i| {
-                let b = &world.blocks[i];
-                let (v, w) = (b.velocity, b.angular_velocity);
-                Start {
-                    block: i,
-                    position: b.position,
-                    rotation: b.rotation,
-                    velocity: Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z),
-                }
-            })
-            .collect();
-        if starts.is_empty() {
-            return Ok(());
-        }
-        let g = match world.gravity.norm() {
-            g if g > 0.0 => g,
-            _ => shared::math::STANDARD_GRAVITY,
-        };
-        // The trial loads: a thousandth of the weight, times the radius of gyration
-        // r² = 3/(m tr I⁻¹) for a torque.
-        let sizes: Vec<(Real, Real)> = starts
-            .iter()
-            .map(|s| {
-                let b = &world.blocks[s.block];
-                let f = PERTURBATION * b.mass * g;
-                let r2 = 3.0 / (b.mass * b.world_inv_inertia().trace());
-                (f, f * r2.sqrt())
-            })
-            .collect();
-        let saved = self.encode_state(&())?;
-        let plan = Plan {
-            starts: &starts,
-            sizes: &sizes,
-            saved: &saved,
-            dt,
-            substeps,
-        };
-        // The fluid waits for this response (it moves the blocks with it), so the second core
-        // is free: trials 1, 3, 5 run on a copy of the block system beside 0, 2, 4, 6 here.
-        // Each starts from the same state, so the split changes no bit.
-        let mut copy = (
-            self.world.clone(),
-            self.integrator.duplicate(),
-            self.energy.clone(),
-        );
-        let (here, there) = rayon::join(
-            || {
-                plan.run(
-                    &mut self.world,
-                    self.integrator.as_mut(),
-                    &mut self.energy,
-                    0,
-                )
-            },
-            || plan.run(&mut copy.0, copy.1.as_mut(), &mut copy.2, 1),
-        );
-        let (mut here, mut there) = (here?.into_iter(), there?.into_iter());
-        let mut trials: Vec<Vec<Vector6>> = Vec::with_capacity(7);
-        for k in 0..7 {
-            let side = if k % 2 == 0 { &mut here } else { &mut there };
-            // A trial that failed (a contact past its limit) leaves the blocks on their own.
-            match side.next().flatten() {
-                Some(changes) => trials.push(changes),
-                None => return Ok(()),
+/// Measures each free rigid block's [`Response`] over a step of `dt` in `substeps` with the
+/// loads held (module doc), from the solver's block system, its integrator and energy monitor
+/// and `blocks.csv`'s mark `csv` (all as they were when it returns); empty for `None` or when a
+/// trial fails (the blocks on their own), else one entry per block of the world.
+pub(super) fn measure(
+    world: &mut World,
+    integrator: &mut dyn Integrator,
+    energy: &mut EnergyMonitor,
+    csv: (Option<Real>, usize),
+    step: Option<(Real, u32)>,
+) -> Result<Vec<Option<Response>>, SolverError> {
+    let Some((dt, substeps)) = step else {
+        return Ok(Vec::new());
+    };
+    let starts: Vec<Start> = world
+        .free
+        .iter()
+        .filter(|&&i| !world.blocks[i].is_deformable())
+        .map(|&i| {
+            let b = &world.blocks[i];
+            let (v, w) = (b.velocity, b.angular_velocity);
+            Start {
+                block: i,
+                position: b.position,
+                rotation: b.rotation,
+                velocity: Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z),
             }
-        }
-        self.response = vec![None; self.world.blocks.len()];
-        for (k, (s, &(f, t))) in starts.iter().zip(&sizes).enumerate() {
-            let mut mobility = Matrix6::zeros();
-            for j in 0..6 {
-                let size = if j < 3 { f } else { t };
-                let column = (trials[j + 1][k] - trials[0][k]) / (size * dt);
-                mobility.set_column(j, &column);
-            }
-            let (lf, lt) = (
-                self.world.load_force[s.block],
-                self.world.load_torque[s.block],
-            );
-            let load = Vector6::new(lf.x, lf.y, lf.z, lt.x, lt.y, lt.z);
-            // Trial 0 is the response to the loads held: a0 is what is left without them.
-            let free_acceleration = trials[0][k] / dt - mobility * load;
-            self.response[s.block] = Some(Response {
-                free_acceleration,
-                mobility,
-            });
-        }
-        Ok(())
+        })
+        .collect();
+    if starts.is_empty() {
+        return Ok(Vec::new());
     }
+    let g = match world.gravity.norm() {
+        g if g > 0.0 => g,
+        _ => shared::math::STANDARD_GRAVITY,
+    };
+    // The trial loads: a thousandth of the weight, times the radius of gyration
+    // r² = 3/(m tr I⁻¹) for a torque.
+    let sizes: Vec<(Real, Real)> = starts
+        .iter()
+        .map(|s| {
+            let b = &world.blocks[s.block];
+            let f = PERTURBATION * b.mass * g;
+            let r2 = 3.0 / (b.mass * b.world_inv_inertia().trace());
+            (f, f * r2.sqrt())
+        })
+        .collect();
+    let saved = checkpoint::encode(world, integrator, energy, csv, &())?;
+    let plan = Plan {
+        starts: &starts,
+        sizes: &sizes,
+        saved: &saved,
+        dt,
+        substeps,
+    };
+    // The fluid waits for this response (it moves the blocks with it), so the second core
+    // is free: trials 1, 3, 5 run on a copy of the block system beside 0, 2, 4, 6 here.
+    // Each starts from the same state, so the split changes no bit.
+    let mut copy = (world.clone(), integrator.duplicate(), energy.clone());
+    let (here, there) = rayon::join(
+        || plan.run(world, integrator, energy, 0),
+        || plan.run(&mut copy.0, copy.1.as_mut(), &mut copy.2, 1),
+    );
+    let (mut here, mut there) = (here?.into_iter(), there?.into_iter());
+    let mut trials: Vec<Vec<Vector6>> = Vec::with_capacity(7);
+    for k in 0..7 {
+        let side = if k % 2 == 0 { &mut here } else { &mut there };
+        // A trial that failed (a contact past its limit) leaves the blocks on their own.
+        match side.next().flatten() {
+            Some(changes) => trials.push(changes),
+            None => return Ok(Vec::new()),
+        }
+    }
+    let mut response = vec![None; world.blocks.len()];
+    for (k, (s, &(f, t))) in starts.iter().zip(&sizes).enumerate() {
+        let mut mobility = Matrix6::zeros();
+        for j in 0..6 {
+            let size = if j < 3 { f } else { t };
+            let column = (trials[j + 1][k] - trials[0][k]) / (size * dt);
+            mobility.set_column(j, &column);
+        }
+        let (lf, lt) = (world.load_force[s.block], world.load_torque[s.block]);
+        let load = Vector6::new(lf.x, lf.y, lf.z, lt.x, lt.y, lt.z);
+        // Trial 0 is the response to the loads held: a0 is what is left without them.
+        let free_acceleration = trials[0][k] / dt - mobility * load;
+        response[s.block] = Some(Response {
+            free_acceleration,
+            mobility,
+        });
+    }
+    Ok(response)
 }
 
 /// The trial steps of one look-ahead: trial 0 with the loads as they are, trial 1 + j with
@@ -213,7 +199,7 @@ impl Plan<'_> {
                     .map(|s| s.mean_change(&world.blocks[s.block], self.dt))
                     .collect()
             }));
-            decode_into::<()>(
+            checkpoint::decode::<()>(
                 world,
                 integrator,
                 energy,

@@ -1,7 +1,12 @@
 //! Contact springs against theory: bounce restitution (exact 1 for central difference,
 //! exp(−πΩ/4) for Shi's Newmark), the explicit stability limit 2/ω, a stack at rest.
 
-use super::*;
+use super::harness::{EXPLICIT, Harness};
+use super::scenes::{G, block_toml, box_corners, floor_toml, scene};
+use shared::math::Real;
+use shared::report::{Row, Tolerance};
+use shared::solver::{Solver, SolverError};
+use std::f64::consts::PI;
 
 /// An undamped bounce: a 0.2 × 0.2 × 0.4 m block (40 kg) moving at 1 m/s onto a fixed floor
 /// with no gravity, four corner springs k_n = 10⁶ N/m and no shear springs, so that the
@@ -122,7 +127,7 @@ pub fn restitution_rows(solver: &str) -> Vec<Row> {
 
 /// A 0.2 × 0.2 × 0.4 m block resting on four corner springs under gravity (set down at zero
 /// gap, undamped, no shear springs), stepped at Ω = ω·dt with ω = sqrt(4 k_n/m), the highest
-/// mode, for `duration`: the largest energy ratio seen (see [`crate::energy`]), or the error.
+/// mode, for `duration`: the largest energy ratio seen (see [`crate::integrators::energy`]), or the error.
 pub fn resting_block(omega_dt: Real, duration: Real) -> Result<Real, SolverError> {
     let k: Real = 1e6;
     let mass: Real = 2500.0 * 0.2 * 0.2 * 0.4;
@@ -266,8 +271,7 @@ pub const FLUSH_COLUMN_STIFFNESS: Real = 2e5;
 /// of both coincide, each corner has a spring of either block on the other's face, eight in
 /// all, and the joint j boxes from the top carries j weights: Σ_{j<n} j W/(8 k). A contact
 /// that took the flush side face for its reference (depth 0, no force) let each box sink
-/// through the one below (0.90 m, the column's whole height less a box, before
-/// narrow_phase.rs's `over_face`).
+/// through the one below (what contact/narrow_phase.rs's `over_face` prevents).
 pub fn flush_column_sink(solver: &str, n: usize) -> Result<(Real, Real), SolverError> {
     let (a, hgt, density) = (0.4, 0.3, 2500.0);
     let mut blocks = vec![block_toml(

@@ -6,7 +6,7 @@
 //!   εz with −m g H/2 through T_eᵀ; gravity, uniform, loads no strain; V D e balances it.)
 //! - free vibration of a cube in space from an initial strain: the constant-strain modes have
 //!   ω = sqrt(24 μ/ρ)/L (shear and deviatoric) and sqrt(36 K/ρ)/L (volumetric), from
-//!   M_e = ρ V L²/12 (normal), ρ V L²/24 (shear) and V·D ([`crate::elastic::cube_frequencies`]).
+//!   M_e = ρ V L²/12 (normal), ρ V L²/24 (shear) and V·D ([`crate::blocks::elastic::cube_frequencies`]).
 //!   Central difference keeps the amplitude and its period is 2π Δt/θ, cos θ = 1 − Ω²/2;
 //!   Shi's Newmark (β = ½, γ = 1) multiplies the amplitude by ρ = (1 + Ω²/2)^(−½) per step and
 //!   turns the phase by θ, cos θ = (1 + (1 − Ω²)/(1 + Ω²/2))/(2ρ) (the same formula as the
@@ -15,11 +15,12 @@
 //!   unstable, naming the elastic mode, at 2.5.
 //! - rigid against stiff deformable on the sliding incline: the same distance.
 
-use super::{
-    EXPLICIT, Harness, Incline, Row, Tolerance, block_toml, box_corners, floor_toml, scene,
-};
-use crate::elastic::cube_frequencies;
+use super::harness::{EXPLICIT, Harness};
+use super::incline::Incline;
+use super::scenes::{block_toml, box_corners, floor_toml, scene};
+use crate::blocks::elastic::cube_frequencies;
 use shared::math::Real;
+use shared::report::{Row, Tolerance};
 use shared::solver::{Solver, SolverError};
 use shared::strain::Strain;
 use std::f64::consts::PI;
@@ -340,7 +341,7 @@ pub fn elastic_limit(omega_dt: Real, steps: usize) -> Result<Real, SolverError> 
 }
 
 pub fn elastic_limit_rows() -> Vec<Row> {
-    let mut rows = super::limit_rows(
+    let mut rows = super::contact::limit_rows(
         (
             "deformable cube, volumetric mode, ω_elastic·Δt = 1.8, 400 steps",
             elastic_limit(1.8, 400),

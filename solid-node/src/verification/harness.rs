@@ -1,6 +1,22 @@
 //! Driving one solver alone, as the coupler would, in a temporary run directory.
 
-use super::*;
+use crate::dda::DdaSolver;
+use crate::world::World;
+use shared::math::Real;
+use shared::scene::{CouplingScheme, Scene};
+use shared::solver::{SetupContext, Solver, SolverError};
+use shared::step::{StepRule, grant};
+
+/// The central difference scheme's registry name: the cases whose reference is that scheme's
+/// own (its limit 2/ω_max, paper Eq. 8; its restitution and period) choose by it.
+pub const EXPLICIT: &str =
+    <crate::integrators::explicit::CentralDifference as crate::integrators::DdaMethod>::NAME;
+
+/// Shi's implicit scheme's registry name: for the studies of its own numerical damping (its
+/// restitution against [`super::newmark_restitution`], paper Eq. 4), as [`EXPLICIT`] is for
+/// the central difference's.
+pub const IMPLICIT: &str =
+    <crate::integrators::implicit::Implicit as crate::integrators::DdaMethod>::NAME;
 
 /// A solver with its own temporary run directory (removed on drop).
 pub struct Harness {
@@ -74,7 +90,7 @@ impl Harness {
         Ok(())
     }
 
-    pub fn block(&self, name: &str) -> &crate::block::Block {
+    pub fn block(&self, name: &str) -> &crate::blocks::block::Block {
         let i = self.solver.block_index(name).expect("block exists");
         &self.solver.world.blocks[i]
     }

@@ -1,7 +1,12 @@
 //! A block on an incline: at rest or sliding with d(t) = ½[g(sinα − cosα tanφ) − cA/m]t²
 //! (Mohr–Coulomb with cohesion; docs/REFERENCES.md).
 
-use super::*;
+use super::harness::Harness;
+use super::scenes::{G, block_toml, box_corners, rotate_y, scene};
+use shared::math::{Real, Vector};
+use shared::report::{Row, Tolerance};
+use shared::scene::Scene;
+use shared::solver::SolverError;
 
 /// Contact damping (fraction of critical) of the incline scenes. A block set down at zero gap
 /// drops onto its springs and, undamped, would bounce on them at ω for ever under the

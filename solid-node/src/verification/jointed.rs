@@ -7,9 +7,13 @@
 //! then fixed (they stand for the rock behind the failure surface), so the case isolates the
 //! joints' strength.
 
-use super::*;
+use super::harness::Harness;
+use super::scenes::{G, scene};
 use shared::geometry::Polyhedron;
-use shared::scene::BlockKind;
+use shared::math::{Real, Vector};
+use shared::report::{Row, Tolerance};
+use shared::scene::{BlockKind, Scene};
+use shared::solver::SolverError;
 
 /// Contact damping of the jointed cases (fraction of critical, per contact). The joints are
 /// loaded before t = 0 ([`crate::settle`]), so no transient has to be damped; and a block held
@@ -288,7 +292,7 @@ pub fn jointed_distance(
 pub const JOINTED_DURATION: Real = 0.6;
 
 /// The planar, hanging and wedge rows of one solver (both model the bonds and their breaking:
-/// the explicit one in [`crate::penalty`], the implicit one in its open–close iterations).
+/// the explicit one in [`crate::contact::springs`], the implicit one in its open–close iterations).
 pub fn jointed_rows(solver: &str) -> Vec<Row> {
     let planar = |fs| Planar {
         psi: 35.0,
@@ -380,6 +384,7 @@ pub fn jointed_rows(solver: &str) -> Vec<Row> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::verification::harness::EXPLICIT;
 
     #[test]
     fn the_cases_have_the_factors_of_safety_they_claim() {

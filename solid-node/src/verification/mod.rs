@@ -8,26 +8,10 @@
 //! (12-DOF) blocks' cases in [`deformable`]. `solid-validate` prints them as a table; the tests
 //! run the same functions.
 //!
-//! Every case drives the solver through the [`SolidSolver`] interface, as the node runtime
-//! does, with the run directory in a temporary folder.
-
-use crate::dda::DdaSolver;
-use crate::world::World;
-use shared::math::{Real, Vector};
-use shared::scene::{CouplingScheme, Scene};
-use shared::solver::{SetupContext, Solver, SolverError};
-use shared::step::{StepRule, grant};
-use std::f64::consts::PI;
-use std::path::PathBuf;
-
-const G: Real = shared::math::STANDARD_GRAVITY;
+//! Every case drives the solver through the [`SolidSolver`](shared::solver::SolidSolver)
+//! interface, as the node runtime does, with the run directory in a temporary folder.
 
 pub use shared::report::{Row, Tolerance, markdown};
-
-/// The central difference scheme's registry name: the cases whose reference is that scheme's
-/// own (its limit 2/ω_max, paper Eq. 8; its restitution and period) choose by it.
-pub const EXPLICIT: &str =
-    <crate::explicit::CentralDifference as crate::integrator::DdaMethod>::NAME;
 
 mod contact;
 pub mod deformable;
@@ -46,7 +30,7 @@ pub use motion::*;
 pub use scenes::*;
 pub use terrain::*;
 
-/// All cases for both solvers (`quick` shortens the stack run to 3 s).
+/// All cases for every solver of the registry (`quick` shortens the stack run to 3 s).
 pub fn run_all(quick: bool) -> Vec<Row> {
     let mut rows = Vec::new();
     let solvers = crate::REGISTRY.names();

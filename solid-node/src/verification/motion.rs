@@ -1,7 +1,13 @@
 //! Rigid-body motion with closed-form references: free fall, slide or topple on an incline,
 //! the paper's wedge on its plane, a spinning block.
 
-use super::*;
+use super::harness::Harness;
+use super::incline::Incline;
+use super::scenes::{G, block_toml, box_corners, scene};
+use shared::math::{Real, Vector};
+use shared::report::{Row, Tolerance};
+use shared::scene::Scene;
+use shared::solver::SolverError;
 
 /// Free fall for 1 s from rest: z(t) = −½ g t², exact for both schemes (constant acceleration).
 pub fn free_fall(solver: &str) -> Row {

@@ -1,6 +1,10 @@
 //! Scenes built in code for the verification cases: boxes, rotations, blocks and the scene text.
 
-use super::*;
+use shared::math::Real;
+use shared::scene::Scene;
+
+/// Standard gravity [m/s²], the scenes' `[solid] gravity` magnitude.
+pub(crate) const G: Real = shared::math::STANDARD_GRAVITY;
 
 /// Corners of an axis-aligned box.
 pub fn box_corners(min: [Real; 3], max: [Real; 3]) -> Vec<[Real; 3]> {

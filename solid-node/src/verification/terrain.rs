@@ -3,8 +3,15 @@
 //! Mohr–Coulomb reference and tolerances; and a block set down on a small terrain bump, which
 //! must tip onto it and stay.
 
-use super::*;
+use super::harness::Harness;
+use super::incline::{INCLINE_DAMPING, Incline};
+use super::scenes::{G, block_toml, box_corners, rotate_y, scene};
+use shared::math::Real;
+use shared::report::{Row, Tolerance};
+use shared::scene::Scene;
+use shared::solver::SolverError;
 use shared::terrain::dem::Grid;
+use std::path::PathBuf;
 
 /// A scratch folder for the terrain files of a case (removed on drop).
 struct Files(tempfile::TempDir);
@@ -88,7 +95,8 @@ pub fn incline_on_terrain_scene(inc: &Incline, cell: Real, dir: &std::path::Path
 }
 
 /// The sliding and sticking incline cases on a terrain mesh of 0.5 m triangles (2 × 48² of
-/// them): d(1 s) against ½[g(sin α − cos α tan φ) − cA/m]t², the tolerances of [`incline_rows`].
+/// them): d(1 s) against ½[g(sin α − cos α tan φ) − cA/m]t², the tolerances of
+/// [`incline_rows`](super::incline_rows).
 pub fn incline_on_terrain_rows(solver: &str) -> Vec<Row> {
     let cases = [
         (
@@ -269,8 +277,8 @@ pub const MESA_SOFT_STIFFNESS: Real = 1e5;
 /// The mesa case as rows: the cube stays on the rim, level and in place, held by its eight edge
 /// crossings. With the scene's stiff contacts it drops less than 1 mm (the springs'
 /// deflection); with soft ones ([`MESA_SOFT_STIFFNESS`]) it sinks what the eight springs in
-/// parallel give under its weight, W/(8k), within 3 %. Before the ridges' wedge depth
-/// (terrain_contact.rs) the soft cube sank 88 mm onto its corners.
+/// parallel give under its weight, W/(8k), within 3 %. Without the ridges' wedge depth
+/// (contact/terrain.rs) the soft cube sinks onto its corners.
 pub fn mesa_rows(solver: &str) -> Vec<Row> {
     let weight = 2500.0 * (2.0 * MESA.1).powi(3) * G;
     let mut rows = mesa_case_rows(
@@ -352,7 +360,7 @@ pub const RIM_INSET: Real = 5e-4;
 /// ([`MESA_SOFT_STIFFNESS`]), so that its weight presses each corner W/(4k) = 1.65 mm in.
 /// Pressed past RIM_INSET/(√2 − 1) = 1.2 mm, the rim corners' nearest surface point is on the
 /// 45° flank; a contact that followed it pushed them outward along the flank's normal. They
-/// keep the top's triangle they entered by (DDA's reference face, terrain_contact.rs), so the
+/// keep the top's triangle they entered by (DDA's reference face, contact/terrain.rs), so the
 /// slab sinks level and stays in place. Returns the drop of the centroid, the tilt [rad] and
 /// the horizontal drift [m] after `duration`.
 pub fn slab_at_mesa_rim(solver: &str, duration: Real) -> Result<(Real, Real, Real), SolverError> {
@@ -374,8 +382,8 @@ pub fn slab_at_mesa_rim(solver: &str, duration: Real) -> Result<(Real, Real, Rea
     ))
 }
 
-/// The rim case as rows: the slab sinks W/(4k) (3 %), level and in place (10⁻⁵ rad and m,
-/// against 0.5 mrad and 1.1 mm for a contact that took the nearest surface point).
+/// The rim case as rows: the slab sinks W/(4k) (3 %), level and in place (10⁻⁵ rad and m; a
+/// contact that took the nearest surface point tilts and shifts it far beyond that).
 pub fn rim_rows(solver: &str) -> Vec<Row> {
     let case = "slab with two corners 0.5 mm inside a mesa's rim, soft contacts pressed in";
     let weight = 2500.0 * 0.3 * 0.3 * 0.3 * G;

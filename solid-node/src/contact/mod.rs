@@ -1,9 +1,26 @@
-//! A contact between two blocks: which features touch, the local geometry, and the state that
-//! persists from step to step (the shear spring and the Mohr–Coulomb state).
+//! Blocks in contact, found and answered:
+//!
+//! - [`broad_phase`], [`narrow_phase`]: which pairs may touch, then their vertex–face and
+//!   edge–edge contacts; [`terrain`]: blocks against the fixed `[[terrain]]` mesh (BVH queries);
+//! - [`springs`]: the normal and shear contact springs (DDA's penalty springs, Shi 1993);
+//! - [`friction`]: Mohr–Coulomb with cohesion, and the three contact states of the open–close
+//!   logic;
+//! - [`joints`]: the bonded joints between blocks cut from one `[[slide]]` (tension cut-off,
+//!   residual friction once broken);
+//! - here: a contact between two blocks: which features touch, the local geometry, and the state
+//!   that persists from step to step (the shear spring and the Mohr–Coulomb state).
 //!
 //! Contacts are kept in one flat list sorted by [`ContactKey`], so the contacts of the previous
 //! step are found by binary search (no hashing, no allocation in the step loop).
 
+pub mod broad_phase;
+pub mod friction;
+pub mod joints;
+pub mod narrow_phase;
+pub mod springs;
+pub mod terrain;
+
+use friction::{ContactState, Joint};
 use shared::math::{Point, Real, Vector};
 
 /// What touches what. For the pair (a, b) with a < b:
@@ -31,18 +48,6 @@ pub struct ContactKey {
     pub j: u32,
 }
 
-/// The three Mohr–Coulomb states of DDA's open–close logic (Shi 1993).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-pub enum ContactState {
-    /// Not touching: no spring.
-    #[default]
-    Open,
-    /// Touching, shear below the Mohr–Coulomb limit: normal and shear springs.
-    Locked,
-    /// Touching, shear at the limit: normal spring, friction force c·A + N·tan φ along the slip.
-    Sliding,
-}
-
 /// One vertex–face or edge–edge contact.
 #[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Contact {
@@ -67,7 +72,7 @@ pub struct Contact {
     pub cohesion: Real,
     /// Tensile strength [Pa] of a bonded slide joint; 0 otherwise.
     pub tensile: Real,
-    /// Bonded across a slide's joint ([`crate::joints`]): carries tension up to
+    /// Bonded across a slide's joint ([`crate::contact::joints`]): carries tension up to
     /// `tensile · bond_area` and shear up to the Mohr–Coulomb limit with cohesion; broken for
     /// good once either is exceeded.
     pub bonded: bool,
@@ -136,7 +141,7 @@ impl Contact {
     /// joint's tension and its share of the joint's area; a broken (or never bonded) contact
     /// of a bonded pair keeps the residual friction only.
     #[inline]
-    pub fn apply_joint(&mut self, joint: &crate::friction::Joint, fresh: bool, at_start: bool) {
+    pub fn apply_joint(&mut self, joint: &Joint, fresh: bool, at_start: bool) {
         if fresh && at_start {
             self.bonded = joint.bonded;
         }

@@ -5,12 +5,12 @@
 //! which the lightest free block, resting on one contact, sinks `[solid.contact].allowed_penetration`
 //! (ε, default 1e-4) times its own size under its own weight, `k_n = m g / (ε L)`. Its contact frequency is then
 //! `sqrt(k_n/m) = sqrt(g/(ε L))`, independent of the rock density, and the explicit step
-//! 2/ω_max follows from it (see [`crate::stability`]). Heavier blocks sink proportionally more
+//! 2/ω_max follows from it (see [`crate::integrators::stability`]). Heavier blocks sink proportionally more
 //! (still ≪ their size for piles of a few hundred blocks). With no gravity, 9.81 m/s² is used.
 
-use crate::block::Block;
-use crate::contact::{Contact, ContactState};
-use crate::friction::{self, Joint};
+use crate::blocks::block::Block;
+use crate::contact::Contact;
+use crate::contact::friction::{self, ContactState, Joint};
 use shared::math::{Real, Vector};
 use shared::scene::ContactSpec;
 
@@ -107,15 +107,16 @@ impl PenaltyModel {
         0.5 * self.normal * c.gap * c.gap + 0.5 * self.shear * c.shear.norm_squared()
     }
 
-    /// Explicit force update of one contact at the current configuration (used by the central
-    /// difference scheme, paper Eqs. 5–8): the shear spring is stretched by the relative
+    /// Force update of one contact at the current configuration (what a scheme that evaluates
+    /// the forces where the blocks have moved uses, as central differences do, paper Eqs. 5–8;
+    /// Shi's implicit scheme linearises the springs instead): the shear spring is stretched by the relative
     /// material displacement of the contact point over the last step, then clamped to the
     /// Mohr–Coulomb envelope. Sets `state`, `shear`, `normal_force` and `force` (on `p`).
     ///
-    /// A bonded slide joint ([`crate::joints`]) also carries tension, up to `T · A`, and
+    /// A bonded slide joint ([`crate::contact::joints`]) also carries tension, up to `T · A`, and
     /// breaks for good when the tension or the shear passes its limit; the step it breaks,
     /// the shear is clamped to the residual envelope `N tan φ`.
-    pub fn update_explicit(&self, c: &mut Contact, p: &Block, q: &Block) {
+    pub fn update(&self, c: &mut Contact, p: &Block, q: &Block) {
         if c.bonded {
             return self.update_bonded(c, p, q);
         }
@@ -152,7 +153,7 @@ impl PenaltyModel {
         c.force = n * fn_ + ft;
     }
 
-    /// [`Self::update_explicit`] for a bonded contact: Mohr–Coulomb with a tension cut-off.
+    /// [`Self::update`] for a bonded contact: Mohr–Coulomb with a tension cut-off.
     fn update_bonded(&self, c: &mut Contact, p: &Block, q: &Block) {
         let n = c.normal;
         let m = Self::reduced_mass(p, q);
@@ -171,7 +172,7 @@ impl PenaltyModel {
         if fn_ < -c.tensile * c.area {
             // Tension cut-off: the joint opens and the bond is gone.
             c.break_bond();
-            return self.update_explicit(c, p, q);
+            return self.update(c, p, q);
         }
         let du = p.point_step_displacement(&c.point) - q.point_step_displacement(&c.point);
         c.shear += du - n * du.dot(&n);

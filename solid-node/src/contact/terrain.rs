@@ -3,7 +3,7 @@
 //!
 //! The terrain enters the block system as one fixed [`Block`] whose shape is its bounding box:
 //! the broad phase pairs it with the free blocks over it like any fixed block, and everything
-//! downstream of the narrow phase (springs, Mohr–Coulomb, both integrators, the stability
+//! downstream of the narrow phase (springs, Mohr–Coulomb, every integrator, the stability
 //! bound) sees ordinary contacts whose face owner is a fixed block. Only the narrow phase
 //! differs (here), with DDA's feature pairs kept so the shear history follows them:
 //!
@@ -23,17 +23,17 @@
 //!   `j`): only the mesh edges where the surface bends away (*ridges*, [`TerrainBody::ridges`],
 //!   in a BVH of their own) can be crossed by a block resting on the terrain, as only peaks can
 //!   touch a face. The crossing test is the one between two blocks
-//!   ([`crate::narrow_phase::crossing`]); its locality check measures the block edge's point
+//!   ([`crate::contact::narrow_phase::crossing`]); its locality check measures the block edge's point
 //!   against the ridge's two triangle planes (locally, the terrain is the wedge under them),
 //!   and a crossing pressed past the margin is kept by the block's depth in that wedge
 //!   ([`wedge_depth`]), as two blocks' crossings are by their separating-axis depth.
 //!   Without these, a block lying across a ridge with no vertex on either side (a slab bridging
 //!   a crest, a block rocking over the brink of a cliff) would sink through it.
 
-use crate::block::Block;
+use crate::blocks::block::Block;
+use crate::contact::friction::Joint;
+use crate::contact::narrow_phase::{self, Edge, NarrowParams};
 use crate::contact::{self, Contact, ContactKey, Feature};
-use crate::friction::Joint;
-use crate::narrow_phase::{self, Edge, NarrowParams};
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
 use shared::math::{Point, Real, Vector};

@@ -21,9 +21,9 @@
 //! in free flight it is the elastic mode itself, ω² = 36 K/(ρ L²) for a cube (the volumetric
 //! mode, ν < 0.3) or 24 μ/(ρ L²) (deviatoric). Rigid blocks get no strain block at all.
 
-use crate::block::Block;
+use crate::blocks::block::Block;
+use crate::blocks::elastic::largest_eigenvalue;
 use crate::contact::tangents;
-use crate::elastic::largest_eigenvalue;
 use crate::world::World;
 use nalgebra::{Matrix6, Vector6};
 use rayon::prelude::*;

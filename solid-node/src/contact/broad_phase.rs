@@ -5,7 +5,7 @@
 //! lists are kept, free blocks and the others: a fixed or kinematic block is only ever tested
 //! against free blocks, so fixed–fixed (and kinematic–fixed) pairs are never even compared.
 
-use crate::block::Block;
+use crate::blocks::block::Block;
 use shared::math::Real;
 
 /// Candidate pairs of overlapping bounding boxes.

@@ -19,9 +19,9 @@
 //!
 //! Everything here is fixed at set-up from the scene in block order: deterministic.
 
-use crate::block::Block;
+use crate::blocks::block::Block;
+use crate::contact::friction::Joint;
 use crate::contact::tangents;
-use crate::friction::Joint;
 use shared::math::{Point, Real, Vector};
 use shared::scene::Scene;
 

@@ -2,13 +2,13 @@
 //! copy of its geometry the contact search reads each step.
 //!
 //! Blocks are rigid (6 unknowns) unless the scene gives them `elastic = { ... }`: then they
-//! carry Shi's six constant strains as well ([`crate::elastic`]), and a material point at X
+//! carry Shi's six constant strains as well ([`crate::blocks::elastic`]), and a material point at X
 //! (block frame, undeformed) is at x = c + R (I + E) X. Every geometric query below (world
 //! vertices, face planes, point velocity and step displacement, the lever arm of a load on the
 //! strains) takes the strain into account; for rigid blocks E = 0 is not even stored.
 
-use crate::elastic::Elastic;
-use crate::rotation;
+use crate::blocks::elastic::Elastic;
+use crate::blocks::rotation;
 use shared::geometry::Polyhedron;
 use shared::math::{Isometry, Matrix, Point, Real, Rotation, Vector};
 use shared::scene::{BlockKind, BlockSpec, MotionSpec};

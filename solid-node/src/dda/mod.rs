@@ -3,9 +3,9 @@
 
 mod look_ahead;
 
-use crate::checkpoint::SolidState;
-use crate::energy::EnergyMonitor;
-use crate::integrator::Integrator;
+use crate::checkpoint;
+use crate::integrators::Integrator;
+use crate::integrators::energy::EnergyMonitor;
 use crate::output::{self, KinematicsCsv};
 use crate::world::World;
 use shared::math::{Real, Vector};
@@ -200,13 +200,15 @@ impl Solver for DdaSolver {
 
 impl DdaSolver {
     /// The block system, its integrator and its outputs' marks as a checkpoint has them
-    /// ([`SolidState`]), with `extra` after them.
+    /// ([`checkpoint::encode`]), with `extra` after them.
     fn encode_state<T: serde::Serialize>(&mut self, extra: &T) -> Result<Vec<u8>, SolverError> {
-        let integrator = self.integrator.save().map_err(SolverError::Failed)?;
-        let state = SolidState::save(&mut self.world, integrator, &self.energy, self.csv.mark());
-        let bytes = shared::checkpoint::encode(&(&state, extra)).map_err(SolverError::Failed);
-        state.give_back(&mut self.world);
-        bytes
+        checkpoint::encode(
+            &mut self.world,
+            self.integrator.as_ref(),
+            &self.energy,
+            self.csv.mark(),
+            extra,
+        )
     }
 
     /// Restores [`Self::encode_state`]; returns its `extra` and `blocks.csv`'s mark.
@@ -215,7 +217,7 @@ impl DdaSolver {
         bytes: &[u8],
         what: &str,
     ) -> Result<(T, (Option<Real>, usize)), SolverError> {
-        decode_into(
+        checkpoint::decode(
             &mut self.world,
             self.integrator.as_mut(),
             &mut self.energy,
@@ -225,25 +227,18 @@ impl DdaSolver {
     }
 }
 
-/// [`DdaSolver::decode_state`] into any block system of the scene (the look-ahead's copy).
-fn decode_into<T: serde::de::DeserializeOwned>(
-    world: &mut World,
-    integrator: &mut dyn Integrator,
-    energy: &mut EnergyMonitor,
-    bytes: &[u8],
-    what: &str,
-) -> Result<(T, (Option<Real>, usize)), SolverError> {
-    let (state, extra): (SolidState, T) =
-        shared::checkpoint::decode(bytes, what).map_err(SolverError::Failed)?;
-    let (saved, monitor, mark) = state.restore(world).map_err(SolverError::Failed)?;
-    integrator.restore(&saved).map_err(SolverError::Failed)?;
-    *energy = monitor;
-    Ok((extra, mark))
-}
-
 impl SolidSolver for DdaSolver {
     fn look_ahead(&mut self, step: Option<(Real, u32)>) -> Result<(), SolverError> {
-        self.measure_response(step)
+        // Cleared first: a look-ahead that fails leaves the blocks on their own.
+        self.response.clear();
+        self.response = look_ahead::measure(
+            &mut self.world,
+            self.integrator.as_mut(),
+            &mut self.energy,
+            self.csv.mark(),
+            step,
+        )?;
+        Ok(())
     }
 
     fn read_loads(&mut self, loads: &[BlockLoad]) {

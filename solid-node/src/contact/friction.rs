@@ -3,14 +3,26 @@
 //!
 //! Contacts never carry tension (a penetration-free contact is open), and cohesion is kept
 //! while a joint slides: the limit is the Mohr–Coulomb envelope itself, which is what the
-//! block-on-incline reference d(t) = ½[g(sin α − cos α tan φ) − cA/m] t² assumes.
+//! block-on-incline reference d(t) = ½[g(sin α − cos α tan φ) − cA/m] t² assumes. A contact
+//! is open, locked or sliding ([`ContactState`]) by where it stands against that envelope.
 
-use crate::contact::ContactState;
 use shared::math::{Real, Vector};
 use shared::scene::ContactSpec;
 
+/// The three Mohr–Coulomb states of DDA's open–close logic (Shi 1993).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub enum ContactState {
+    /// Not touching: no spring.
+    #[default]
+    Open,
+    /// Touching, shear below the Mohr–Coulomb limit: normal and shear springs.
+    Locked,
+    /// Touching, shear at the limit: normal spring, friction force c·A + N·tan φ along the slip.
+    Sliding,
+}
+
 /// Friction angle and cohesion of one pair of blocks, and for two blocks cut from one slide
-/// across a joint plane, that joint's tensile strength and bond ([`crate::joints`]).
+/// across a joint plane, that joint's tensile strength and bond ([`crate::contact::joints`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Joint {
     pub tan_phi: Real,

@@ -10,24 +10,24 @@
 //!
 //! Each block is updated on its own (no global matrix). Rotations: the angular momentum
 //! L = I ω takes the torque kick, ω_{n+½} = I(q_n)⁻¹ L_{n+½}, and the orientation turns by the
-//! exact rotation exp(Δt ω_{n+½}) (see [`crate::rotation`]). The scheme is stable for
+//! exact rotation exp(Δt ω_{n+½}) (see [`crate::blocks::rotation`]). The scheme is stable for
 //! Δt ≤ 2/ω_max (Eq. 8); the proposal is `safety_factor` · 2/ω_max. Past it nothing is
 //! refused: the step is taken as the method would, and the energy growth that follows is
-//! detected and reported (see [`crate::energy`]).
+//! detected and reported (see [`crate::integrators::energy`]).
 //!
 //! Deformable blocks integrate their six strains the same way (Shi's strain unknowns, with
-//! the block-diagonal mass of [`crate::elastic`]):
+//! the block-diagonal mass of [`crate::blocks::elastic`]):
 //!
 //! ```text
 //! ė_{n+½} = ė_{n−½} + ½ (Δt_n + Δt_{n+1}) M_e⁻¹ (g_contact + g_fluid − V D e_n)
 //! e_{n+1} = e_n + Δt_{n+1} ė_{n+½}
 //! ```
 //!
-//! and the limit Δt ≤ 2/ω_max then includes their elastic modes (see [`crate::stability`]).
+//! and the limit Δt ≤ 2/ω_max then includes their elastic modes (see [`crate::integrators::stability`]).
 
-use crate::energy::EnergyMonitor;
-use crate::integrator::{DdaMethod, Integrator};
-use crate::stability::{self, Estimate};
+use crate::integrators::energy::EnergyMonitor;
+use crate::integrators::stability::{self, Estimate};
+use crate::integrators::{DdaMethod, Integrator};
 use crate::world::World;
 use serde::Deserialize;
 use shared::math::{Real, Vector};
@@ -93,10 +93,10 @@ pub struct CentralDifference {
     /// instability report names: by the time the energy has grown, the contact configuration
     /// is anything).
     first_excess: Option<(Real, Estimate)>,
-    /// Trial steps ([`Integrator::begin_trial`]): the estimate of ω_max from the contacts is
-    /// not renewed after each (a quarter of a step's cost in a cut rock mass, `solid-bench
-    /// --scene scenes/jointed_slide.toml`); it only sizes the next kept step and names an
-    /// excess, and a trial's state is thrown away. Not saved: a restore ends the trials.
+    /// Trial steps ([`Integrator::begin_trial`]): the estimate of ω_max from the contacts (an
+    /// eigenvalue problem per block in contact, a large part of a step in a cut rock mass) is
+    /// not renewed after each; it only sizes the next kept step and names an excess, and a
+    /// trial's state is thrown away. Not saved: a restore ends the trials.
     #[serde(skip)]
     trial: bool,
 }
@@ -177,7 +177,7 @@ impl Integrator for CentralDifference {
         self.half_rate = world.blocks.iter().map(|b| b.strain_rate()).collect();
         self.dt_prev = 0.0;
         self.first_excess = None;
-        world.update_contact_forces_explicit();
+        world.update_contact_forces();
         self.floor = stability::resting_floor(world);
         self.now = stability::current(world, &mut self.scratch);
     }
@@ -261,7 +261,7 @@ impl Integrator for CentralDifference {
         world.check_state(self.name())?;
 
         world.detect(world.penalty.margin);
-        world.update_contact_forces_explicit();
+        world.update_contact_forces();
         let mut work_end = 0.0;
         for &i in &world.moving {
             let b = &world.blocks[i];

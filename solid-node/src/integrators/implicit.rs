@@ -9,7 +9,7 @@
 //! D holds each free block's translation and small rotation over the step (6 unknowns per
 //! rigid block); K the contact springs, linearised about the start of the step as in DDA
 //! (the gap of a contact changes by n·(d_P + θ_P × r_P − d_Q − θ_Q × r_Q)). The orientation is
-//! then turned by the exact rotation exp(θ) ([`crate::rotation`]), not by DDA's linear
+//! then turned by the exact rotation exp(θ) ([`crate::blocks::rotation`]), not by DDA's linear
 //! displacement field, so blocks keep their size.
 //!
 //! Open–close iterations (Shi 1993): each contact starts the step in its last state (open,
@@ -19,7 +19,7 @@
 //! its size, the step is cut by 3 and retried (Shi's rule). Cuts happen inside one
 //! `advance(dt)`: it takes as many sub-steps as needed and still ends exactly at t + dt.
 //!
-//! **Bonded joints** of a `[[slide]]` ([`crate::joints`]): a bonded contact's normal spring acts
+//! **Bonded joints** of a `[[slide]]` ([`crate::contact::joints`]): a bonded contact's normal spring acts
 //! in tension too, and its shear spring holds up to c·A + N tan φ. An iteration whose trial
 //! tension passes T·A or whose shear passes that envelope breaks the bond for the rest of the
 //! attempt (a state change, so the step is solved again without it), and the committed step
@@ -31,20 +31,20 @@
 //! **Deformable blocks** (Shi's 12 unknowns: D = [d; θ; Δe]) add, per block, the strain mass
 //! M_e and the block stiffness V·D to the diagonal block, the strain loads (fluid strain load,
 //! −V D e_n) to the right-hand side, and to each contact spring the strain part of its
-//! direction, T_e(X)ᵀ Rᵀ e ([`crate::elastic`]): (2/Δt² M_e + V D) Δe = g − V D e_n +
+//! direction, T_e(X)ᵀ Rᵀ e ([`crate::blocks::elastic`]): (2/Δt² M_e + V D) Δe = g − V D e_n +
 //! (2/Δt) M_e ė_n + springs, the constant-strain rows of Eq. 4. The integrator is generic over
 //! the block size: `Newmark<6>` for a scene of rigid blocks (the system of before, no strain
 //! work anywhere), `Newmark<12>` when a scene has a deformable block, with identity strain rows
 //! (solving to zero) for its rigid blocks.
 
-use crate::block::Block;
-use crate::contact::{Contact, ContactState, tangents};
-use crate::energy::EnergyMonitor;
-use crate::friction::Joint;
-use crate::integrator::{DdaMethod, Integrator};
-use crate::linear_system::{BlockMat, BlockSystem, BlockVec, SolveError};
-use crate::penalty::PenaltyModel;
-use crate::stability;
+use crate::blocks::block::Block;
+use crate::contact::friction::{ContactState, Joint};
+use crate::contact::springs::PenaltyModel;
+use crate::contact::{Contact, tangents};
+use crate::integrators::energy::EnergyMonitor;
+use crate::integrators::linear_system::{BlockMat, BlockSystem, BlockVec, SolveError};
+use crate::integrators::stability;
+use crate::integrators::{DdaMethod, Integrator};
 use crate::world::World;
 use serde::Deserialize;
 use shared::math::{Matrix, Point, Real, Rotation, Vector};
@@ -134,7 +134,7 @@ struct Trial {
     /// Shear spring elongation after the last solve.
     shear: Vector,
     gap: Real,
-    /// Still bonded across a slide's joint ([`crate::joints`]): the normal spring then pulls
+    /// Still bonded across a slide's joint ([`crate::contact::joints`]): the normal spring then pulls
     /// too. A bond broken in an iteration stays broken for the rest of the attempt.
     bonded: bool,
 }
@@ -261,7 +261,7 @@ fn strain_travel(b: &Block, de: &Strain) -> Real {
 
 /// The block's mass matrix: m 1, the world inertia, and (N = 12) M_e on the strain rows of a
 /// deformable block, the identity on those of a rigid one (rows that solve to Δe = 0).
-/// Block-diagonal: the rotation–strain inertia coupling is neglected ([`crate::elastic`]).
+/// Block-diagonal: the rotation–strain inertia coupling is neglected ([`crate::blocks::elastic`]).
 fn mass_matrix<const N: usize>(b: &Block) -> BlockMat<N> {
     let mut m = BlockMat::<N>::zeros();
     m.fixed_view_mut::<3, 3>(0, 0)

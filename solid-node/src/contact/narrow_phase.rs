@@ -9,9 +9,9 @@
 //! being convex, the feature tests below are exact and cheap (plane distances, segment
 //! clipping).
 
-use crate::block::Block;
+use crate::blocks::block::Block;
+use crate::contact::friction::Joint;
 use crate::contact::{self, Contact, ContactKey, Feature};
-use crate::friction::Joint;
 use shared::math::{Point, Real, Vector};
 
 /// How the narrow phase treats history.
@@ -153,8 +153,8 @@ pub(crate) fn reference_face(
 /// its neighbour (depth ≈ 0 there) while it is pressed into the neighbour's front face; once
 /// the contact force passed what the margin allows (about the lightest block's weight), a test
 /// on depth moved the contact to the flush face, where it has no depth and no force, and the
-/// corner sank freely into the neighbour (seen: 2.4 cm, then an edge–edge contact 6.7 cm deep
-/// and the energy watch stopping the run, in scenes/jointed_slide.toml under DFSPH).
+/// corner sank freely into the neighbour until an edge–edge contact far past the margin and
+/// the energy watch stopped the run (scenes/jointed_slide.toml under DFSPH).
 fn over_face(qb: &Block, f: usize, v: &Point, d: Real, margin: Real) -> bool {
     let on_plane = v - qb.world_normals[f] * d;
     qb.world_normals
@@ -357,8 +357,8 @@ pub(crate) fn local_depths(c: &Crossing, da: Real, db: Real, m: Real) -> bool {
 /// other block's nearest face, which for two faces pressed into each other with their edges
 /// crossing is the side face at the crossing, at depth ≈ 0. Past the margin such crossings
 /// were dropped, and two blocks of a cut rock mass that met face to face, twisted (no vertex
-/// of either inside the other), sank 4.4 cm into each other before the points' depth caught
-/// up (scenes/jointed_slide.toml; the energy watch then stopped the run).
+/// of either inside the other), sank into each other far past the margin before the points'
+/// depth caught up (scenes/jointed_slide.toml; the energy watch then stopped the run).
 pub(crate) fn penetration_depth(ba: &Block, bb: &Block) -> Real {
     let extent = |b: &Block, n: &Vector| {
         b.world_vertices
@@ -433,7 +433,7 @@ fn edge_edge(pair: &Pair, params: NarrowParams, old: &[Contact], out: &mut Vec<C
             // overlapping: a crossing point may lie outside the other block, past the corner
             // one of its faces cuts off, by up to the overlap itself; within the margin plus
             // the pair's depth it is still local to the overlap (scenes/jointed_slide.toml
-            // under DFSPH: refused, the pair had no contact while it sank 10 cm into itself).
+            // under DFSPH: refused, the pair had no contact while it sank into itself).
             let real = local_depths(&x, da, db, m)
                 || (da.max(db) <= m + (-x.gap).max(0.0) && {
                     let d = *depth.get_or_insert_with(|| penetration_depth(ba, bb));
@@ -615,8 +615,8 @@ mod tests {
     /// the run's margin): no vertex of either inside the other, the two overlapping 0.76 mm
     /// where an edge of each crosses the other's, and the crossing's point on the lower edge
     /// 0.7 mm outside the upper block, past the corner its face cuts off. Past the margin that
-    /// crossing was dropped, so the pair had no contact at all while it sank 10 cm into itself
-    /// (the energy watch then stopped the run). It is kept, at the pair's depth.
+    /// crossing was dropped, so the pair had no contact at all while it sank into itself (the
+    /// energy watch then stopped the run). It is kept, at the pair's depth.
     #[test]
     fn corner_to_corner_overlap_keeps_its_crossing() {
         let low = block(
