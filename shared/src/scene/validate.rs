@@ -1,58 +1,10 @@
 //! Scene validation: every impossible value is reported with its field, the value, the problem
 //! and the fix. All problems are collected, not just the first.
 
+use super::error::{FieldError, Seg, render_path};
 use super::schema::*;
 use crate::geometry::Polyhedron;
 
-/// One step of a field path: a table key or an array index.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Seg {
-    Key(String),
-    Index(usize),
-}
-
-/// One invalid field.
-#[derive(Debug, Clone)]
-pub struct FieldError {
-    /// Dotted path as written in the TOML, e.g. `block[2].density`.
-    pub path: String,
-    pub(crate) segments: Vec<Seg>,
-    /// The offending value as written.
-    pub value: String,
-    /// What is wrong with it.
-    pub problem: String,
-    /// What to write instead.
-    pub fix: String,
-    /// 1-based line in the scene text, where it could be found.
-    pub line: Option<usize>,
-}
-
-impl FieldError {
-    /// An error at the field `path` (table keys from the root, e.g. `["fluid", "wcsph", "gamma"]`).
-    pub fn new(path: &[&str], value: String, problem: &str, fix: &str) -> Self {
-        Self {
-            path: path.join("."),
-            segments: path.iter().map(|k| Seg::Key((*k).into())).collect(),
-            value,
-            problem: problem.into(),
-            fix: fix.into(),
-            line: None,
-        }
-    }
-}
-
-impl std::fmt::Display for FieldError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if let Some(l) = self.line {
-            write!(f, "line {l}: ")?;
-        }
-        write!(
-            f,
-            "{} = {}: {}; fix: {}",
-            self.path, self.value, self.problem, self.fix
-        )
-    }
-}
 
 /// Largest domain coordinate [m]: a 10 000 km box holds any landslide tsunami.
 const MAX_DOMAIN: f64 = 1e7;
@@ -90,7 +42,7 @@ impl Checker {
         if !field.is_empty() {
             segments.push(Seg::Key(field.into()));
         }
-        let path = super::span::render_path(&segments);
+        let path = render_path(&segments);
         self.errors.push(FieldError {
             path,
             segments,
@@ -755,7 +707,7 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
     }
 
     let block_names: Vec<&str> = s.blocks.iter().map(|b| b.name.as_str()).collect();
-    c.errors.extend(super::terrain::validate(
+    c.errors.extend(validate_terrain(
         &s.terrain,
         &s.domain,
         &block_names,
@@ -890,4 +842,131 @@ fn kind_name(k: BlockKind) -> &'static str {
         BlockKind::Kinematic => "kinematic",
         BlockKind::Free => "free",
     }
+}
+
+/// An error at `terrain[index].field`.
+pub(crate) fn terrain_field_error(
+    index: usize,
+    field: &str,
+    value: String,
+    problem: &str,
+    fix: &str,
+) -> FieldError {
+    let mut segments = vec![Seg::Key("terrain".into()), Seg::Index(index)];
+    if !field.is_empty() {
+        segments.push(Seg::Key(field.into()));
+    }
+    FieldError {
+        path: render_path(&segments),
+        segments,
+        value,
+        problem: problem.into(),
+        fix: fix.into(),
+        line: None,
+    }
+}
+
+/// The checks of the `[[terrain]]` tables that need no file.
+/// `blocks` are the scene's block names: a terrain is a block to the solid node (its
+/// contacts, its messages), so the names must differ.
+fn validate_terrain(
+    terrains: &[TerrainSpec],
+    domain: &DomainSpec,
+    blocks: &[&str],
+) -> Vec<FieldError> {
+    let mut out = Vec::new();
+    let mut fail = |i: usize, field: &str, value: String, problem: &str, fix: &str| {
+        out.push(terrain_field_error(i, field, value, problem, fix))
+    };
+    for (i, t) in terrains.iter().enumerate() {
+        if blocks.contains(&t.name.as_str()) || terrains[..i].iter().any(|o| o.name == t.name) {
+            fail(
+                i,
+                "name",
+                format!("{:?}", t.name),
+                "is used by a block or an earlier terrain",
+                "give every terrain a name of its own, e.g. name = \"valley\"",
+            );
+        }
+        if t.name.trim().is_empty()
+            || t.name
+                .chars()
+                .any(|c| matches!(c, ',' | '"' | '\'' | ';') || c.is_control())
+        {
+            fail(
+                i,
+                "name",
+                format!("{:?}", t.name),
+                "must be a short name without separators or quotes",
+                "use letters, digits, '_', '-' or '.', e.g. name = \"fjord\"",
+            );
+        }
+        if TerrainFormat::of(&t.file).is_none() {
+            fail(
+                i,
+                "file",
+                format!("{:?}", t.file.display().to_string()),
+                "has no known terrain extension",
+                "give a .stl, .obj or .ply triangle mesh or an .asc (ESRI ASCII grid) or .tif (GeoTIFF) elevation model",
+            );
+        }
+        for (field, v) in [("offset", t.offset), ("rotation", t.rotation)] {
+            if v.iter().any(|x| !x.is_finite()) {
+                fail(
+                    i,
+                    field,
+                    format!("{v:?}"),
+                    "must be finite",
+                    "give three finite numbers",
+                );
+            }
+        }
+        if t.scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            fail(
+                i,
+                "scale",
+                format!("{:?}", t.scale),
+                "must be three positive finite factors",
+                "give e.g. scale = [1.0, 1.0, 1.0]; mirror a mesh in its own tool, not here",
+            );
+        }
+        if let Some(c) = &t.crop {
+            if (0..3).any(|k| {
+                c.max[k].partial_cmp(&c.min[k]) != Some(std::cmp::Ordering::Greater)
+                    || !c.min[k].is_finite()
+            }) {
+                fail(
+                    i,
+                    "crop",
+                    format!("{c:?}"),
+                    "is empty or not finite (max must be above min on every axis)",
+                    "give crop = { min = [x, y, z], max = [x, y, z] } with max > min",
+                );
+            } else if (0..3).any(|k| c.max[k] < domain.min[k] || c.min[k] > domain.max[k]) {
+                fail(
+                    i,
+                    "crop",
+                    format!("{c:?}"),
+                    "lies wholly outside [domain]: no triangle could be kept",
+                    "give a crop box that overlaps [domain]",
+                );
+            }
+        }
+        for (field, v, fix) in [
+            (
+                "friction_angle",
+                t.friction_angle,
+                "give an angle in degrees in [0, 90), e.g. 30",
+            ),
+            ("cohesion", t.cohesion, "give a cohesion ≥ 0 in Pa"),
+        ] {
+            if let Some(v) = v {
+                let ok = v.is_finite() && v >= 0.0 && (field != "friction_angle" || v < 90.0);
+                if !ok {
+                    fail(i, field, format!("{v}"), "is out of range", fix);
+                }
+            }
+        }
+    }
+    out
 }
