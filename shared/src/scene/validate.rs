@@ -5,7 +5,6 @@ use super::error::{FieldError, Seg, render_path};
 use super::schema::*;
 use crate::geometry::Polyhedron;
 
-
 /// Largest domain coordinate [m]: a 10 000 km box holds any landslide tsunami.
 const MAX_DOMAIN: f64 = 1e7;
 /// Most output frames a run may ask for (time.end / output.interval), unless the scene raises
@@ -707,11 +706,8 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
     }
 
     let block_names: Vec<&str> = s.blocks.iter().map(|b| b.name.as_str()).collect();
-    c.errors.extend(validate_terrain(
-        &s.terrain,
-        &s.domain,
-        &block_names,
-    ));
+    c.errors
+        .extend(validate_terrain(&s.terrain, &s.domain, &block_names));
 
     let mut gauge_names = std::collections::HashSet::new();
     for (i, g) in s.gauges.iter().enumerate() {
