@@ -11,9 +11,9 @@
 use crate::checkpoint::CouplerCheckpoint;
 use crate::launch::{NodeCommand, NodeProcess, describe_exit};
 use crate::output::RunDir;
+use shared::coupling::step::{self, StepRule};
 use shared::protocol::*;
 use shared::scene::{CouplingScheme, Scene};
-use shared::step::{self, StepRule};
 use shared::transport::{
     self, Bell, Endpoints, Inbox, Kind, Outbox, Party, RunId, Transport, Waiter,
 };

@@ -17,8 +17,8 @@ use crate::contact::Contact;
 use crate::elastic::Elastic;
 use crate::energy::EnergyMonitor;
 use crate::world::World;
+use shared::geometry::strain::Strain;
 use shared::math::{Point, Real, Rotation, Vector};
-use shared::strain::Strain;
 
 /// The parts of a block that move.
 #[derive(serde::Serialize, serde::Deserialize)]

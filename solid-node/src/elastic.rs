@@ -27,9 +27,9 @@
 //! rigid 6×6 and strain 6×6, which is what lets the rigid part stay exactly as for rigid blocks.
 //! Likewise the rigid inertia is that of the undeformed block (its change with E is O(ε)).
 
+use shared::geometry::strain::{self, Matrix6, Strain};
 use shared::math::{Matrix, Real};
 use shared::scene::ElasticSpec;
-use shared::strain::{self, Matrix6, Strain};
 
 /// The strain state and matrices of one deformable block.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]

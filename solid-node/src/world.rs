@@ -10,10 +10,10 @@ use crate::narrow_phase::{self, NarrowParams};
 use crate::penalty::PenaltyModel;
 use crate::terrain_contact::{self, TerrainBody};
 use rayon::prelude::*;
+use shared::geometry::strain::Strain;
 use shared::math::{Point, Real, Vector};
 use shared::scene::{ContactSpec, Scene};
 use shared::solver::SolverError;
-use shared::strain::Strain;
 use shared::terrain::Terrain;
 use std::sync::Arc;
 

@@ -16,10 +16,10 @@
 
 use crate::REGISTRY;
 use crate::sph::SphSolver;
+use shared::coupling::step::{StepRule, grant};
 use shared::protocol::BlockLoad;
 use shared::scene::{CouplingScheme, Scene, Walls};
 use shared::solver::{SetupContext, SolverError, StepReport};
-use shared::step::{StepRule, grant};
 use std::path::Path;
 
 mod dam_break;

@@ -4,7 +4,7 @@
 //! fluid node runs): wait for the loads tagged n, hand them to the solver and to the
 //! added-mass watch, advance, then write G_{n+1} straight into shared memory and send it.
 //! A step whose loads the watch finds unstable (the water's added mass dominates a light
-//! block: the instability of partitioned coupling, see [`crate::added_mass`]) fails as
+//! block: the instability of partitioned coupling, see [`crate::coupling::added_mass`]) fails as
 //! unstable before the solver advances.
 //!
 //! Multi-rate coupling (`[coupling] solid_substeps = N > 1`): the solid may take up to N
@@ -34,9 +34,9 @@ use super::SolidFactory;
 use super::args::NodeArgs;
 use super::control::{self, Control, Fatal};
 use super::serve::{self, Side, StepFailure};
-use crate::added_mass::{AddedMassMonitor, Verdict};
+use crate::coupling::added_mass::{AddedMassMonitor, Verdict};
+use crate::coupling::load_relaxation::LoadRelaxation;
 use crate::geometry::Polyhedron;
-use crate::load_relaxation::LoadRelaxation;
 use crate::math::Vector;
 use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Resume, Role};
 use crate::scene::{BlockKind, Scene};

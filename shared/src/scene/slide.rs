@@ -1,5 +1,5 @@
 //! `[[slide]]`: a rock mass given as a convex region and its joint sets, cut into blocks (Shi's
-//! block cutting, [`crate::cutting`]) when the scene is read.
+//! block cutting, [`crate::geometry::cutting`]) when the scene is read.
 //!
 //! The cut blocks are ordinary free convex blocks appended to [`Scene::blocks`], named
 //! `<slide name>/<k>` and marked with [`SlideMember`], so every process that reads the scene
@@ -16,7 +16,7 @@ use super::error::{FieldError, Seg, render_path};
 use super::schema::{
     BlockKind, BlockSpec, JointSetSpec, Scene, ShapeSpec, SlideCut, SlideMember, SlideSpec,
 };
-use crate::cutting::{self, Cell, PlaneFamily};
+use crate::geometry::cutting::{self, Cell, PlaneFamily};
 use crate::geometry::{Polyhedron, shape_points};
 use crate::math::{Point, Real, Vector};
 

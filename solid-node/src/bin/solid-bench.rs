@@ -10,7 +10,7 @@
 //! are then all 12×12), `--scene FILE` the blocks of a scene instead of the piles (its solid
 //! alone, dry: a cut rock mass of `[[slide]]`s, say, sliding and breaking up without water).
 
-use shared::step::StepRule;
+use shared::coupling::step::StepRule;
 use solid_node::verification::{Harness, block_toml, box_corners, scene};
 use std::time::Instant;
 

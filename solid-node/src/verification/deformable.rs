@@ -19,9 +19,9 @@ use super::{
     EXPLICIT, Harness, Incline, Row, Tolerance, block_toml, box_corners, floor_toml, scene,
 };
 use crate::elastic::cube_frequencies;
+use shared::geometry::strain::Strain;
 use shared::math::Real;
 use shared::solver::{Solver, SolverError};
-use shared::strain::Strain;
 use std::f64::consts::PI;
 
 const G: Real = shared::math::STANDARD_GRAVITY;

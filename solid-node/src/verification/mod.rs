@@ -13,10 +13,10 @@
 
 use crate::dda::DdaSolver;
 use crate::world::World;
+use shared::coupling::step::{StepRule, grant};
 use shared::math::{Real, Vector};
 use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SetupContext, Solver, SolverError};
-use shared::step::{StepRule, grant};
 use std::f64::consts::PI;
 use std::path::PathBuf;
 

@@ -310,7 +310,7 @@ pub struct CouplingSpec {
     pub solid_substeps: u32,
     /// Added-mass stabilisation: the water's loads on each block are under-relaxed as if the
     /// block carried an artificial added mass of this many times ρ_water × its volume
-    /// (`shared::load_relaxation`); 0 (the default) hands the loads over as they are.
+    /// (`shared::coupling::load_relaxation`); 0 (the default) hands the loads over as they are.
     /// `--added-mass` overrides it.
     #[serde(default)]
     pub added_mass: f64,

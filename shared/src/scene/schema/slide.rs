@@ -2,7 +2,7 @@
 //! into blocks is [`crate::scene::slide`].
 
 use super::{BlockSpec, ShapeSpec};
-use crate::cutting::PlaneFamily;
+use crate::geometry::cutting::PlaneFamily;
 use crate::math::Vector;
 use serde::{Deserialize, Serialize};
 
