@@ -26,9 +26,9 @@
 //! `solid-node/src/dda/look_ahead.rs`), and sends it with the geometry
 //! ([`BlockState::free_acceleration`], [`BlockState::mobility`]). Otherwise each block is sent
 //! on its own (its mass and last forces): single-rate, the solid's step is its own stable
-//! step, within which a contact answers little, and looking ahead measured no gain there (the
-//! sinking block's rest) while it moved the floating block's draft by −0.6 % of the
-//! reference (docs/PERFORMANCE.md).
+//! step, within which a contact answers little: looking ahead gained nothing there and moved
+//! the floating block's draft off its reference (docs/journal/2026-11-performance.md "The
+//! solid looks ahead: a resting block's contact inside DFSPH's step").
 
 use super::SolidFactory;
 use super::args::NodeArgs;
