@@ -11,8 +11,11 @@
 //! - [`terrain`]: fixed terrain from mesh and DEM files (`[[terrain]]`), with BVH queries.
 //! - [`registry`]: the solvers a node crate offers, and each solver's own parameter table.
 //! - [`solver`]: the coupling interface a solver implements (preCICE style: read, write, advance).
-//! - [`transport`]: the iceoryx2 services of one run, under a unique prefix.
+//! - [`transport`]: how the processes of a run talk (iceoryx2 on one host, or zenoh), under the
+//!   run's unique id.
 //! - [`runtime`]: the node runtime that does all the talking for a solver.
+//! - [`report`]: the validation tables (one row per checked quantity).
+//! - [`vtk`]: the VTK frames a run writes, and reading them back.
 
 pub mod checkpoint;
 pub mod coupling;

@@ -1,5 +1,6 @@
-//! Scenes: the TOML schema ([`schema`]), validation that names the field, the bad value and the
-//! fix ([`validate`]), and the line a field sits on ([`span`]).
+//! Scenes: the TOML schema ([`schema`], the tables as written), the slides cut into blocks
+//! ([`slide`]), validation that names the field, the bad value and the fix ([`validate`], its
+//! [`FieldError`] in `error`), and the line a field sits on ([`span`]).
 
 mod error;
 mod motion;

@@ -4,6 +4,10 @@
 //! that names the field rather than a silently ignored line. `[fluid]` and `[solid]` keep the
 //! tables that are not their fields as solver parameter tables, which the solver registries
 //! check (`shared::registry`).
+//!
+//! This file holds the scene and its settings tables; the bodies have files of their own:
+//! `block.rs` (`[[block]]`, its shape and motion), `slide.rs` (`[[slide]]`, a rock mass and its
+//! joint sets) and `terrain.rs` (`[[terrain]]`, ground read from a file).
 
 mod block;
 mod slide;

@@ -97,7 +97,8 @@ impl JointSetSpec {
 /// What cutting one slide gave, for `coupler check` and the logs.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SlideCut {
-    /// Index of the first block in [`Scene::blocks`]; the slide's blocks are contiguous.
+    /// Index of the first block in [`crate::scene::Scene::blocks`]; the slide's blocks are
+    /// contiguous.
     pub first_block: usize,
     pub blocks: usize,
     pub region_volume: f64,
