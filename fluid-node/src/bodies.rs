@@ -12,9 +12,9 @@ use crate::neighbors::CellGrid;
 use crate::walls::WallParticles;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
+use shared::geometry::strain::{MaterialMap, Strain};
 use shared::math::{Matrix, Matrix6, Point, Real, Vector, Vector6};
 use shared::protocol::{BlockLoad, BlockState};
-use shared::strain::{MaterialMap, Strain};
 
 /// Boundary particles of the moving blocks (Adami, Hu & Adams 2012, §2.3 for moving walls).
 ///
@@ -377,8 +377,8 @@ mod tests {
             body.place(std::slice::from_ref(&state));
             let (f, rate) = if deformable {
                 (
-                    r * (Matrix::identity() + shared::strain::tensor(&state.strain())),
-                    r * shared::strain::tensor(&Strain::from(state.strain_rate)),
+                    r * (Matrix::identity() + shared::geometry::strain::tensor(&state.strain())),
+                    r * shared::geometry::strain::tensor(&Strain::from(state.strain_rate)),
                 )
             } else {
                 (r, Matrix::zeros())

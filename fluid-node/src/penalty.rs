@@ -15,9 +15,9 @@ use crate::particles::Particles;
 use crate::tasks;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
+use shared::geometry::strain::{MaterialMap, Strain};
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
-use shared::strain::{MaterialMap, Strain};
 
 /// One block as the fluid sees it.
 #[derive(Debug, Clone)]
@@ -420,7 +420,10 @@ mod tests {
             p.penalty[i]
         );
         // −f at the material point X = (0.1, 0, 0.5) of the undeformed cube.
-        let g = shared::strain::generalised_force(&Vector::new(0.1, 0.0, 0.5), &-p.penalty[i]);
+        let g = shared::geometry::strain::generalised_force(
+            &Vector::new(0.1, 0.0, 0.5),
+            &-p.penalty[i],
+        );
         assert!((Strain::from(loads[0].strain_load) - g).norm() < 1e-9);
         assert!((loads[0].strain_load[2] + expected * 0.5).abs() < 1e-9);
         // A rigid block of the same pose loads no strain.

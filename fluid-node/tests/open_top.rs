@@ -7,9 +7,9 @@ use fluid_node::scheme::SphMethod;
 use fluid_node::sph::{Sph, SphSolver};
 use fluid_node::validation::*;
 use fluid_node::wcsph::Wcsph;
+use shared::coupling::step::StepRule;
 use shared::scene::{CouplingScheme as Coupling, Scene};
 use shared::solver::{SetupContext, Solver, SolverError};
-use shared::step::StepRule;
 
 /// Water 0.1 m deep in a 0.6 m square tank whose walls and domain end at z = 0.2 m
 /// (dx = 0.02 m).

@@ -289,7 +289,7 @@ pub struct BlockState {
     pub velocity: [f64; 3],
     /// Angular velocity [rad/s].
     pub angular_velocity: [f64; 3],
-    /// Constant strain (εx, εy, εz, γyz, γzx, γxy) in the block frame (see [`crate::strain`]);
+    /// Constant strain (εx, εy, εz, γyz, γzx, γxy) in the block frame (see [`crate::geometry::strain`]);
     /// zero for rigid blocks.
     pub strain: [f64; 6],
     /// Its rate [1/s].
@@ -363,8 +363,8 @@ impl BlockState {
     pub fn is_deformable(&self) -> bool {
         self.flags & Self::DEFORMABLE != 0
     }
-    pub fn strain(&self) -> crate::strain::Strain {
-        crate::strain::Strain::from(self.strain)
+    pub fn strain(&self) -> crate::geometry::strain::Strain {
+        crate::geometry::strain::Strain::from(self.strain)
     }
     /// The world-frame inverse inertia tensor ([`Self::inverse_inertia`]) as a matrix.
     pub fn inverse_inertia(&self) -> crate::math::Matrix {
@@ -386,9 +386,12 @@ impl BlockState {
         self.material_map().map
     }
     /// Positions and velocities of the block's material points at this state.
-    pub fn material_map(&self) -> crate::strain::MaterialMap {
-        let (e, e_dot) = (self.strain(), crate::strain::Strain::from(self.strain_rate));
-        crate::strain::MaterialMap::new(
+    pub fn material_map(&self) -> crate::geometry::strain::MaterialMap {
+        let (e, e_dot) = (
+            self.strain(),
+            crate::geometry::strain::Strain::from(self.strain_rate),
+        );
+        crate::geometry::strain::MaterialMap::new(
             self.centroid().coords,
             self.rotation().to_rotation_matrix().into_inner(),
             self.velocity(),
@@ -455,7 +458,7 @@ pub struct BlockLoad {
     pub force: [f64; 3],
     pub torque: [f64; 3],
     /// Generalised force on the strain unknowns, Σ T_e(X)ᵀ Rᵀ f over the forces f at material
-    /// points X ([`crate::strain::generalised_force`]); zero for rigid blocks.
+    /// points X ([`crate::geometry::strain::generalised_force`]); zero for rigid blocks.
     pub strain_load: [f64; 6],
 }
 

@@ -680,7 +680,8 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
-    /// Size and write time of a 25 000-particle frame both ways (docs/PERFORMANCE.md):
+    /// Size and write time of a 25 000-particle frame both ways (docs/PERFORMANCE.md, "VTK
+    /// frames: binary versus ASCII"):
     /// `cargo test --release -p shared vtk::tests::measure -- --ignored --nocapture`.
     /// The values have full 17-digit mantissas, as particles have once they move.
     #[test]

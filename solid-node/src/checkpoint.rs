@@ -18,9 +18,9 @@ use crate::contact::broad_phase::BroadPhase;
 use crate::integrators::Integrator;
 use crate::integrators::energy::EnergyMonitor;
 use crate::world::World;
+use shared::geometry::strain::Strain;
 use shared::math::{Point, Real, Rotation, Vector};
 use shared::solver::SolverError;
-use shared::strain::Strain;
 
 /// The parts of a block that move.
 #[derive(serde::Serialize, serde::Deserialize)]

@@ -10,10 +10,10 @@ use crate::contact::springs::PenaltyModel;
 use crate::contact::terrain::{self as terrain_contact, TerrainBody};
 use crate::contact::{self, Contact};
 use rayon::prelude::*;
+use shared::geometry::strain::Strain;
 use shared::math::{Point, Real, Vector};
 use shared::scene::{ContactSpec, Scene};
 use shared::solver::SolverError;
-use shared::strain::Strain;
 use shared::terrain::Terrain;
 use std::sync::Arc;
 

@@ -1,10 +1,10 @@
 //! Deformable (12-DOF) blocks through the solver interface: unknowns, geometry out, strain
 //! loads in, outputs, and "model no more than a scene needs" (rigid scenes pay nothing).
 
+use shared::geometry::strain::{self, Strain};
 use shared::math::{Matrix, Point, Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::solver::{SolidSolver, Solver};
-use shared::strain::{self, Strain};
 use solid_node::integrators::explicit::ExplicitParams;
 use solid_node::verification::{EXPLICIT, Harness, block_toml, box_corners, scene};
 

@@ -267,7 +267,7 @@ fn floating_block_dfsph_gives_the_same_draft_multi_rate() {
 /// With the block's velocity held over the fluid's step (`blocks_in_solve = false`, the
 /// explicit partitioned coupling) the one-step-lagged loads grow until the watch stops the run,
 /// at any dt (docs/stability.md); with those loads relaxed by an artificial added mass of
-/// ρ_w V (`--added-mass 1`, `shared::load_relaxation`) the run completes. With the block moving
+/// ρ_w V (`--added-mass 1`, `shared::coupling::load_relaxation`) the run completes. With the block moving
 /// inside the pressure solve (DFSPH's default) it completes unrelaxed. Either way the draft of
 /// one particle spacing (20 mm at dx = 20 mm) is resolved to within a spacing: measured
 /// +11.6 mm relaxed and +11.7 mm in the solve, where WCSPH floats it +13.7 mm deep (a block one

@@ -4,9 +4,9 @@
 
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, DamBreak};
+use shared::coupling::step::StepRule;
 use shared::protocol::BlockLoad;
 use shared::solver::SolverError;
-use shared::step::StepRule;
 use std::time::Instant;
 
 /// Column height over width of the dam break the sweeps run.

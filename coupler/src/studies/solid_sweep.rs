@@ -3,8 +3,8 @@
 //! over contact stiffness and dt factor, and a block resting on undamped contact springs pushed
 //! past the explicit limit ω·dt = 2 by the dt factor or by the stiffness.
 
+use shared::coupling::step::grant;
 use shared::solver::{Solver, SolverError};
-use shared::step::grant;
 use solid_node::verification::{self, Harness, Incline};
 use std::time::Instant;
 

@@ -12,7 +12,7 @@
 //!   solid solver with WCSPH, and with DFSPH single-rate and sub-cycled, its blocks held over
 //!   its step (relaxed or not) and moved in its solve (the asked range 0.3 … 3, and below it
 //!   down to where the added-mass instability of one-step-lagged loads appears:
-//!   `shared::added_mass`).
+//!   `shared::coupling::added_mass`).
 //!
 //! It also measures the numerical damping of Shi's scheme (restitution of an undamped bounce
 //! against exp(−πΩ/4)), written to `stability_implicit_damping.csv`.
@@ -132,7 +132,7 @@ const COUPLED_DT_ROWS: [(&str, CouplingScheme, u32, bool); 7] = [
 /// acceleration one step late at any dt, so the added-mass limit of explicit coupling is a
 /// density ratio that no smaller step moves (Causin, Gerbeau & Nobile 2005); the next rows
 /// relax those loads with an artificial added mass of ρ_w V (`[coupling] added_mass = 1`,
-/// `shared::load_relaxation`), which moves that limit; the last rows move the blocks inside
+/// `shared::coupling::load_relaxation`), which moves that limit; the last rows move the blocks inside
 /// the pressure solve (DFSPH's default), which removes the lag.
 const DFSPH_DENSITY_ROWS: [(&str, &str, CouplingScheme, u32, f64, bool); 6] = [
     ("dfsph", "explicit", CouplingScheme::Parallel, 1, 0.0, false),

@@ -39,9 +39,9 @@ mod phase_table;
 
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, TempRunDir, build};
+use shared::coupling::step::StepRule;
 use shared::protocol::BlockLoad;
 use shared::scene::Scene;
-use shared::step::StepRule;
 use std::time::Instant;
 
 fn scene(solver: &str, particles: usize, params: &[String]) -> Scene {

@@ -6,9 +6,9 @@ use super::{BLOCK_TOLERANCE, Dfsph};
 use crate::kernel::Kernel;
 use crate::system::FluidSystem;
 use rayon::prelude::*;
+use shared::geometry::strain::Strain;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
-use shared::strain::Strain;
 
 impl Dfsph {
     /// Whether this step moves blocks inside its solves: asked for, a free block exists, and

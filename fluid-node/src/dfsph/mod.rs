@@ -96,7 +96,7 @@
 //! - With `blocks_in_solve = false`: an incompressible fluid answers a block's motion within
 //!   the same step, at any dt. A light block then meets the added-mass instability of
 //!   one-step-lagged partitioned coupling (Causin, Gerbeau & Nobile 2005), which no smaller
-//!   step cures, and the watch stops the run (`shared::added_mass`); a heavy block closing on
+//!   step cures, and the watch stops the run (`shared::coupling::added_mass`); a heavy block closing on
 //!   a wall through water (the sinking block landing, the wedge reaching the toe of its slope)
 //!   meets it while the squeezed film lasts: a burst of the loads, which the watch names as a
 //!   warning (the block's motion over it is unreliable) and stops only past 1 000 weights per

@@ -16,10 +16,10 @@
 
 use crate::REGISTRY;
 use crate::sph::SphSolver;
+use shared::coupling::step::{StepRule, grant};
 use shared::protocol::BlockLoad;
 use shared::scene::{CouplingScheme, Scene, Walls};
 use shared::solver::{SetupContext, SolverError, StepReport};
-use shared::step::{StepRule, grant};
 use std::path::Path;
 
 mod dam_break;
@@ -69,7 +69,7 @@ pub fn scene_errors(text: &str) -> String {
         .unwrap_or_default()
 }
 
-/// One step of a solver alone, granted by the coupler's rule ([`shared::step::grant`]: its
+/// One step of a solver alone, granted by the coupler's rule ([`shared::coupling::step::grant`]: its
 /// proposal bounded by the scene's dt limits, times `rule.dt_factor`, landing on `target`), the
 /// way the node runtime drives it (write_loads, advance). Returns the time reached and the
 /// step's report; a collapsed proposal is an instability.

@@ -17,10 +17,12 @@
 //! - `control`: the link to the coupler (handshake, commands, statuses, bounded waits);
 //! - `serve`: building the solver and the command loop both roles share;
 //! - `fluid`, `solid`: each role's data ports and its exchange around the solver's advance;
+//! - `exit`: the exit codes of a node process;
 //! - `watchdog`: a bound on start-up that holds even inside a stuck transport call.
 
 mod args;
 mod control;
+pub mod exit;
 mod fluid;
 mod presence;
 mod serve;
@@ -28,29 +30,14 @@ mod solid;
 mod watchdog;
 
 pub use control::{peak_rss_bytes_of, process_cpu_seconds, process_peak_rss_bytes};
+pub use serve::{FluidFactory, SolidFactory};
 
 use crate::protocol::Role;
-use crate::solver::{FluidSolver, SetupContext, SolidSolver, SolverError};
 use crate::transport::{self, Endpoints, Kind, Party, RunId, Transport};
 use args::NodeArgs;
 use clap::Parser;
 use control::Fatal;
 use std::process::ExitCode;
-
-/// Builds a fluid solver by name.
-pub type FluidFactory = fn(&str, &SetupContext) -> Result<Box<dyn FluidSolver>, SolverError>;
-/// Builds a solid solver by name.
-pub type SolidFactory = fn(&str, &SetupContext) -> Result<Box<dyn SolidSolver>, SolverError>;
-
-/// Exit codes of a node process.
-pub mod exit {
-    /// The solver went unstable or failed; its status message says why.
-    pub const SOLVER: u8 = 2;
-    /// The transport failed or the coupler vanished.
-    pub const TRANSPORT: u8 = 3;
-    /// SIGINT or SIGTERM.
-    pub const SIGNAL: u8 = 130;
-}
 
 /// Runs a fluid node: parses the command line, handshakes, then serves steps until told to stop.
 pub fn fluid_main(solvers: &[&str], build: FluidFactory) -> ExitCode {

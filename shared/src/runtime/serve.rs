@@ -11,7 +11,7 @@ use super::exit;
 use crate::checkpoint::{self, NodeCheckpoint, NodeHeader};
 use crate::protocol::{Command, CommandKind, Resume, Role, Setup, StatusCode};
 use crate::scene::Scene;
-use crate::solver::{SetupContext, Solver, SolverError, StepReport};
+use crate::solver::{FluidSolver, SetupContext, SolidSolver, Solver, SolverError, StepReport};
 use crate::transport::TransportError;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -59,6 +59,11 @@ impl From<Fatal> for StepFailure {
         StepFailure::Fatal(e)
     }
 }
+
+/// Builds a fluid solver by name.
+pub type FluidFactory = fn(&str, &SetupContext) -> Result<Box<dyn FluidSolver>, SolverError>;
+/// Builds a solid solver by name.
+pub type SolidFactory = fn(&str, &SetupContext) -> Result<Box<dyn SolidSolver>, SolverError>;
 
 /// A transport failure during the set-up exchange, reported as the solver's failure.
 pub(super) fn fatal_to_solver(f: Fatal) -> SolverError {

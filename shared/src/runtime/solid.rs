@@ -4,7 +4,7 @@
 //! fluid node runs): wait for the loads tagged n, hand them to the solver and to the
 //! added-mass watch, advance, then write G_{n+1} straight into shared memory and send it.
 //! A step whose loads the watch finds unstable (the water's added mass dominates a light
-//! block: the instability of partitioned coupling, see [`crate::added_mass`]) fails as
+//! block: the instability of partitioned coupling, see [`crate::coupling::added_mass`]) fails as
 //! unstable before the solver advances.
 //!
 //! Multi-rate coupling (`[coupling] solid_substeps = N > 1`): the solid may take up to N
@@ -26,17 +26,17 @@
 //! `solid-node/src/dda/look_ahead.rs`), and sends it with the geometry
 //! ([`BlockState::free_acceleration`], [`BlockState::mobility`]). Otherwise each block is sent
 //! on its own (its mass and last forces): single-rate, the solid's step is its own stable
-//! step, within which a contact answers little, and looking ahead measured no gain there (the
-//! sinking block's rest) while it moved the floating block's draft by −0.6 % of the
-//! reference (docs/PERFORMANCE.md).
+//! step, within which a contact answers little: looking ahead gained nothing there and moved
+//! the floating block's draft off its reference (docs/journal/2026-11-performance.md "The
+//! solid looks ahead: a resting block's contact inside DFSPH's step").
 
 use super::SolidFactory;
 use super::args::NodeArgs;
 use super::control::{self, Control, Fatal};
 use super::serve::{self, Side, StepFailure};
-use crate::added_mass::{AddedMassMonitor, Verdict};
+use crate::coupling::added_mass::{AddedMassMonitor, Verdict};
+use crate::coupling::load_relaxation::LoadRelaxation;
 use crate::geometry::Polyhedron;
-use crate::load_relaxation::LoadRelaxation;
 use crate::math::Vector;
 use crate::protocol::{BlockLoad, BlockState, Command, GeometryHeader, LoadsHeader, Resume, Role};
 use crate::scene::{BlockKind, Scene};

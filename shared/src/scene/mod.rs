@@ -1,17 +1,17 @@
-//! Scenes: the TOML schema ([`schema`]), validation that names the field, the bad value and the
-//! fix ([`validate`]), and the line a field sits on ([`span`]).
+//! Scenes: the TOML schema ([`schema`], the tables as written), the slides cut into blocks
+//! ([`slide`]), validation that names the field, the bad value and the fix ([`validate`], its
+//! [`FieldError`] in `error`), and the line a field sits on ([`span`]).
 
+mod error;
 mod motion;
 pub mod schema;
 pub mod slide;
 mod span;
-pub mod terrain;
 mod validate;
 
+pub use error::FieldError;
 pub use schema::*;
-pub use slide::{JointSetSpec, SlideCut, SlideMember, SlideSpec};
-pub use terrain::{CropSpec, NoData, TerrainFormat, TerrainSpec};
-pub use validate::FieldError;
+pub(crate) use validate::terrain_field_error;
 
 use std::path::Path;
 

@@ -1,187 +1,31 @@
 //! `[[slide]]`: a rock mass given as a convex region and its joint sets, cut into blocks (Shi's
-//! block cutting, [`crate::cutting`]) when the scene is read.
+//! block cutting, [`crate::geometry::cutting`]) when the scene is read.
 //!
 //! The cut blocks are ordinary free convex blocks appended to [`Scene::blocks`], named
 //! `<slide name>/<k>` and marked with [`SlideMember`], so every process that reads the scene
 //! (coupler, fluid node, solid node) sees the same blocks without any of them sending geometry:
 //! the cutting is a deterministic function of the scene text. The scene as written (and as sent
 //! to the nodes, and as hashed for checkpoints) keeps the `[[slide]]` table and leaves the cut
-//! blocks out ([`serialize_written_blocks`]).
+//! blocks out ([`crate::scene::serialize_written_blocks`]).
 //!
 //! The solid node also reads the joint sets: a contact between two blocks of one slide across
 //! a joint plane takes that set's cohesion, tensile strength and friction, bonded at the start
 //! and with residual friction only once broken (`solid-node/src/joints.rs`).
 
-use super::schema::{BlockKind, BlockSpec, Scene, ShapeSpec};
-use super::validate::{FieldError, Seg};
-use crate::cutting::{self, Cell, PlaneFamily};
+use super::error::{FieldError, Seg, render_path};
+use super::schema::{
+    BlockKind, BlockSpec, JointSetSpec, Scene, ShapeSpec, SlideCut, SlideMember, SlideSpec,
+};
+use crate::geometry::cutting::{self, Cell, PlaneFamily};
 use crate::geometry::{Polyhedron, shape_points};
 use crate::math::{Point, Real, Vector};
-use serde::{Deserialize, Serialize};
 
-/// Default most blocks one slide may be cut into.
-pub const DEFAULT_MAX_BLOCKS: usize = 10_000;
 /// Default smallest block kept, as a fraction of the region's volume.
 pub const DEFAULT_MIN_BLOCK_FRACTION: Real = 1e-6;
+
 /// Cutting tolerance, as a fraction of the region's size: corners closer to a plane than this
 /// lie on it.
 const TOLERANCE: Real = 1e-9;
-
-/// One `[[slide]]`: a rock mass cut into free blocks by its joint sets.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SlideSpec {
-    /// Short name; the blocks are named `<name>/0`, `<name>/1`, …
-    pub name: String,
-    /// The rock mass before cutting: a convex shape (`box`, `prism` or `convex`).
-    pub region: ShapeSpec,
-    /// Rock density [kg/m³].
-    #[serde(default = "default_rock_density")]
-    pub density: f64,
-    /// Pieces smaller than this [m³] are dropped (slivers at the region's edges); default
-    /// 1e-6 of the region's volume. The count and volume dropped are reported by `coupler check`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub min_block_volume: Option<f64>,
-    /// Most blocks the cutting may make; more is refused before they are built (default 10 000).
-    #[serde(default = "default_max_blocks")]
-    pub max_blocks: usize,
-    /// Friction angle [deg] of the slide's blocks against other blocks (terrain, walls); the
-    /// joints between its own blocks use their set's. Default: `[solid.contact]`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub friction_angle: Option<f64>,
-    /// Cohesion [Pa] of the slide's blocks against other blocks; default `[solid.contact]`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cohesion: Option<f64>,
-    /// `[[slide.joint_set]]`: the families of parallel joints that cut the region.
-    #[serde(default, rename = "joint_set")]
-    pub joint_sets: Vec<JointSetSpec>,
-}
-
-fn default_rock_density() -> f64 {
-    2500.0
-}
-fn default_max_blocks() -> usize {
-    DEFAULT_MAX_BLOCKS
-}
-
-/// One `[[slide.joint_set]]`: parallel joint planes and their strength.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct JointSetSpec {
-    /// Dip [deg] in [0, 90]: the planes' angle below horizontal.
-    pub dip: f64,
-    /// Dip direction [deg] in [0, 360): azimuth of the steepest descent, clockwise from north
-    /// (+y) — east (+x) is 90°.
-    pub dip_direction: f64,
-    /// Distance between neighbouring planes [m], along their normal.
-    pub spacing: f64,
-    /// A point one plane of the set passes through [m]; default the origin.
-    #[serde(default)]
-    pub offset: [f64; 3],
-    /// Friction angle φ of the joints [deg]; also the residual friction once a joint breaks.
-    #[serde(default = "default_joint_friction")]
-    pub friction_angle: f64,
-    /// Cohesion c [Pa] of the intact joint.
-    #[serde(default)]
-    pub cohesion: f64,
-    /// Tensile strength T [Pa] of the intact joint.
-    #[serde(default)]
-    pub tensile_strength: f64,
-}
-
-fn default_joint_friction() -> f64 {
-    30.0
-}
-
-impl JointSetSpec {
-    /// Upward unit normal of the set's planes: (sin δ sin α, sin δ cos α, cos δ) for dip δ and
-    /// dip direction α (x east, y north, z up).
-    pub fn normal(&self) -> Vector {
-        let (d, a) = (self.dip.to_radians(), self.dip_direction.to_radians());
-        Vector::new(d.sin() * a.sin(), d.sin() * a.cos(), d.cos())
-    }
-
-    /// The family of planes n·x = n·offset + k·spacing.
-    pub fn family(&self) -> PlaneFamily {
-        let n = self.normal();
-        PlaneFamily {
-            normal: n,
-            base: n.dot(&Vector::from(self.offset)),
-            spacing: self.spacing,
-        }
-    }
-}
-
-/// Marks a block cut from a slide: which `[[slide]]` (index) it came from. Never written: the
-/// scene text keeps the slide, not its blocks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct SlideMember {
-    pub slide: usize,
-}
-
-/// What cutting one slide gave, for `coupler check` and the logs.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct SlideCut {
-    /// Index of the first block in [`Scene::blocks`]; the slide's blocks are contiguous.
-    pub first_block: usize,
-    pub blocks: usize,
-    pub region_volume: f64,
-    /// Volume of the kept blocks [m³].
-    pub kept_volume: f64,
-    pub min_volume: f64,
-    pub max_volume: f64,
-    /// Pieces dropped as slivers (below `min_block_volume`, or too flat to be a block).
-    pub slivers: usize,
-    pub sliver_volume: f64,
-    /// The volume limit used [m³].
-    pub min_block_volume: f64,
-    /// Per joint set, how many of its planes cut the region.
-    pub planes_used: Vec<usize>,
-}
-
-impl SlideCut {
-    pub fn mean_volume(&self) -> f64 {
-        if self.blocks == 0 {
-            0.0
-        } else {
-            self.kept_volume / self.blocks as f64
-        }
-    }
-}
-
-impl std::fmt::Display for SlideCut {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{} blocks, volume min {:.4e} / mean {:.4e} / max {:.4e} m³, total {:.6e} of the region's {:.6e} m³; \
-             {} sliver(s) below {:.3e} m³ dropped ({:.4e} m³ lost); planes per joint set {:?}",
-            self.blocks,
-            self.min_volume,
-            self.mean_volume(),
-            self.max_volume,
-            self.kept_volume,
-            self.region_volume,
-            self.slivers,
-            self.min_block_volume,
-            self.sliver_volume,
-            self.planes_used
-        )
-    }
-}
-
-/// Serialises only the blocks written in the scene (not the ones cut from slides).
-pub fn serialize_written_blocks<S: serde::Serializer>(
-    blocks: &[BlockSpec],
-    s: S,
-) -> Result<S::Ok, S::Error> {
-    use serde::ser::SerializeSeq;
-    let written: Vec<&BlockSpec> = blocks.iter().filter(|b| b.slide.is_none()).collect();
-    let mut seq = s.serialize_seq(Some(written.len()))?;
-    for b in written {
-        seq.serialize_element(b)?;
-    }
-    seq.end()
-}
 
 /// An error at `slide[slide].<field>`, where `field` may index, e.g. `joint_set[1].dip`.
 fn fail(
@@ -204,7 +48,7 @@ fn fail(
         }
     }
     FieldError {
-        path: super::span::render_path(&segments),
+        path: render_path(&segments),
         segments,
         value: format!("{value:?}"),
         problem: problem.into(),
@@ -476,7 +320,7 @@ pub(super) fn attribute(scene: &Scene, errors: &mut [FieldError]) {
         };
         let Some(m) = b.slide else { continue };
         e.segments = vec![Seg::Key("slide".into()), Seg::Index(m.slide)];
-        e.path = super::span::render_path(&e.segments);
+        e.path = render_path(&e.segments);
         e.problem = format!("cut block '{}': {}", b.name, e.problem);
         e.fix = format!(
             "{} — the block was cut from this slide: raise min_block_volume to drop such blocks, or change the joint sets' spacing",

@@ -1,6 +1,6 @@
 //! Finds the line of a field in the scene text, so a validation error can point at it.
 
-use super::validate::{FieldError, Seg};
+use super::error::{FieldError, Seg, render_path};
 use toml::de::{DeTable, DeValue};
 
 /// Fills `line` of each error with the line of its field (or of the nearest enclosing table
@@ -152,20 +152,4 @@ fn walk(table: &DeTable<'_>, path: &mut Vec<Seg>, errors: &mut Vec<FieldError>) 
         }
         path.pop();
     }
-}
-
-/// `block[2].shape.min` from its segments.
-pub(super) fn render_path(segments: &[Seg]) -> String {
-    let mut path = String::new();
-    for s in segments {
-        match s {
-            Seg::Key(k) if path.is_empty() => path.push_str(k),
-            Seg::Key(k) => {
-                path.push('.');
-                path.push_str(k)
-            }
-            Seg::Index(i) => path.push_str(&format!("[{i}]")),
-        }
-    }
-    path
 }

@@ -119,12 +119,12 @@ fn grid(tif: &GeoTiff, tags: &Tags) -> Result<Grid, String> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use tiff::encoder::{TiffEncoder, colortype::Gray32Float};
 
     /// A 4 × 3 GeoTIFF, upper-left corner at (1000, 2030), 10 m cells, rows from the north.
-    fn write(path: &Path, z: &[f32], nodata: Option<&str>, rotated: bool) {
+    pub(crate) fn write(path: &Path, z: &[f32], nodata: Option<&str>, rotated: bool) {
         let file = std::fs::File::create(path).unwrap();
         let mut enc = TiffEncoder::new(file).unwrap();
         let mut image = enc.new_image::<Gray32Float>(4, 3).unwrap();
@@ -153,7 +153,7 @@ mod tests {
         image.write_data(z).unwrap();
     }
 
-    fn temp(name: &str) -> std::path::PathBuf {
+    pub(crate) fn temp(name: &str) -> std::path::PathBuf {
         std::env::temp_dir().join(format!("rw-geotiff-{}-{name}.tif", std::process::id()))
     }
 
@@ -181,26 +181,7 @@ mod tests {
         assert_eq!((g.x0, g.y0, g.cell), (twin.x0, twin.y0, twin.cell));
         assert_eq!((g.x0, g.y0, g.cell), (1005.0, 2005.0, 10.0));
         assert_eq!(g.z, twin.z);
-        // As a `[[terrain]]`: the same surface as the ASCII twin.
-        write(&path, &z, None, false);
-        let asc_path = path.with_extension("asc");
-        std::fs::write(&asc_path, &asc).unwrap();
-        let domain = crate::scene::DomainSpec {
-            min: [1005.0, 2005.0, -10.0],
-            max: [1035.0, 2025.0, 10.0],
-            open_top: false,
-        };
-        let load = |p: &Path| {
-            let spec = toml::from_str(&format!("file = {:?}", p.display().to_string())).unwrap();
-            super::super::Terrain::load(&spec, &domain).unwrap()
-        };
-        let (t, a) = (load(&path), load(&asc_path));
-        assert_eq!(t.triangles(), a.triangles());
-        for (x, y) in [(1012.0, 2011.0), (1030.0, 2020.0)] {
-            assert_eq!(t.top_at(x, y), a.top_at(x, y));
-        }
         std::fs::remove_file(&path).unwrap();
-        std::fs::remove_file(&asc_path).unwrap();
     }
 
     #[test]

@@ -19,7 +19,7 @@ pub mod geotiff;
 pub mod topology;
 
 use crate::math::{Point, Real, Rotation, Vector};
-use crate::scene::terrain::field_error;
+use crate::scene::terrain_field_error;
 use crate::scene::{DomainSpec, FieldError, NoData, Scene, TerrainFormat, TerrainSpec};
 use files::RawMesh;
 use parry3d_f64::query::{PointQueryWithLocation, Ray, RayCast};
@@ -285,7 +285,7 @@ pub fn bed_elevation(scene: &Scene, terrain: &[Terrain], x: Real, y: Real) -> Re
 
 /// A [`TerrainError`] of `terrain[index]` as a scene field error.
 pub fn to_field_error(index: usize, e: TerrainError) -> FieldError {
-    field_error(index, e.field, e.value, &e.problem, &e.fix)
+    terrain_field_error(index, e.field, e.value, &e.problem, &e.fix)
 }
 
 /// Loads every terrain of the scene and reports what is wrong with each (the coupler's check

@@ -302,3 +302,43 @@ fn scene_paths_are_relative_to_the_scene_file() {
     .unwrap_err();
     assert!(e.to_string().contains("terrain[0].scale"), "{e}");
 }
+
+/// A GeoTIFF `[[terrain]]` is the same surface as its ESRI ASCII twin.
+#[test]
+fn a_geotiff_terrain_is_the_same_surface_as_its_ascii_twin() {
+    use super::geotiff::tests::{temp, write};
+    let z: Vec<f32> = (0..12).map(|i| i as f32 * 0.5 - 1.0).collect();
+    let path = temp("twin-terrain");
+    write(&path, &z, None, false);
+    let rows: Vec<String> = z
+        .chunks(4)
+        .map(|r| {
+            r.iter()
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
+        .collect();
+    let asc = format!(
+        "ncols 4\nnrows 3\nxllcorner 1000\nyllcorner 2000\ncellsize 10\n{}\n",
+        rows.join("\n")
+    );
+    let asc_path = path.with_extension("asc");
+    std::fs::write(&asc_path, &asc).unwrap();
+    let domain = DomainSpec {
+        min: [1005.0, 2005.0, -10.0],
+        max: [1035.0, 2025.0, 10.0],
+        open_top: false,
+    };
+    let load = |p: &Path| {
+        let spec = toml::from_str(&format!("file = {:?}", p.display().to_string())).unwrap();
+        Terrain::load(&spec, &domain).unwrap()
+    };
+    let (t, a) = (load(&path), load(&asc_path));
+    assert_eq!(t.triangles(), a.triangles());
+    for (x, y) in [(1012.0, 2011.0), (1030.0, 2020.0)] {
+        assert_eq!(t.top_at(x, y), a.top_at(x, y));
+    }
+    std::fs::remove_file(&path).unwrap();
+    std::fs::remove_file(&asc_path).unwrap();
+}

@@ -10,7 +10,7 @@
 //!
 //! Every service is opened here and only here, so all three processes agree on its settings.
 
-use super::{
+use super::seam::{
     Bell, Inbox, Kind, Outbox, Party, RunId, Transport, TransportError, Waiter, Wake, Wire, iox,
     process_alive,
 };

@@ -20,7 +20,7 @@
 //! resets) or its host stops answering (the link's lease, [`LEASE`], expires): the others see
 //! the party gone within that bound, and the coupler names the node.
 
-use super::{
+use super::seam::{
     Bell, Endpoints, Inbox, Kind, Outbox, Party, RunId, Transport, TransportError, Waiter, Wake,
     Wire,
 };

@@ -11,7 +11,7 @@
 //! (its solid alone, dry: a cut rock mass of `[[slide]]`s, say, sliding and breaking up without
 //! water).
 
-use shared::step::StepRule;
+use shared::coupling::step::StepRule;
 use solid_node::verification::{Harness, block_toml, box_corners, scene};
 use std::time::Instant;
 

@@ -10,10 +10,10 @@
 use crate::blocks::elastic::Elastic;
 use crate::blocks::rotation;
 use shared::geometry::Polyhedron;
+use shared::geometry::strain::{self, Strain};
 use shared::math::{Isometry, Matrix, Point, Real, Rotation, Vector};
 use shared::scene::{BlockKind, BlockSpec, MotionSpec};
 use shared::solver::SolverError;
-use shared::strain::{self, Strain};
 
 /// One block of the scene.
 #[derive(Debug, Clone)]

@@ -2,18 +2,18 @@
 //! §2.2–2.4; Shi 2001 for 3D), co-rotational.
 //!
 //! A material point at X (block frame, undeformed, centroid at the origin) is at
-//! x = c + R (I + E) X ([`shared::strain`]). The unknowns of a deformable block are the six
+//! x = c + R (I + E) X ([`shared::geometry::strain`]). The unknowns of a deformable block are the six
 //! rigid ones (centroid, rotation) and the six constant strains e = (εx, εy, εz, γyz, γzx, γxy)
 //! in the block frame. R is carried exactly (as for rigid blocks), so E is a small strain
 //! measured in the block's own frame and a spinning block neither grows nor strains.
 //!
 //! DDA's sub-matrices on the strain unknowns (Shi 1993, Eqs. 2.40–2.60 in 2D; the 3D analogues):
 //!
-//! - mass M_e = ρ ∫ T_eᵀ T_e dV ([`shared::strain::inertia`]): ρ V L²/12 on the normal strains
+//! - mass M_e = ρ ∫ T_eᵀ T_e dV ([`shared::geometry::strain::inertia`]): ρ V L²/12 on the normal strains
 //!   and ρ V L²/24 on the shears of a cube of side L;
 //! - stiffness V·D (D the isotropic elasticity, σ = D e): the strain energy ½ V eᵀ D e;
 //! - a force f at the material point X loads the strains with T_e(X)ᵀ Rᵀ f
-//!   ([`shared::strain::generalised_force`]); a uniform body force (gravity) gives nothing,
+//!   ([`shared::geometry::strain::generalised_force`]); a uniform body force (gravity) gives nothing,
 //!   because ∫ X dV = 0 about the centroid.
 //!
 //! **Neglected coupling.** The full 12×12 mass matrix has an off-diagonal block between the
@@ -27,9 +27,9 @@
 //! rigid 6×6 and strain 6×6, which is what lets the rigid part stay exactly as for rigid blocks.
 //! Likewise the rigid inertia is that of the undeformed block (its change with E is O(ε)).
 
+use shared::geometry::strain::{self, Matrix6, Strain};
 use shared::math::{Matrix, Real};
 use shared::scene::ElasticSpec;
-use shared::strain::{self, Matrix6, Strain};
 
 /// The strain state and matrices of one deformable block.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]

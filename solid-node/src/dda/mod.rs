@@ -8,10 +8,10 @@ use crate::integrators::Integrator;
 use crate::integrators::energy::EnergyMonitor;
 use crate::output::{self, KinematicsCsv};
 use crate::world::World;
+use shared::geometry::strain::Strain;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::solver::{SetupContext, SolidSolver, Solver, SolverError, StepReport};
-use shared::strain::Strain;
 use std::path::{Path, PathBuf};
 
 pub struct DdaSolver {

@@ -30,11 +30,11 @@ use crate::integrators::stability::{self, Estimate};
 use crate::integrators::{DdaMethod, Integrator};
 use crate::world::World;
 use serde::Deserialize;
+use shared::geometry::strain::Strain;
 use shared::math::{Real, Vector};
 use shared::registry::{ParamCheck, SolverParams};
 use shared::scene::Scene;
 use shared::solver::{SolverError, StepReport};
-use shared::strain::Strain;
 
 /// `[solid.explicit]`: parameters of the central difference scheme.
 #[derive(Debug, Clone, Deserialize, PartialEq)]

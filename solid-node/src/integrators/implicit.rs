@@ -47,11 +47,11 @@ use crate::integrators::stability;
 use crate::integrators::{DdaMethod, Integrator};
 use crate::world::World;
 use serde::Deserialize;
+use shared::geometry::strain::{self, Strain};
 use shared::math::{Matrix, Point, Real, Rotation, Vector};
 use shared::registry::{ParamCheck, SolverParams};
 use shared::scene::Scene;
 use shared::solver::{SolverError, StepReport};
-use shared::strain::{self, Strain};
 
 /// `[solid.implicit]`: parameters of Shi's scheme.
 #[derive(Debug, Clone, Deserialize, PartialEq)]

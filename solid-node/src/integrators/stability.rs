@@ -27,8 +27,8 @@ use crate::contact::tangents;
 use crate::world::World;
 use nalgebra::{Matrix6, Vector6};
 use rayon::prelude::*;
+use shared::geometry::strain;
 use shared::math::{Point, Real, Vector};
-use shared::strain;
 
 /// An ω² estimate and what binds it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -19,10 +19,10 @@ use super::harness::{EXPLICIT, Harness};
 use super::incline::Incline;
 use super::scenes::{block_toml, box_corners, floor_toml, scene};
 use crate::blocks::elastic::cube_frequencies;
+use shared::geometry::strain::Strain;
 use shared::math::Real;
 use shared::report::{Row, Tolerance};
 use shared::solver::{Solver, SolverError};
-use shared::strain::Strain;
 use std::f64::consts::PI;
 
 const G: Real = shared::math::STANDARD_GRAVITY;

@@ -2,10 +2,10 @@
 
 use crate::dda::DdaSolver;
 use crate::world::World;
+use shared::coupling::step::{StepRule, grant};
 use shared::math::Real;
 use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SetupContext, Solver, SolverError};
-use shared::step::{StepRule, grant};
 
 /// The central difference scheme's registry name: the cases whose reference is that scheme's
 /// own (its limit 2/ω_max, paper Eq. 8; its restitution and period) choose by it.
@@ -55,7 +55,7 @@ impl Harness {
         self.dir.path()
     }
 
-    /// One step towards `target`, granted by the coupler's rule ([`shared::step::grant`]: the
+    /// One step towards `target`, granted by the coupler's rule ([`shared::coupling::step::grant`]: the
     /// proposal within `rule`'s limits, times its `dt_factor`, landing on `target`); returns the
     /// step taken. A collapsed proposal is an instability.
     pub fn step(&mut self, rule: &StepRule, target: Real) -> Result<Real, SolverError> {

@@ -1,7 +1,7 @@
 //! One coupled run: handshake, the shared timestep, and an orderly end whatever happens.
 //!
 //! Each step: dt = min(node proposals, dt_max) (times `dt_factor` in stability experiments),
-//! cut to land exactly on the next output time and the end time ([`shared::step::grant`]); the
+//! cut to land exactly on the next output time and the end time ([`shared::coupling::step::grant`]); the
 //! command goes to both nodes at once; the nodes exchange geometry and loads directly with each
 //! other (see `shared::runtime`) and each answers with a status and its next proposal.
 //!

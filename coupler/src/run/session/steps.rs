@@ -5,8 +5,8 @@ use super::{Session, scene_text};
 use crate::run::checkpoint::CouplerCheckpoint;
 use crate::run::error::RunError;
 use crate::run::output::RunDir;
+use shared::coupling::step::{self, StepRule};
 use shared::protocol::*;
-use shared::step::{self, StepRule};
 use shared::transport::Kind;
 use std::time::{Duration, Instant};
 

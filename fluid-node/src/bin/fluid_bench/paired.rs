@@ -14,9 +14,9 @@ use super::scene;
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, TempRunDir, build};
 use rayon::ThreadPool;
+use shared::coupling::step::StepRule;
 use shared::protocol::BlockLoad;
 use shared::scene::Scene;
-use shared::step::StepRule;
 use std::time::Instant;
 
 /// One copy of the solver in its own pool, and where it stands.

@@ -4,6 +4,18 @@
 //! that names the field rather than a silently ignored line. `[fluid]` and `[solid]` keep the
 //! tables that are not their fields as solver parameter tables, which the solver registries
 //! check (`shared::registry`).
+//!
+//! This file holds the scene and its settings tables; the bodies have files of their own:
+//! `block.rs` (`[[block]]`, its shape and motion), `slide.rs` (`[[slide]]`, a rock mass and its
+//! joint sets) and `terrain.rs` (`[[terrain]]`, ground read from a file).
+
+mod block;
+mod slide;
+mod terrain;
+
+pub use block::*;
+pub use slide::*;
+pub use terrain::*;
 
 use serde::{Deserialize, Serialize};
 
@@ -41,19 +53,19 @@ pub struct Scene {
     #[serde(
         default,
         rename = "block",
-        serialize_with = "super::slide::serialize_written_blocks"
+        serialize_with = "slide::serialize_written_blocks"
     )]
     pub blocks: Vec<BlockSpec>,
     /// `[[terrain]]` entries: fixed ground read from mesh or elevation-model files.
     #[serde(default, rename = "terrain", skip_serializing_if = "Vec::is_empty")]
-    pub terrain: Vec<super::terrain::TerrainSpec>,
+    pub terrain: Vec<TerrainSpec>,
     /// `[[slide]]` entries: rock masses cut into free blocks by their joint sets
-    /// ([`super::slide`]).
+    /// ([`crate::scene::slide`]).
     #[serde(default, rename = "slide", skip_serializing_if = "Vec::is_empty")]
-    pub slides: Vec<super::slide::SlideSpec>,
+    pub slides: Vec<SlideSpec>,
     /// What cutting each slide gave (filled when the scene is read; never written).
     #[serde(skip)]
-    pub slide_cuts: Vec<super::slide::SlideCut>,
+    pub slide_cuts: Vec<SlideCut>,
     /// `[[gauge]]` entries: free-surface elevation recorded at (x, y).
     #[serde(default, rename = "gauge")]
     pub gauges: Vec<GaugeSpec>,
@@ -302,7 +314,7 @@ pub struct CouplingSpec {
     pub solid_substeps: u32,
     /// Added-mass stabilisation: the water's loads on each block are under-relaxed as if the
     /// block carried an artificial added mass of this many times ρ_water × its volume
-    /// (`shared::load_relaxation`); 0 (the default) hands the loads over as they are.
+    /// (`shared::coupling::load_relaxation`); 0 (the default) hands the loads over as they are.
     /// `--added-mass` overrides it.
     #[serde(default)]
     pub added_mass: f64,
@@ -416,142 +428,6 @@ impl Default for OutputSpec {
 
 fn default_output_interval() -> f64 {
     0.05
-}
-
-/// One `[[block]]`: a convex polyhedron with a kind.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct BlockSpec {
-    /// Unique name, used in outputs and messages.
-    pub name: String,
-    /// `fixed` (geometry only), `kinematic` (prescribed motion) or `free` (6-DOF rigid block).
-    #[serde(default)]
-    pub kind: BlockKind,
-    pub shape: ShapeSpec,
-    /// Rock density [kg/m³]; used by free blocks.
-    #[serde(default = "default_rock_density")]
-    pub density: f64,
-    /// Initial velocity of the centroid [m/s].
-    #[serde(default)]
-    pub velocity: [f64; 3],
-    /// Initial angular velocity [rad/s].
-    #[serde(default)]
-    pub angular_velocity: [f64; 3],
-    /// Prescribed motion of a kinematic block.
-    #[serde(default)]
-    pub motion: Option<MotionSpec>,
-    /// Joint friction angle for contacts of this block [deg]; a pair uses the smaller of the two.
-    #[serde(default)]
-    pub friction_angle: Option<f64>,
-    /// Joint cohesion for contacts of this block [Pa]; a pair uses the smaller of the two.
-    #[serde(default)]
-    pub cohesion: Option<f64>,
-    /// Makes a free block deformable: Shi's 12-DOF DDA block (6 rigid + 6 constant strains).
-    /// Absent, the block is rigid (6 DOF): a rock's elastic strain (~10⁻⁶) changes no wave.
-    #[serde(default)]
-    pub elastic: Option<ElasticSpec>,
-    /// Set on the blocks cut from a `[[slide]]` (never read from or written to a scene file).
-    #[serde(skip)]
-    pub slide: Option<super::slide::SlideMember>,
-}
-
-impl BlockSpec {
-    /// A block of `shape` and nothing else: at rest, no motion, the scene's contact
-    /// properties, rigid, in no slide (a terrain's stand-in block, the solid's unit tests).
-    pub fn plain(
-        name: impl Into<String>,
-        kind: BlockKind,
-        shape: ShapeSpec,
-        density: f64,
-    ) -> BlockSpec {
-        BlockSpec {
-            name: name.into(),
-            kind,
-            shape,
-            density,
-            velocity: [0.0; 3],
-            angular_velocity: [0.0; 3],
-            motion: None,
-            friction_angle: None,
-            cohesion: None,
-            elastic: None,
-            slide: None,
-        }
-    }
-}
-
-/// `elastic = { young_modulus = ..., poisson_ratio = ... }` of a deformable block: linear
-/// isotropic elasticity of its constant strain (Shi 1993, the 3D-DDA stiffness sub-matrix).
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ElasticSpec {
-    /// Young's modulus E [Pa].
-    pub young_modulus: f64,
-    /// Poisson's ratio ν, in [0, 0.5).
-    #[serde(default = "default_poisson_ratio")]
-    pub poisson_ratio: f64,
-}
-
-fn default_poisson_ratio() -> f64 {
-    0.25
-}
-
-fn default_rock_density() -> f64 {
-    2500.0
-}
-
-/// Block kinds. Fixed blocks carry no unknowns and are never checked against each other.
-#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq, Hash)]
-#[serde(rename_all = "lowercase")]
-pub enum BlockKind {
-    Fixed,
-    Kinematic,
-    #[default]
-    Free,
-}
-
-/// A convex shape.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
-pub enum ShapeSpec {
-    /// Axis-aligned box.
-    Box { min: [f64; 3], max: [f64; 3] },
-    /// A convex polygon `profile` in the plane normal to `axis`, extruded over `extent` along it.
-    /// For axis `y` the profile points are (x, z); for `x` they are (y, z); for `z`, (x, y).
-    /// A wedge is a prism with a triangular profile.
-    Prism {
-        axis: Axis,
-        profile: Vec<[f64; 2]>,
-        extent: [f64; 2],
-    },
-    /// The convex hull of `vertices`; every vertex must be a corner of the hull.
-    Convex { vertices: Vec<[f64; 3]> },
-}
-
-/// A coordinate axis.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum Axis {
-    X,
-    Y,
-    Z,
-}
-
-/// Prescribed motion of a kinematic block.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
-pub enum MotionSpec {
-    /// Translation d(t) = A·(sin(2πt/T + φ) − sin φ), ramped in smoothly over `ramp` seconds.
-    Sine {
-        amplitude: [f64; 3],
-        period: f64,
-        #[serde(default)]
-        phase: f64,
-        #[serde(default)]
-        ramp: f64,
-    },
-    /// Constant velocity [m/s].
-    Linear { velocity: [f64; 3] },
 }
 
 /// One `[[gauge]]`: a wave gauge recording the free-surface elevation at (x, y).

@@ -3,6 +3,12 @@
 //! parry3d-f64 computes the hull (with coplanar triangles merged into polygonal faces, which DDA's
 //! vertex–face and edge–edge contacts need) and the mass properties. Vertices are stored in the
 //! block's local frame with the centroid at the origin, so a pose (centroid, rotation) places them.
+//!
+//! Beside the polyhedra: [`cutting`], Shi's cutting of a convex region into blocks by joint
+//! planes (`[[slide]]`), and [`strain`], the constant strain of a deformable (12-DOF) block.
+
+pub mod cutting;
+pub mod strain;
 
 use crate::math::{Matrix, Point, Real, Vector};
 use crate::scene::{Axis, ShapeSpec};

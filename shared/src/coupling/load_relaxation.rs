@@ -4,7 +4,7 @@
 //! answers a block's acceleration one step late. Model the water's response by an added mass
 //! M_A (the load is F = −M_A a + the rest): the lagged step m a_{n+1} = −M_A a_n + … multiplies
 //! the acceleration by −M_A/m per step, which grows once the water that moves with the block
-//! outweighs it (Causin, Gerbeau & Nobile 2005; [`crate::added_mass`] detects it). With an
+//! outweighs it (Causin, Gerbeau & Nobile 2005; [`crate::coupling::added_mass`] detects it). With an
 //! incompressible solver (DFSPH) M_A does not shrink with the step, so a light block, or a
 //! heavy one closing on the floor through a thin film, cannot be saved by a smaller dt.
 //!

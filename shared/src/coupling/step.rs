@@ -109,7 +109,7 @@ impl<L: fmt::Display> fmt::Display for Collapse<L> {
 /// next output time):
 ///
 /// ```
-/// use shared::step::{grant, StepRule};
+/// use shared::coupling::step::{grant, StepRule};
 /// let rule = StepRule::new(1e-3, 1e-9);
 /// let g = grant([("fluid", 4e-4)], &rule, 0.0, 1e-3).unwrap();
 /// assert_eq!(g.dt, 4e-4);

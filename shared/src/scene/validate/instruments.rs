@@ -1,0 +1,155 @@
+//! The instruments: `[[gauge]]`, `[[runup]]` and `[[probe]]` (names, boxes, windows, and that
+//! each lies inside the domain).
+
+use super::checker::Checker;
+use crate::scene::error::Seg;
+use crate::scene::schema::Scene;
+
+/// Every instrument, in this order: the names (and a run-up's box, a probe's window) of the
+/// gauges, run-ups and probes; then the gauges.csv columns; then where gauges and probes lie.
+pub(super) fn check(c: &mut Checker, s: &Scene) {
+    gauges(c, s);
+    runups(c, s);
+    probes(c, s);
+    gauge_columns(c, s);
+    placement(c, s);
+}
+
+/// `[[gauge]]` names: plain and unique.
+fn gauges(c: &mut Checker, s: &Scene) {
+    let mut gauge_names = std::collections::HashSet::new();
+    for (i, g) in s.gauges.iter().enumerate() {
+        c.key("gauge", |c| {
+            c.at(Seg::Index(i), |c| {
+                c.label("name", &g.name, "gauge");
+                if !gauge_names.insert(g.name.as_str()) {
+                    c.fail(
+                        "name",
+                        &g.name,
+                        "is used by an earlier gauge (gauges.csv columns and summary.json key gauges by name)",
+                        "give every gauge a unique name",
+                    );
+                }
+            })
+        });
+    }
+}
+
+/// `[[runup]]`: unique names and a non-empty box over the domain in plan.
+fn runups(c: &mut Checker, s: &Scene) {
+    let d = &s.domain;
+    let mut runup_names = std::collections::HashSet::new();
+    for (i, r) in s.runups.iter().enumerate() {
+        c.key("runup", |c| {
+            c.at(Seg::Index(i), |c| {
+                c.label("name", &r.name, "runup");
+                if !runup_names.insert(r.name.as_str()) {
+                    c.fail(
+                        "name",
+                        &r.name,
+                        "is used by an earlier runup (summary.json keys run-ups by name)",
+                        "give every [[runup]] a unique name",
+                    );
+                }
+                if !(0..2).all(|k| r.min[k] < r.max[k]) {
+                    c.fail(
+                        "max",
+                        r.max,
+                        &format!("is not above min = {:?} in both x and y: the box is empty", r.min),
+                        "give the shore's box in plan with min < max, e.g. min = [150, 190], max = [250, 260]",
+                    );
+                } else if !(0..2).all(|k| r.min[k] < d.max[k] && r.max[k] > d.min[k]) {
+                    c.fail(
+                        "min",
+                        r.min,
+                        "gives a box outside the domain in plan: no water can reach it",
+                        "put the box over a shore inside [domain]",
+                    );
+                }
+            })
+        });
+    }
+}
+
+/// `[[probe]]`: unique names and a positive averaging window.
+fn probes(c: &mut Checker, s: &Scene) {
+    let mut probe_names = std::collections::HashSet::new();
+    for (i, p) in s.probes.iter().enumerate() {
+        c.key("probe", |c| {
+            c.at(Seg::Index(i), |c| {
+                c.label("name", &p.name, "probe");
+                if !probe_names.insert(p.name.as_str()) {
+                    c.fail(
+                        "name",
+                        &p.name,
+                        "is used by an earlier probe (probes.csv columns are named by probe)",
+                        "give every probe a unique name",
+                    );
+                }
+                if let Some(w) = p.window {
+                    c.positive(
+                        "window",
+                        w,
+                        "give the averaging window in seconds (e.g. window = 0.001), or leave it out for the instantaneous reading",
+                    );
+                }
+            })
+        });
+    }
+}
+
+/// gauges.csv has a column per gauge and one named `<name>_spray` per gauge: names must not
+/// collide, and `time` is the first column.
+fn gauge_columns(c: &mut Checker, s: &Scene) {
+    let mut columns = std::collections::HashSet::from(["time".to_string()]);
+    for (i, g) in s.gauges.iter().enumerate() {
+        if !columns.insert(g.name.clone()) || !columns.insert(format!("{}_spray", g.name)) {
+            c.key("gauge", |c| {
+                c.at(Seg::Index(i), |c| {
+                    c.fail(
+                        "name",
+                        &g.name,
+                        "collides with another gauges.csv column (time, an earlier gauge or its <name>_spray column)",
+                        "give every gauge a unique name that is not another gauge's name + \"_spray\"",
+                    )
+                })
+            });
+        }
+    }
+}
+
+/// Gauges inside the domain in plan, probes inside it.
+fn placement(c: &mut Checker, s: &Scene) {
+    let d = &s.domain;
+    let inside_xy =
+        |x: f64, y: f64| x >= d.min[0] && x <= d.max[0] && y >= d.min[1] && y <= d.max[1];
+    for (i, g) in s.gauges.iter().enumerate() {
+        if !inside_xy(g.x, g.y) {
+            c.key("gauge", |c| {
+                c.at(Seg::Index(i), |c| {
+                    c.fail(
+                        "x",
+                        (g.x, g.y),
+                        "lies outside the domain",
+                        "put the gauge inside [domain] in x and y",
+                    )
+                })
+            });
+        }
+    }
+    for (i, p) in s.probes.iter().enumerate() {
+        let q = p.position;
+        if (0..3).any(|k| q[k] < d.min[k] || q[k] > d.max[k]) {
+            c.key("probe", |c| {
+                c.at(Seg::Index(i), |c| {
+                    c.fail(
+                        "position",
+                        q,
+                        "lies outside the domain",
+                        "put the probe inside [domain]",
+                    )
+                })
+            });
+        }
+    }
+}

@@ -1,0 +1,132 @@
+//! `[[terrain]]`: the checks that need no file (the file itself is read by
+//! [`crate::terrain::Terrain::load`]).
+
+use crate::scene::error::{FieldError, Seg, render_path};
+use crate::scene::schema::{DomainSpec, TerrainFormat, TerrainSpec};
+
+/// An error at `terrain[index].field`.
+pub(crate) fn terrain_field_error(
+    index: usize,
+    field: &str,
+    value: String,
+    problem: &str,
+    fix: &str,
+) -> FieldError {
+    let mut segments = vec![Seg::Key("terrain".into()), Seg::Index(index)];
+    if !field.is_empty() {
+        segments.push(Seg::Key(field.into()));
+    }
+    FieldError {
+        path: render_path(&segments),
+        segments,
+        value,
+        problem: problem.into(),
+        fix: fix.into(),
+        line: None,
+    }
+}
+
+/// The checks of the `[[terrain]]` tables that need no file.
+/// `blocks` are the scene's block names: a terrain is a block to the solid node (its
+/// contacts, its messages), so the names must differ.
+pub(super) fn check(
+    terrains: &[TerrainSpec],
+    domain: &DomainSpec,
+    blocks: &[&str],
+) -> Vec<FieldError> {
+    let mut out = Vec::new();
+    let mut fail = |i: usize, field: &str, value: String, problem: &str, fix: &str| {
+        out.push(terrain_field_error(i, field, value, problem, fix))
+    };
+    for (i, t) in terrains.iter().enumerate() {
+        if blocks.contains(&t.name.as_str()) || terrains[..i].iter().any(|o| o.name == t.name) {
+            fail(
+                i,
+                "name",
+                format!("{:?}", t.name),
+                "is used by a block or an earlier terrain",
+                "give every terrain a name of its own, e.g. name = \"valley\"",
+            );
+        }
+        if t.name.trim().is_empty()
+            || t.name
+                .chars()
+                .any(|c| matches!(c, ',' | '"' | '\'' | ';') || c.is_control())
+        {
+            fail(
+                i,
+                "name",
+                format!("{:?}", t.name),
+                "must be a short name without separators or quotes",
+                "use letters, digits, '_', '-' or '.', e.g. name = \"fjord\"",
+            );
+        }
+        if TerrainFormat::of(&t.file).is_none() {
+            fail(
+                i,
+                "file",
+                format!("{:?}", t.file.display().to_string()),
+                "has no known terrain extension",
+                "give a .stl, .obj or .ply triangle mesh or an .asc (ESRI ASCII grid) or .tif (GeoTIFF) elevation model",
+            );
+        }
+        for (field, v) in [("offset", t.offset), ("rotation", t.rotation)] {
+            if v.iter().any(|x| !x.is_finite()) {
+                fail(
+                    i,
+                    field,
+                    format!("{v:?}"),
+                    "must be finite",
+                    "give three finite numbers",
+                );
+            }
+        }
+        if t.scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            fail(
+                i,
+                "scale",
+                format!("{:?}", t.scale),
+                "must be three positive finite factors",
+                "give e.g. scale = [1.0, 1.0, 1.0]; mirror a mesh in its own tool, not here",
+            );
+        }
+        if let Some(c) = &t.crop {
+            if (0..3).any(|k| {
+                c.max[k].partial_cmp(&c.min[k]) != Some(std::cmp::Ordering::Greater)
+                    || !c.min[k].is_finite()
+            }) {
+                fail(
+                    i,
+                    "crop",
+                    format!("{c:?}"),
+                    "is empty or not finite (max must be above min on every axis)",
+                    "give crop = { min = [x, y, z], max = [x, y, z] } with max > min",
+                );
+            } else if (0..3).any(|k| c.max[k] < domain.min[k] || c.min[k] > domain.max[k]) {
+                fail(
+                    i,
+                    "crop",
+                    format!("{c:?}"),
+                    "lies wholly outside [domain]: no triangle could be kept",
+                    "give a crop box that overlaps [domain]",
+                );
+            }
+        }
+        for (field, v, fix) in [
+            (
+                "friction_angle",
+                t.friction_angle,
+                "give an angle in degrees in [0, 90), e.g. 30",
+            ),
+            ("cohesion", t.cohesion, "give a cohesion ≥ 0 in Pa"),
+        ] {
+            if let Some(v) = v {
+                let ok = v.is_finite() && v >= 0.0 && (field != "friction_angle" || v < 90.0);
+                if !ok {
+                    fail(i, field, format!("{v}"), "is out of range", fix);
+                }
+            }
+        }
+    }
+    out
+}
