@@ -480,10 +480,10 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
         out.display()
     );
     if fluid_solver.as_deref()
-        == Some(<fluid_node::dfsph::Dfsph as fluid_node::scheme::SphMethod>::NAME)
+        == Some(<fluid_node::methods::dfsph::Dfsph as fluid_node::methods::SphMethod>::NAME)
         && scheme == CouplingScheme::Parallel
         && scene.coupling.added_mass > 0.0
-        && fluid_node::dfsph::blocks_in_solve(&scene)
+        && fluid_node::methods::dfsph::blocks_in_solve(&scene)
     {
         eprintln!(
             "coupler: warning: [coupling] added_mass = {} relaxes the loads of blocks that DFSPH already moves inside its pressure solve (its default in the parallel scheme): the solid then moves them otherwise than the water predicted (docs/REFERENCES.md §4.1b). Fix: drop --added-mass, or set [fluid.dfsph] blocks_in_solve = false to relax lagged loads instead",

@@ -108,7 +108,7 @@ pub fn estimate(scene: &Scene, solver: Option<&str>) -> Option<Estimate> {
     let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
     let height = (top - bottom).max(dx);
     let dt = if solver == "dfsph" {
-        fluid_node::dfsph::DEFAULT_CFL * dx / (g * height).sqrt().max(1e-6)
+        fluid_node::methods::dfsph::DEFAULT_CFL * dx / (g * height).sqrt().max(1e-6)
     } else {
         let c0 = 10.0 * (2.0 * g * height).sqrt().max(1e-6);
         0.2 * 1.3 * dx / c0

@@ -1,54 +1,38 @@
 //! rockwave's water: SPH solvers behind the [`shared::solver::FluidSolver`] interface.
 //!
-//! A solver is a [`scheme::SphMethod`] (what one SPH method does differently: kernel, equation of
-//! state, forces, integrator, stable step) run by [`sph::Sph`], which implements the coupling
-//! interface once over the [`system::FluidSystem`] every scheme shares. The schemes:
+//! A solver is a [`methods::SphMethod`] (what one SPH method does differently: kernel, equation
+//! of state, forces, integrator, stable step) run by [`sph::Sph`], which implements the coupling
+//! interface once over the [`system::FluidSystem`] every method shares. The methods
+//! ([`methods`]):
 //!
-//! - [`muller`]: the paper's scheme (Müller et al. 2003; paper Eqs. 11–21), `--solver muller`;
-//! - [`wcsph`]: weakly compressible SPH in the DualSPHysics standard, `--solver wcsph`;
-//! - [`dfsph`]: divergence-free SPH (Bender & Koschier 2015, 2017), `--solver dfsph`, which
-//!   steps on the flow speed instead of a numerical speed of sound.
+//! - [`methods::muller`]: the paper's method (Müller et al. 2003; paper Eqs. 11–21), `--solver muller`;
+//! - [`methods::wcsph`]: weakly compressible SPH in the DualSPHysics standard, `--solver wcsph`;
+//! - [`methods::dfsph`]: divergence-free SPH (Bender & Koschier 2015, 2017), `--solver dfsph`,
+//!   which steps on the flow speed instead of a numerical speed of sound.
 //!
 //! They are listed once, in [`REGISTRY`], which the node binary, `fluid-validate`,
-//! `fluid-bench` and the coupler's sweeps read. The shared parts: [`kernel`]/[`kernels`]
-//! (smoothing kernels), [`particles`] (struct-of-arrays state), [`neighbors`] (cell grid,
-//! counting sort, neighbour lists; [`candidates`] their branch-free test), [`fill`] (water volumes on a lattice), [`boundary`] (the blocks' boundary
-//! particles, [`walls`] on fixed blocks and [`bodies`] on moving ones), [`penalty`] (paper Eq. 22
-//! both ways), [`terrain`] (the `[[terrain]]` ground: boundary
-//! particles under its surface and Eq. 22 against its triangles), [`dt`] (stable step), [`gauges`] (wave gauges and pressure probes) and
-//! [`system`]; [`tasks`] sets how finely a parallel pass is cut; [`phases`] times a step's phases for `fluid-bench --phases`. [`validation`]
-//! holds the cases run by `fluid-validate` and by the tests.
+//! `fluid-bench` and the coupler's sweeps read. The folders:
+//!
+//! - [`core`]: the machinery every method shares (particles, cell grid, neighbour lists, pair
+//!   records, parallel passes, stable step, the water fill, the phase clock);
+//! - [`kernels`]: the smoothing kernels behind the [`kernels::Kernel`] trait;
+//! - [`methods`]: the SPH methods;
+//! - [`boundary`]: the blocks' and the terrain's boundary particles, and paper Eq. 22;
+//! - [`instruments`]: wave gauges, pressure probes and the after-step survey;
+//! - [`system`]: the [`system::FluidSystem`] (and its checkpoint) the methods share, [`sph`] the
+//!   adapter to the coupling interface;
+//! - [`validation`]: the cases run by `fluid-validate` and by the tests.
 
-pub mod bodies;
 pub mod boundary;
-pub mod candidates;
-pub mod dfsph;
-pub mod dt;
-pub mod fill;
-pub mod fixed_sum;
-pub mod gauges;
-pub mod kernel;
+pub mod core;
+pub mod instruments;
 pub mod kernels;
-pub mod lanes;
-pub mod muller;
-pub mod muller_pairs;
-pub mod neighbors;
-pub mod particles;
-pub mod penalty;
-pub mod phases;
-pub mod scatter;
-pub mod scheme;
+pub mod methods;
 pub mod sph;
-pub mod survey;
 pub mod system;
-pub mod tasks;
-pub mod terrain;
 pub mod validation;
-pub mod walls;
-pub mod wcsph;
-pub mod wcsph_pairs;
 
-use scheme::SphMethod;
+use methods::SphMethod;
 use shared::registry::{Entry, Registry, check_params};
 use shared::scene::{FieldError, Scene};
 use shared::solver::{SetupContext, SolverError};
@@ -58,9 +42,9 @@ use sph::{Sph, SphSolver};
 pub static REGISTRY: Registry<dyn SphSolver> = Registry {
     role: "fluid",
     entries: &[
-        entry::<wcsph::Wcsph>(),
-        entry::<muller::Muller>(),
-        entry::<dfsph::Dfsph>(),
+        entry::<methods::wcsph::Wcsph>(),
+        entry::<methods::muller::Muller>(),
+        entry::<methods::dfsph::Dfsph>(),
     ],
 };
 

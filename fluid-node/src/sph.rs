@@ -1,8 +1,8 @@
 //! Any [`SphMethod`] as a coupled solver: [`Sph`] implements the coupling interface
 //! ([`Solver`], [`FluidSolver`]) once, for every scheme.
 
-use crate::phases::{Phase, PhaseClock};
-use crate::scheme::SphMethod;
+use crate::core::phases::{Phase, PhaseClock};
+use crate::methods::SphMethod;
 use crate::system::{FluidSystem, Initial};
 use shared::math::Real;
 use shared::protocol::{BlockLoad, BlockState};

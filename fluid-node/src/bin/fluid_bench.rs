@@ -17,7 +17,7 @@
 //!
 //! `--phases` also times each phase of the timed steps (sort, permutation, fluid and wall
 //! lists, Eq. 22, density pass, wall pressures, forces, DFSPH's solves, integration, survey,
-//! …: the calls a step already makes, `fluid_node::phases`) and prints, after the rows, one
+//! …: the calls a step already makes, `fluid_node::core::phases`) and prints, after the rows, one
 //! table per solver and size: mean µs per step of each phase per thread count, and with 1 and
 //! 2 threads their 2 ÷ 1 per phase (the `phase_table` module). Off, the clock costs a test of
 //! a flag per phase; on or off, the steps are the same to the bit.

@@ -32,7 +32,7 @@ pub fn still_water_scene(
         .expect("generated still-water scene is valid");
     if solver == "dfsph" {
         // A pressure study against fixed walls: DFSPH with its pressure-change stop, as
-        // fluid-node/src/dfsph/ advises (without it one step's pressure scatters by ~40 % and
+        // fluid-node/src/methods/dfsph/ advises (without it one step's pressure scatters by ~40 % and
         // a probe's mean over the run by ±5 %).
         let table = toml::from_str(DFSPH_PRESSURE_STUDY).expect("valid table");
         if let Some(f) = scene.fluid.as_mut() {

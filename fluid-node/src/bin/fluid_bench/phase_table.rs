@@ -11,7 +11,7 @@
 //! "outside the phases" is the row's step time minus the phases' sum: the step grant, the
 //! schemes' bookkeeping and the clock's own reads; a few µs when the phases cover the step.
 
-use fluid_node::phases::{Phase, PhaseClock};
+use fluid_node::core::phases::{Phase, PhaseClock};
 
 /// One timed row's phase sums.
 pub struct Timed {

@@ -2,7 +2,7 @@
 //! arbitrary shape.
 //!
 //! - Boundary particles: the lattice points under the surface, to one kernel support deep, join
-//!   the fixed blocks' wall particles ([`crate::walls`], Adami, Hu & Adams 2012), so the water
+//!   the fixed blocks' wall particles ([`crate::boundary::walls`], Adami, Hu & Adams 2012), so the water
 //!   over the terrain has the full kernel support and hydrostatic pressure at the bed.
 //! - The paper's Eq. 22 against the triangles as a backstop, f = (K_S·d − (v·n)·K_D)·n on a
 //!   particle within the margin of the surface, with d and n from the nearest surface point
@@ -11,9 +11,9 @@
 //! Both find their candidates from the triangles once (the terrain and the grid never move), so
 //! a step costs the particles near the surface times log n, whatever the triangle count.
 
-use crate::neighbors::CellGrid;
-use crate::particles::Particles;
-use crate::tasks;
+use crate::core::grid::CellGrid;
+use crate::core::particles::Particles;
+use crate::core::tasks;
 use rayon::prelude::*;
 use shared::math::{Point, Real, Vector};
 use shared::terrain::Terrain;
@@ -102,12 +102,6 @@ pub fn sample(
     keys.iter()
         .map(|&[kz, ky, kx]| anchor + Vector::new(kx as Real, ky as Real, kz as Real) * dx)
         .collect()
-}
-
-/// Lattice index of a lattice point.
-pub fn lattice_key(p: &Vector, anchor: &Vector, dx: Real) -> [i64; 3] {
-    let k = (p - anchor) / dx;
-    [k.z.round() as i64, k.y.round() as i64, k.x.round() as i64]
 }
 
 /// True when `p` is inside the ground of a terrain or within `clearance` above its surface:
@@ -261,6 +255,7 @@ fn near_cells(terrains: &[Terrain], grid: &CellGrid, margin: Real) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::core::fill::lattice_key;
     use shared::scene::{DomainSpec, TerrainSpec};
     use shared::terrain::dem::Grid;
 
@@ -332,7 +327,7 @@ mod tests {
     /// both, never neither; with clearance dx/2 (Eq. 22 alone) a layer is neither.
     #[test]
     fn the_fill_and_the_sample_meet_along_the_slope() {
-        use crate::fill::dry_clearance;
+        use crate::core::fill::dry_clearance;
         use shared::scene::Walls;
         let t = slope("meet");
         let terrains = std::slice::from_ref(&t);

@@ -1,5 +1,5 @@
-//! WCSPH's pair sums for one particle, eight neighbours at a time in f32 ([`crate::lanes`]):
-//! the terms of [`crate::wcsph`] (Monaghan 1992's symmetric pressure gradient and artificial
+//! WCSPH's pair sums for one particle, eight neighbours at a time in f32 ([`crate::core::lanes`]):
+//! the terms of [`crate::methods::wcsph`] (Monaghan 1992's symmetric pressure gradient and artificial
 //! viscosity, the continuity equation, Fourtakas et al. 2019's δ-SPH) over its fluid
 //! neighbours, and the pressure and continuity terms over its boundary neighbours, each lane
 //! with its own partial sum. Compiled also for AVX2 and NEON and chosen at run time
@@ -8,8 +8,8 @@
 //! ((r² + η²)(ρ_i + ρ_j)ρ_j inverted once); docs/PERFORMANCE.md has the gain and
 //! docs/VALIDATION.md the table with it.
 
+use crate::core::lanes::{L, Packed, block, gather, sum};
 use crate::kernels::WendlandC2;
-use crate::lanes::{L, Packed, block, gather, sum};
 use multiversion::multiversion;
 use shared::math::{Real, Vector};
 
@@ -208,7 +208,7 @@ pub fn boundary_sums(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kernel::Kernel;
+    use crate::kernels::Kernel;
 
     /// A particle's state in f64.
     struct State {

@@ -22,7 +22,7 @@ pub fn fixed_sum<const N: usize>(
 ) -> [Real; N] {
     (0..n.div_ceil(BLOCK))
         .into_par_iter()
-        .with_max_len(crate::tasks::CHUNKS)
+        .with_max_len(crate::core::tasks::CHUNKS)
         .map(|b| {
             let mut s = [0.0; N];
             for i in b * BLOCK..((b + 1) * BLOCK).min(n) {

@@ -2,7 +2,7 @@
 //! solve (Algorithm 3), warm-started Jacobi iterations on the stiffness.
 
 use super::{Dfsph, WARM_START};
-use crate::fixed_sum::fixed_sum;
+use crate::core::fixed_sum::fixed_sum;
 use crate::system::FluidSystem;
 use rayon::prelude::*;
 use shared::math::Real;

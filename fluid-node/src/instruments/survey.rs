@@ -4,7 +4,7 @@
 //! particles). Violations are reported for the lowest particle index, so the message of an
 //! unstable run is the same at every run and thread count.
 
-use crate::tasks;
+use crate::core::tasks;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 

@@ -7,12 +7,12 @@ use super::{
     DfsphParams, MIRROR, SURFACE_FRACTION, SolveStats, WALL_PRESSURE, hydrostatic,
     lattice_neighbours,
 };
-use crate::kernel::{Kernel, lattice_density};
+use crate::core::neighbors::PairValues;
+use crate::core::phases::Phase;
 use crate::kernels::WendlandC2;
-use crate::neighbors::PairValues;
-use crate::phases::Phase;
-use crate::scheme::{Layout, SphMethod};
-use crate::system::{FluidSystem, Initial};
+use crate::kernels::{Kernel, lattice_density};
+use crate::methods::SphMethod;
+use crate::system::{FluidSystem, Initial, Layout};
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
@@ -69,7 +69,7 @@ impl SphMethod for Dfsph {
             // particles move ~0.4 dx per step: the lists could not be kept.
             skin_ratio: 0.0,
             poly6_sums: false,
-            carried: crate::particles::Carried::ALL,
+            carried: crate::core::particles::Carried::ALL,
         };
         let scheme = Self {
             kernel,

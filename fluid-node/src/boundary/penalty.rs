@@ -10,9 +10,9 @@
 //! signed plane distance (the nearest face in front of it; exact in front of a face, a lower
 //! bound near edges, which errs on the side of pushing).
 
-use crate::neighbors::CellGrid;
-use crate::particles::Particles;
-use crate::tasks;
+use crate::core::grid::CellGrid;
+use crate::core::particles::Particles;
+use crate::core::tasks;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Real, Vector};
@@ -346,7 +346,11 @@ mod tests {
         p.velocity[0] = Vector::new(0.0, 0.0, -2.0);
         let mut grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(4.0), 0.1).unwrap();
         let order = grid.sort(&p.position).to_vec();
-        p.permute(&order, crate::particles::Carried::ALL, &mut Vec::new());
+        p.permute(
+            &order,
+            crate::core::particles::Carried::ALL,
+            &mut Vec::new(),
+        );
         let mut loads = vec![BlockLoad::default()];
         pen.apply(&mut p, &grid, Some(&mut loads));
         let i = p
@@ -409,7 +413,11 @@ mod tests {
         let mut p = Particles::new(pos, vec![1000.0; 2]);
         let mut grid = CellGrid::new(Vector::repeat(-1.0), Vector::repeat(4.0), 0.1).unwrap();
         let order = grid.sort(&p.position).to_vec();
-        p.permute(&order, crate::particles::Carried::ALL, &mut Vec::new());
+        p.permute(
+            &order,
+            crate::core::particles::Carried::ALL,
+            &mut Vec::new(),
+        );
         let mut loads = vec![BlockLoad::default()];
         pen.apply(&mut p, &grid, Some(&mut loads));
         let i = p.position.iter().position(|x| x.z < 1.1).unwrap();
@@ -448,7 +456,11 @@ mod tests {
         let mut p = Particles::new(pos, vec![1000.0; 20_000]);
         let mut grid = CellGrid::new(Vector::zeros(), Vector::repeat(3.0), 0.1).unwrap();
         let order = grid.sort(&p.position).to_vec();
-        p.permute(&order, crate::particles::Carried::ALL, &mut Vec::new());
+        p.permute(
+            &order,
+            crate::core::particles::Carried::ALL,
+            &mut Vec::new(),
+        );
         let mut loads = vec![BlockLoad::default()];
         pen.apply(&mut p, &grid, Some(&mut loads));
         let mut touched = 0;
@@ -509,7 +521,11 @@ mod tests {
         let mut grid = CellGrid::new(Vector::zeros(), Vector::repeat(2.0), 0.1).unwrap();
         grid.set_stale_reach(0.03);
         let order = grid.sort(&p.position).to_vec();
-        p.permute(&order, crate::particles::Carried::ALL, &mut Vec::new());
+        p.permute(
+            &order,
+            crate::core::particles::Carried::ALL,
+            &mut Vec::new(),
+        );
         // Moved since the sort by up to the stale reach, some across a cell face.
         for (i, x) in p.position.iter_mut().enumerate() {
             let a = i as f64 * 0.7;

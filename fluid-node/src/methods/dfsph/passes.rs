@@ -3,10 +3,10 @@
 //! and the non-pressure forces (2017 Algorithm 1).
 
 use super::{Dfsph, gradient, hydrostatic};
-use crate::fixed_sum::fixed_sum;
-use crate::kernel::Kernel;
+use crate::core::fixed_sum::fixed_sum;
+use crate::core::tasks;
+use crate::kernels::Kernel;
 use crate::system::FluidSystem;
-use crate::tasks;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 

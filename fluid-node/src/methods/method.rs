@@ -4,34 +4,12 @@
 //! scheme shares, and [`crate::sph::Sph`] turns any scheme into a coupled solver. A new SPH
 //! method is one file implementing this trait plus one line in [`crate::REGISTRY`].
 
-use crate::kernel::Kernel;
-use crate::particles::Carried;
-use crate::system::{FluidSystem, Initial};
+use crate::kernels::Kernel;
+use crate::system::{FluidSystem, Initial, Layout};
 use shared::math::Real;
 use shared::protocol::BlockLoad;
 use shared::registry::SolverParams;
 use shared::solver::{SolverError, StepReport};
-
-/// How the system is built for a scheme.
-pub struct Layout {
-    /// Initial density of each filled particle, in fill order (e.g. hydrostatic).
-    pub density: Vec<Real>,
-    /// Kernel support: the neighbour radius and grid cell [m].
-    pub support: Real,
-    /// Speed of sound [m/s]: sets the default Eq. 22 stiffness K_S = ½ρ0c²·dx.
-    pub sound_speed: Real,
-    /// Verlet skin of the neighbour lists over the support (0: rebuilt every step). Worth it
-    /// for a scheme whose particles move a small part of the support per step (WCSPH, Müller:
-    /// the speed of sound bounds their step); a scheme stepping on the flow's CFL moves too far
-    /// per step to keep lists.
-    pub skin_ratio: Real,
-    /// The lists also sum poly6's (h² − r²)³ per particle at each build, h the support
-    /// (`NeighborLists::sum_poly6`; Müller's Eq. 12 density without a pass of its own). Only
-    /// with lists rebuilt every step (`skin_ratio` 0), so the sums are at the step's positions.
-    pub poly6_sums: bool,
-    /// The particle arrays the scheme reads across a sort ([`Carried`]).
-    pub carried: Carried,
-}
 
 /// One SPH method.
 /// Serde: a scheme is saved whole in a checkpoint (its history, e.g. the Verlet step

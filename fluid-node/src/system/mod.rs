@@ -1,21 +1,21 @@
 //! What every SPH solver here shares: the particles and their grid, the wall particles, the
 //! Eq. 22 coupling with the blocks, the instruments, the stability checks and the frame output.
-//! A scheme ([`crate::scheme::SphMethod`]: muller.rs, wcsph.rs) adds its own force evaluation and
+//! A scheme ([`crate::methods::SphMethod`]: muller.rs, wcsph.rs) adds its own force evaluation and
 //! integrator; [`crate::sph::Sph`] joins the two into a solver.
 
-use crate::bodies::BodyParticles;
 use crate::boundary::Boundary;
-use crate::fill::{Fill, fill_water_with};
-use crate::gauges::{FluidView, Recorder};
-use crate::kernel::Kernel;
-use crate::neighbors::{CellGrid, NeighborLists};
-use crate::particles::{Carried, Particles};
-use crate::penalty::{Obstacle, Penalty, resting_state};
-use crate::phases::{Phase, PhaseClock};
-use crate::scheme::Layout;
-use crate::survey::{Rules, Survey};
-use crate::terrain::TerrainPenalty;
-use crate::walls::WallParticles;
+use crate::boundary::bodies::BodyParticles;
+use crate::boundary::penalty::{Obstacle, Penalty, resting_state};
+use crate::boundary::terrain::TerrainPenalty;
+use crate::boundary::walls::WallParticles;
+use crate::core::fill::{Fill, fill_water_with};
+use crate::core::grid::CellGrid;
+use crate::core::neighbors::NeighborLists;
+use crate::core::particles::{Carried, Particles};
+use crate::core::phases::{Phase, PhaseClock};
+use crate::instruments::gauges::{FluidView, Recorder};
+use crate::instruments::survey::{Rules, Survey};
+use crate::kernels::Kernel;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Real, Vector};
@@ -40,6 +40,27 @@ pub struct Initial {
     pub terrain: Arc<[Terrain]>,
 }
 
+/// How the system is built for a scheme.
+pub struct Layout {
+    /// Initial density of each filled particle, in fill order (e.g. hydrostatic).
+    pub density: Vec<Real>,
+    /// Kernel support: the neighbour radius and grid cell [m].
+    pub support: Real,
+    /// Speed of sound [m/s]: sets the default Eq. 22 stiffness K_S = ½ρ0c²·dx.
+    pub sound_speed: Real,
+    /// Verlet skin of the neighbour lists over the support (0: rebuilt every step). Worth it
+    /// for a scheme whose particles move a small part of the support per step (WCSPH, Müller:
+    /// the speed of sound bounds their step); a scheme stepping on the flow's CFL moves too far
+    /// per step to keep lists.
+    pub skin_ratio: Real,
+    /// The lists also sum poly6's (h² − r²)³ per particle at each build, h the support
+    /// (`NeighborLists::sum_poly6`; Müller's Eq. 12 density without a pass of its own). Only
+    /// with lists rebuilt every step (`skin_ratio` 0), so the sums are at the step's positions.
+    pub poly6_sums: bool,
+    /// The particle arrays the scheme reads across a sort ([`Carried`]).
+    pub carried: Carried,
+}
+
 impl Initial {
     pub fn from_scene(scene: &Scene) -> Result<Self, SolverError> {
         let fluid = scene
@@ -60,8 +81,8 @@ impl Initial {
         // Lattice points the terrain's boundary particles take (signed distance < 0,
         // `terrain::sample`) stay dry, so water and terrain make one lattice along a curved bed,
         // as along a block's face (fill.rs); with Eq. 22 alone also those within dx/2 above it.
-        let clearance = crate::fill::dry_clearance(fluid.walls, fluid.dx);
-        let dry = |p: &Vector| crate::terrain::near_or_inside(&terrain, p, clearance);
+        let clearance = crate::core::fill::dry_clearance(fluid.walls, fluid.dx);
+        let dry = |p: &Vector| crate::boundary::terrain::near_or_inside(&terrain, p, clearance);
         let fill = fill_water_with(&fluid, &blocks, &dry).map_err(SolverError::Failed)?;
         if fill.positions.is_empty() {
             return Err(SolverError::Failed(format!(
@@ -88,7 +109,6 @@ impl Initial {
 }
 
 // A child module: a checkpoint saves and restores the system's private state.
-#[path = "checkpoint.rs"]
 pub(crate) mod checkpoint;
 
 /// Per-step state shared by the solvers.
@@ -274,10 +294,10 @@ impl FluidSystem {
                 let anchor = init.fill.anchor;
                 let taken: std::collections::BTreeSet<[i64; 3]> = pts
                     .iter()
-                    .map(|p| crate::terrain::lattice_key(p, &anchor, dx))
+                    .map(|p| crate::core::fill::lattice_key(p, &anchor, dx))
                     .collect();
                 pts.extend(
-                    crate::terrain::sample(
+                    crate::boundary::terrain::sample(
                         &init.terrain,
                         &anchor,
                         dx,
@@ -286,7 +306,7 @@ impl FluidSystem {
                         &(hi + reach),
                     )
                     .into_iter()
-                    .filter(|p| !taken.contains(&crate::terrain::lattice_key(p, &anchor, dx))),
+                    .filter(|p| !taken.contains(&crate::core::fill::lattice_key(p, &anchor, dx))),
                 );
                 Some(WallParticles::new(pts, grid.clone()))
             }

@@ -53,9 +53,9 @@
 //! 0 Pa (atmospheric: pressures are gauge pressures), and a window with no wet reading is NaN,
 //! like the instantaneous dry reading.
 
-use crate::kernel::Kernel;
-use crate::neighbors::CellGrid;
-use crate::particles::Particles;
+use crate::core::grid::CellGrid;
+use crate::core::particles::Particles;
+use crate::kernels::Kernel;
 use shared::math::{Real, Vector};
 use shared::scene::{GaugeSpec, ProbeSpec};
 use std::fs::File;

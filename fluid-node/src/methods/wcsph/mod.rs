@@ -7,15 +7,17 @@
 //! by default with one force evaluation per step (its corrector alone, [`Integrator::Leapfrog`]),
 //! or Verlet (Verlet 1967) with an Euler step every 40; adaptive dt.
 
-use crate::dt::StepLimits;
-use crate::kernel::Kernel;
+pub mod pairs;
+
+use crate::core::dt::StepLimits;
+use crate::core::lanes::Packed;
+use crate::core::phases::Phase;
+use crate::core::tasks;
+use crate::kernels::Kernel;
 use crate::kernels::WendlandC2;
-use crate::lanes::Packed;
-use crate::phases::Phase;
-use crate::scheme::{Layout, SphMethod};
-use crate::system::{FluidSystem, Initial};
-use crate::tasks;
-use crate::wcsph_pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
+use crate::methods::SphMethod;
+use crate::system::{FluidSystem, Initial, Layout};
+use pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
 use rayon::prelude::*;
 use serde::Deserialize;
 use shared::math::Real;
@@ -414,7 +416,7 @@ impl SphMethod for Wcsph {
             sound_speed: c0,
             skin_ratio: spec.skin.unwrap_or(WCSPH_SKIN),
             poly6_sums: false,
-            carried: crate::particles::Carried::ALL,
+            carried: crate::core::particles::Carried::ALL,
         };
         let scheme = Self {
             kernel,

@@ -11,14 +11,15 @@
 //! free-slip (boundary particles take no part in the viscous terms).
 //!
 //!
-//! Moving blocks carry the same particles through [`crate::bodies`]; [`crate::boundary`]
+//! Moving blocks carry the same particles through [`crate::boundary::bodies`]; [`crate::boundary`]
 //! joins both into the one set the schemes see.
 
-use crate::kernel::Kernel;
-use crate::neighbors::{CellGrid, NeighborLists};
-use crate::particles::Particles;
-use crate::scatter::scatter;
-use crate::tasks;
+use crate::core::grid::CellGrid;
+use crate::core::neighbors::NeighborLists;
+use crate::core::particles::Particles;
+use crate::core::scatter::scatter;
+use crate::core::tasks;
+use crate::kernels::Kernel;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Point, Real, Vector};

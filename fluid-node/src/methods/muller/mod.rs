@@ -5,16 +5,18 @@
 //! Laplacian μ Σ m_j (v_j − v_i)/ρ_j ∇²W (Eqs. 18–19; the paper's v_i − v_j would anti-damp), and
 //! symplectic Euler (Eq. 21).
 
-use crate::dt::StepLimits;
-use crate::kernel::{Kernel, lattice_density};
+pub mod pairs;
+
+use crate::core::dt::StepLimits;
+use crate::core::lanes::Packed;
+use crate::core::particles::Carried;
+use crate::core::phases::Phase;
+use crate::core::tasks;
+use crate::kernels::{Kernel, lattice_density};
 use crate::kernels::{Poly6, Spiky, ViscosityKernel};
-use crate::lanes::Packed;
-use crate::muller_pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
-use crate::particles::Carried;
-use crate::phases::Phase;
-use crate::scheme::{Layout, SphMethod};
-use crate::system::{FluidSystem, Initial};
-use crate::tasks;
+use crate::methods::SphMethod;
+use crate::system::{FluidSystem, Initial, Layout};
+use pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
 use rayon::prelude::*;
 use serde::Deserialize;
 use shared::math::Real;
@@ -80,7 +82,7 @@ pub struct Muller {
     /// μ of Eq. 18 [Pa·s].
     pub viscosity: Real,
     /// ρ0 of Eq. 17: the poly6 sum of Eq. 12 on the filled lattice
-    /// ([`crate::kernel::lattice_density`]), 1.0098·ρ0·(m/ρ0dx³) for h = 2 dx. The paper's ρ0
+    /// ([`crate::kernels::lattice_density`]), 1.0098·ρ0·(m/ρ0dx³) for h = 2 dx. The paper's ρ0
     /// is water at rest; the continuum value would start every particle 1 % compressed, with
     /// k·0.0098ρ0 of pressure pushing the surface up (more than the hydrostatic pressure of a
     /// 0.1 m column).

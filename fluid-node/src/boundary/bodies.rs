@@ -1,5 +1,5 @@
 //! Boundary particles on the moving (kinematic and free) blocks (Adami, Hu & Adams 2012, §2.3),
-//! the same wall as [`crate::walls`] carried with the block: with the
+//! the same wall as [`crate::boundary::walls`] carried with the block: with the
 //! Eq. 22 springs alone the particles under a floating block see no water above them, their
 //! pressure is a truncated-kernel estimate and the block floats too deep (43 % at dx = 0.04,
 //! 10 % at 0.02; docs/speed-accuracy.md). The block's boundary particles are sampled once in its
@@ -8,8 +8,8 @@
 //! on them (the reverse of their pressure force on each fluid neighbour) is summed into the
 //! block's load, so action and reaction balance pair by pair.
 
-use crate::neighbors::CellGrid;
-use crate::walls::WallParticles;
+use crate::boundary::walls::WallParticles;
+use crate::core::grid::CellGrid;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::math::{Matrix, Matrix6, Point, Real, Vector, Vector6};

@@ -7,8 +7,8 @@
 //!
 //! - Density: summed, ρ_i = Σ_j m_j W_ij over fluid and boundary particles; the
 //!   boundary particles (Adami-style, filled one support deep on the water's own lattice) carry
-//!   the fluid's particle mass m = ρ0·dx³, as in [`crate::muller`]. Rest density is the sum on a
-//!   full lattice ([`crate::kernel::lattice_density`]), so water at rest is at rest in the discrete sense.
+//!   the fluid's particle mass m = ρ0·dx³, as in [`crate::methods::muller`]. Rest density is the sum on a
+//!   full lattice ([`crate::kernels::lattice_density`]), so water at rest is at rest in the discrete sense.
 //! - Kernel: Wendland C2 (Wendland 1995), h = 1.3·dx by default (support 2.6·dx).
 //! - Factor α_i = ρ_i / (|Σ_j m_j ∇W_ij|² + Σ_j |m_j ∇W_ij|²) (the DFSPH factor) with the
 //!   boundary neighbours in the first sum. Here the pressure variable is k_i = κ_i/ρ_i = p_i/ρ_i²,
@@ -139,22 +139,22 @@
 //! and streamed by every later pass (the `pairs` field), which made a step 1.7× faster.
 //!
 //! State across steps: the per-particle warm-start stiffnesses must follow the system's sort, so
-//! they live in two [`crate::particles::Particles`] arrays this scheme does not otherwise use:
+//! they live in two [`crate::core::particles::Particles`] arrays this scheme does not otherwise use:
 //! `density0` holds k of the density solve and `density_rate` k of the divergence solve.
 //!
 //! Files: this one holds the constants and the state; `params.rs` reads `[fluid.dfsph]`,
-//! `scheme.rs` is the step (the [`SphMethod`] interface), `passes.rs` the passes over a step's
+//! `method.rs` is the step (the [`SphMethod`] interface), `passes.rs` the passes over a step's
 //! pairs, `solve.rs` one implicit solve, `blocks.rs` the free blocks inside the solves.
 
 mod blocks;
+mod method;
 mod params;
 mod passes;
-mod scheme;
 mod solve;
 
+use crate::core::neighbors::PairValues;
 use crate::kernels::WendlandC2;
-use crate::neighbors::PairValues;
-use crate::scheme::SphMethod;
+use crate::methods::SphMethod;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
 
@@ -290,7 +290,7 @@ pub struct Dfsph {
     /// forces still conserve momentum. Recomputed at the start of every step: not checkpointed.
     #[serde(skip)]
     pairs: PairValues<[f32; 4]>,
-    /// Scratch of the solves' fixed-order sums ([`crate::fixed_sum`]): the mean errors, and
+    /// Scratch of the solves' fixed-order sums ([`crate::core::fixed_sum`]): the mean errors, and
     /// the pressure change with its total.
     #[serde(skip)]
     partials: Vec<[Real; 1]>,

@@ -6,14 +6,25 @@
 //! ([`WallParticles`]) are sorted into the grid once, the moving blocks' ([`BodyParticles`]) are
 //! carried and re-sorted at every pose, and only they load a block. The iterator visits the fixed
 //! part first, then the moving part, so sums keep one fixed order (runs are deterministic).
+//!
+//! The folder: this file is the set and its iterator; [`walls`] the fixed blocks' particles,
+//! [`bodies`] the moving blocks', [`terrain`] the `[[terrain]]` ground (boundary particles under
+//! its surface and Eq. 22 against its triangles), [`penalty`] paper Eq. 22 between water and
+//! blocks, both ways.
 
-use crate::bodies::BodyParticles;
-use crate::kernel::Kernel;
-use crate::lanes::Packed;
-use crate::neighbors::{CellGrid, NeighborLists};
-use crate::particles::Particles;
-use crate::scatter::scatter;
-use crate::walls::WallParticles;
+pub mod bodies;
+pub mod penalty;
+pub mod terrain;
+pub mod walls;
+
+use crate::boundary::bodies::BodyParticles;
+use crate::boundary::walls::WallParticles;
+use crate::core::grid::CellGrid;
+use crate::core::lanes::Packed;
+use crate::core::neighbors::NeighborLists;
+use crate::core::particles::Particles;
+use crate::core::scatter::scatter;
+use crate::kernels::Kernel;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 

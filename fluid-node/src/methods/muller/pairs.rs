@@ -1,13 +1,13 @@
 //! Müller SPH's pair sums for one particle (paper Eqs. 12, 14, 18), eight neighbours at a time in
-//! f32 ([`crate::lanes`]), each lane with its own partial sum added in f64 at the end. Compiled
+//! f32 ([`crate::core::lanes`]), each lane with its own partial sum added in f64 at the end. Compiled
 //! also for AVX2 and NEON and chosen at run time (multiversion).
 //!
 //! Records ([`Packed`]): a fluid particle's s0 = 1/ρ and s1 = p (so the force loop multiplies
 //! and never divides by ρ_j); a boundary particle's the same of its extrapolated pressure and
 //! the density it implies. The density loop reads positions only.
 
+use crate::core::lanes::{L, Packed, block, gather, gather_positions, sum};
 use crate::kernels::{Poly6, Spiky, ViscosityKernel};
-use crate::lanes::{L, Packed, block, gather, gather_positions, sum};
 use multiversion::multiversion;
 use shared::math::{Real, Vector};
 

@@ -15,8 +15,8 @@
 //!
 //! The limits are on the tasks, not on the results: every particle is computed as before and
 //! written by one task, so a run is the same to the bit with any cut (the sums that must not
-//! depend on the cut are in [`crate::fixed_sum`]). Scatters through an index list cut
-//! themselves by their own rule ([`crate::scatter`]).
+//! depend on the cut are in [`crate::core::fixed_sum`]). Scatters through an index list cut
+//! themselves by their own rule ([`crate::core::scatter`]).
 
 /// Particles per task, at most, in a pass whose work per particle varies (pair loops, Eq. 22,
 /// the wall marks): ~15 µs on one core for the heaviest pass (Müller's forces, ~60 ns a

@@ -15,8 +15,8 @@
 //! geometry before it computes anything).
 
 use super::FluidSystem;
-use crate::gauges::RecorderMark;
-use crate::particles::Particles;
+use crate::core::particles::Particles;
+use crate::instruments::gauges::RecorderMark;
 use shared::checkpoint::{decode, encode};
 use shared::math::{Real, Vector};
 use shared::solver::SolverError;

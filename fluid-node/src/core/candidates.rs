@@ -15,7 +15,7 @@
 //! order (z, then y), each row in index order, and the same f32 arithmetic (products and sums in
 //! the same order, no fused multiply–add), so outputs do not change.
 
-use crate::neighbors::CellGrid;
+use crate::core::grid::CellGrid;
 use shared::math::Vector;
 
 /// Candidates per block of the portable test (and the padding unit of the gathered block).

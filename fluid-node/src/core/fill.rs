@@ -7,7 +7,7 @@
 //!
 //! Which lattice points next to a block stay dry depends on how the blocks hold the water
 //! (`[fluid] walls`). With boundary particles (the default) only the points inside a block: the
-//! blocks' boundary particles take exactly those ([`crate::walls::WallParticles::sample`]), so
+//! blocks' boundary particles take exactly those ([`crate::boundary::walls::WallParticles::sample`]), so
 //! water and walls make one unbroken lattice along any face, on the lattice or off it. (Until
 //! 27 Nov 2026 points closer than dx/2 were left dry as well: right for a face on the lattice's
 //! half-spacing, where no point lies that close, but along a face off it, such as the default
@@ -175,6 +175,12 @@ pub fn fill_water_with(
     })
 }
 
+/// Lattice index of a lattice point.
+pub fn lattice_key(p: &Vector, anchor: &Vector, dx: Real) -> [i64; 3] {
+    let k = (p - anchor) / dx;
+    [k.z.round() as i64, k.y.round() as i64, k.x.round() as i64]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -293,7 +299,7 @@ mod tests {
         .unwrap();
         let fill = fill_water(&f, std::slice::from_ref(&slope)).unwrap();
         let (lo, hi) = (Vector::new(0.0, 0.0, 0.0), Vector::new(2.0, 0.4, 0.48));
-        let walls = crate::walls::WallParticles::sample(
+        let walls = crate::boundary::walls::WallParticles::sample(
             std::slice::from_ref(&slope),
             &fill.anchor,
             dx,
@@ -301,7 +307,7 @@ mod tests {
             &lo,
             &hi,
         );
-        let key = |p: &Vector| crate::terrain::lattice_key(p, &fill.anchor, dx);
+        let key = |p: &Vector| lattice_key(p, &fill.anchor, dx);
         let water: std::collections::BTreeSet<_> = fill.positions.iter().map(key).collect();
         let wall: std::collections::BTreeSet<_> = walls.iter().map(key).collect();
         assert!(

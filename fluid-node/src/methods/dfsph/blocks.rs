@@ -3,7 +3,7 @@
 //! forces, and the damping of the Jacobi increments next to them.
 
 use super::{BLOCK_TOLERANCE, Dfsph};
-use crate::kernel::Kernel;
+use crate::kernels::Kernel;
 use crate::system::FluidSystem;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
@@ -22,7 +22,7 @@ impl Dfsph {
 
     /// The free blocks answer a pressure within the solve (Gissler et al. 2019, rigid bodies
     /// in the pressure solve; here with the block's response over the step from the solid
-    /// node, its contacts' answer included, [`crate::bodies::Rigid`]): the force of stiffness
+    /// node, its contacts' answer included, [`crate::boundary::bodies::Rigid`]): the force of stiffness
     /// `k(i, p_b, ρ_b)` on each block's boundary particles, summed as [`Self::react`] sums the
     /// loads, moves the block by (Δv, Δω) = Δt M (F, τ) (Δt F/m, Δt I⁻¹τ for a block on its
     /// own; with `explicit`, also by the Eq. 22 load and Δt a0, the rest of its motion: the
