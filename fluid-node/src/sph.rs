@@ -1,5 +1,21 @@
 //! Any [`SphMethod`] as a coupled solver: [`Sph`] implements the coupling interface
-//! ([`Solver`], [`FluidSolver`]) once, for every scheme.
+//! ([`Solver`], [`FluidSolver`]) once, for every method.
+//!
+//! One fluid step, in the order the runtime calls it (`shared::solver`):
+//! 1. [`FluidSolver::read_geometry`]: the moving blocks' new poses (when a solid node runs);
+//! 2. [`FluidSolver::prepare_step`]: the coupling forces of the coming step at the current
+//!    particles and poses: the method's [`SphMethod::react`] (the water's pressure on the
+//!    blocks' boundary particles, unless the method's loads follow its step), then paper
+//!    Eq. 22 on the particles and its reaction on the blocks
+//!    ([`FluidSystem::apply_coupling_forces`]);
+//! 3. [`FluidSolver::write_loads`]: those loads, summed per block (nothing is computed there);
+//! 4. [`Solver::advance`]: the method's step, then the system's checks, re-sort and
+//!    instruments ([`FluidSystem::end_step`]);
+//! 5. with [`FluidSolver::loads_follow_step`], [`FluidSolver::write_loads`] after the step
+//!    instead of before: the forces the method moved the blocks with.
+//!
+//! A caller that drives the solver by [`Solver::advance`] alone (no loads to write) may skip
+//! step 2: `advance` does it when it was not done since the last pose or step.
 
 use crate::core::phases::{Phase, PhaseClock};
 use crate::methods::SphMethod;
@@ -62,7 +78,9 @@ impl<S: SphMethod> Solver for Sph<S> {
     }
 
     fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
-        self.sys.begin_step();
+        if !self.sys.is_prepared() {
+            self.prepare_step();
+        }
         let mut report = self.scheme.step(&mut self.sys, dt)?;
         let (low, reference) = self.scheme.density_check();
         let (v, a) = self
@@ -110,21 +128,31 @@ impl<S: SphMethod> FluidSolver for Sph<S> {
         self.scheme.loads_follow_step(&self.sys)
     }
 
+    fn prepare_step(&mut self) {
+        self.sys.prepare_bodies();
+        if !self.scheme.loads_follow_step(&self.sys) {
+            // The water's pressure on the moving blocks' boundary particles at the current
+            // state: the fluid pressures of the last step's end, the wall pressures
+            // extrapolated at the new pose.
+            let t = self.sys.phases.start();
+            self.scheme.react(&mut self.sys);
+            self.sys.phases.stop(Phase::BlockLoads, t);
+        }
+        self.sys.apply_coupling_forces();
+    }
+
     fn write_loads(&mut self, loads: &mut [BlockLoad]) {
         if self.scheme.loads_follow_step(&self.sys) {
-            // Called after the step: the forces the scheme moved the blocks with.
+            // Called after the step: the forces the method moved the blocks with.
             let t = self.sys.phases.start();
             self.scheme.step_loads(&self.sys, loads);
             self.sys.phases.stop(Phase::BlockLoads, t);
             return;
         }
-        // The water's pressure on the moving blocks' boundary particles at the current state:
-        // the fluid pressures of the last step's end, the wall pressures extrapolated at the new
-        // pose. Then Eq. 22 for the coming step.
-        self.sys.prepare_bodies();
-        let t = self.sys.phases.start();
-        self.scheme.react(&mut self.sys);
-        self.sys.phases.stop(Phase::BlockLoads, t);
+        debug_assert!(
+            loads.is_empty() || self.sys.is_prepared(),
+            "write_loads before prepare_step: the loads would be those of the last step"
+        );
         self.sys.write_loads(loads);
     }
 }

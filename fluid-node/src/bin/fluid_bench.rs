@@ -7,7 +7,7 @@
 //! below):
 //! particle-steps per second on a 3D dam break (a water column a × a × 2a at one end of a
 //! 4a × a tank) at about the given particle counts, with each thread count. The timed steps are
-//! the full coupling step as the node runtime drives it (`write_loads` + `advance`), after
+//! the full coupling step as the node runtime drives it (`prepare_step`, `write_loads`, `advance`), after
 //! warm-up steps that let the reused buffers reach their size. Also printed: the listed
 //! neighbour pairs per particle (fluid and boundary; each force pass visits every one), how
 //! often per timed step a thread of the process went to sleep (voluntary context switches:

@@ -97,7 +97,7 @@ pub(crate) fn restore<S: serde::de::DeserializeOwned>(
     // As after the step the checkpoint followed: sorted and listed as at the last sort, Eq. 22
     // forces to come.
     sys.bodies_valid = false;
-    sys.penalty_fresh = false;
+    sys.prepared = false;
     sys.relist_as_sorted()?;
     Ok(r.dt_next)
 }

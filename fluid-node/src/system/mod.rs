@@ -152,7 +152,9 @@ pub struct FluidSystem {
     carried: Carried,
     /// Sorts (list rebuilds) so far.
     pub sorts: u64,
-    penalty_fresh: bool,
+    /// Whether the coming step's coupling forces are computed ([`Self::apply_coupling_forces`]):
+    /// false after a new pose, a step or a restore.
+    prepared: bool,
     /// The Eq. 22 load on each moving block for the step under way (what a scheme that moves
     /// the blocks within its step adds to their motion).
     pub penalty_loads: Vec<BlockLoad>,
@@ -361,7 +363,7 @@ impl FluidSystem {
             sorted_at: Vec::new(),
             carried,
             sorts: 0,
-            penalty_fresh: false,
+            prepared: false,
             penalty_loads: Vec::new(),
             loads_may_follow_step: ctx.scheme == shared::scene::CouplingScheme::Parallel,
             phases: PhaseClock::default(),
@@ -456,37 +458,37 @@ impl FluidSystem {
         self.penalty_loads
             .resize(blocks.len(), BlockLoad::default());
         self.bodies_valid = false;
-        self.penalty_fresh = false;
+        self.prepared = false;
     }
 
-    /// Eq. 22 on the particles for the coming step, and its reaction on the moving blocks, plus
-    /// the pressure force of the water on their boundary particles (computed by the scheme with
-    /// [`Boundary::react`] just before).
-    pub fn write_loads(&mut self, loads: &mut [BlockLoad]) {
+    /// The coupling forces of the coming step at the current particles and poses: the grid and
+    /// lists made current ([`Self::prepare_bodies`]), paper Eq. 22 on the particles with its
+    /// reaction on each moving block (into [`Self::penalty_loads`]), and Eq. 22 against the
+    /// terrain. Called once per step, after the method's [`crate::methods::SphMethod::react`]
+    /// when the loads are those of the state the step starts from ([`crate::sph::Sph`]).
+    pub fn apply_coupling_forces(&mut self) {
         self.prepare_bodies();
         let t = self.phases.start();
-        self.penalty
-            .apply(&mut self.particles, &self.grid, Some(loads));
-        self.penalty_loads.clone_from_slice(loads);
+        let loads = Some(&mut self.penalty_loads[..]).filter(|l| !l.is_empty());
+        self.penalty.apply(&mut self.particles, &self.grid, loads);
         self.terrain.apply(&mut self.particles, &self.grid);
-        let t = self.phases.lap(Phase::Penalty, t);
-        self.boundary.add_loads(loads);
-        self.phases.stop(Phase::BlockLoads, t);
-        self.penalty_fresh = true;
+        self.phases.stop(Phase::Penalty, t);
+        self.prepared = true;
     }
 
-    /// Makes sure the grid and the Eq. 22 forces are current before a force evaluation (when
-    /// the solver runs without a coupler calling `write_loads`).
-    pub fn begin_step(&mut self) {
-        self.prepare_bodies();
-        if !self.penalty_fresh {
-            let t = self.phases.start();
-            let loads = Some(&mut self.penalty_loads[..]).filter(|l| !l.is_empty());
-            self.penalty.apply(&mut self.particles, &self.grid, loads);
-            self.terrain.apply(&mut self.particles, &self.grid);
-            self.phases.stop(Phase::Penalty, t);
-            self.penalty_fresh = true;
-        }
+    /// Whether [`Self::apply_coupling_forces`] ran since the last pose, step or restore.
+    pub fn is_prepared(&self) -> bool {
+        self.prepared
+    }
+
+    /// The loads on the moving blocks of the coming step, from [`Self::apply_coupling_forces`]
+    /// and the method's [`crate::methods::SphMethod::react`] before it: the Eq. 22 reaction plus
+    /// the water's pressure on the blocks' boundary particles.
+    pub fn write_loads(&mut self, loads: &mut [BlockLoad]) {
+        let t = self.phases.start();
+        loads.clone_from_slice(&self.penalty_loads);
+        self.boundary.add_loads(loads);
+        self.phases.stop(Phase::BlockLoads, t);
     }
 
     /// After the particles moved by `dt`: checks stability, re-sorts and samples the
@@ -502,7 +504,7 @@ impl FluidSystem {
     ) -> Result<(Real, Real), SolverError> {
         self.time += dt;
         self.steps += 1;
-        self.penalty_fresh = false;
+        self.prepared = false;
         // Keep the lists while every pair within the support at the next evaluation is surely
         // in them: a listed pair was closer than support + skin at the sort, so it suffices
         // that no particle moves half the skin from its sorted position before then. The next
