@@ -1,14 +1,13 @@
 //! What every SPH solver here shares: the particles and their grid, the wall particles, the
 //! Eq. 22 coupling with the blocks, the instruments, the stability checks and the frame output.
-//! A scheme ([`crate::methods::SphMethod`]: muller.rs, wcsph.rs) adds its own force evaluation and
-//! integrator; [`crate::sph::Sph`] joins the two into a solver.
+//! A method ([`crate::methods::SphMethod`]) adds its own force evaluation and integrator;
+//! [`crate::sph::Sph`] joins the two into a solver. The folder: this file is the system and its
+//! step (`prepare_bodies`, `apply_coupling_forces`, `end_step`), `setup.rs` what it is built
+//! from and its parts built along their seams, `checkpoint.rs` its saved state.
 
 use crate::boundary::Boundary;
-use crate::boundary::bodies::BodyParticles;
-use crate::boundary::penalty::{Obstacle, Penalty, resting_state};
+use crate::boundary::penalty::Penalty;
 use crate::boundary::terrain::TerrainPenalty;
-use crate::boundary::walls::WallParticles;
-use crate::core::fill::{Fill, fill_water_with};
 use crate::core::grid::CellGrid;
 use crate::core::neighbors::NeighborLists;
 use crate::core::particles::{Carried, Particles};
@@ -17,99 +16,18 @@ use crate::instruments::gauges::{FluidView, Recorder};
 use crate::instruments::survey::{Rules, Survey};
 use crate::kernels::Kernel;
 use rayon::prelude::*;
-use shared::geometry::Polyhedron;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
-use shared::scene::{BlockKind, FluidSpec, Scene, VtkFormat, Walls};
+use shared::scene::VtkFormat;
 use shared::solver::{SetupContext, SolverError};
-use shared::terrain::Terrain;
 use std::path::PathBuf;
-use std::sync::Arc;
-
-/// The scene's water, filled, and its blocks as polyhedra.
-pub struct Initial {
-    pub fluid: FluidSpec,
-    pub fill: Fill,
-    /// Every block in scene order.
-    pub blocks: Vec<Polyhedron>,
-    /// Depth H of the deepest water [m]: the scale of the default sound speed c = 10·sqrt(2 g H).
-    pub depth: Real,
-    pub gravity: Vector,
-    /// The scene's `[[terrain]]`, read from its files (fixed: rebuilt from the scene on a
-    /// resume, the same to the bit).
-    pub terrain: Arc<[Terrain]>,
-}
-
-/// How the system is built for a scheme.
-pub struct Layout {
-    /// Initial density of each filled particle, in fill order (e.g. hydrostatic).
-    pub density: Vec<Real>,
-    /// Kernel support: the neighbour radius and grid cell [m].
-    pub support: Real,
-    /// Speed of sound [m/s]: sets the default Eq. 22 stiffness K_S = ½ρ0c²·dx.
-    pub sound_speed: Real,
-    /// Verlet skin of the neighbour lists over the support (0: rebuilt every step). Worth it
-    /// for a scheme whose particles move a small part of the support per step (WCSPH, Müller:
-    /// the speed of sound bounds their step); a scheme stepping on the flow's CFL moves too far
-    /// per step to keep lists.
-    pub skin_ratio: Real,
-    /// The lists also sum poly6's (h² − r²)³ per particle at each build, h the support
-    /// (`NeighborLists::sum_poly6`; Müller's Eq. 12 density without a pass of its own). Only
-    /// with lists rebuilt every step (`skin_ratio` 0), so the sums are at the step's positions.
-    pub poly6_sums: bool,
-    /// The particle arrays the scheme reads across a sort ([`Carried`]).
-    pub carried: Carried,
-}
-
-impl Initial {
-    pub fn from_scene(scene: &Scene) -> Result<Self, SolverError> {
-        let fluid = scene
-            .fluid
-            .clone()
-            .ok_or_else(|| SolverError::Failed("the scene has no [fluid] table".into()))?;
-        let blocks = scene
-            .blocks
-            .iter()
-            .map(|b| {
-                Polyhedron::from_shape(&b.shape)
-                    .map_err(|e| SolverError::Failed(format!("block '{}': {e}", b.name)))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        let terrain: Arc<[Terrain]> = Terrain::load_all(scene)
-            .map_err(SolverError::Failed)?
-            .into();
-        // Lattice points the terrain's boundary particles take (signed distance < 0,
-        // `terrain::sample`) stay dry, so water and terrain make one lattice along a curved bed,
-        // as along a block's face (fill.rs); with Eq. 22 alone also those within dx/2 above it.
-        let clearance = crate::core::fill::dry_clearance(fluid.walls, fluid.dx);
-        let dry = |p: &Vector| crate::boundary::terrain::near_or_inside(&terrain, p, clearance);
-        let fill = fill_water_with(&fluid, &blocks, &dry).map_err(SolverError::Failed)?;
-        if fill.positions.is_empty() {
-            return Err(SolverError::Failed(format!(
-                "the water volumes hold no particle at dx = {} m (all inside blocks or thinner than dx)",
-                fluid.dx
-            )));
-        }
-        let depth = fill.max_depth(fluid.dx);
-        Ok(Self {
-            fluid,
-            fill,
-            blocks,
-            depth,
-            gravity: Vector::from(scene.gravity),
-            terrain,
-        })
-    }
-
-    /// The default numerical speed of sound, 10·sqrt(2 g H): ten times the largest free-fall
-    /// speed of the water, so density varies by ~1 % (Monaghan 1994).
-    pub fn default_sound_speed(&self) -> Real {
-        10.0 * (2.0 * self.gravity.norm() * self.depth).sqrt().max(1e-6)
-    }
-}
 
 // A child module: a checkpoint saves and restores the system's private state.
 pub(crate) mod checkpoint;
+mod setup;
+
+use setup::Eq22;
+pub use setup::{Initial, Layout};
 
 /// Per-step state shared by the solvers.
 pub struct FluidSystem {
@@ -193,7 +111,6 @@ impl FluidSystem {
         let scene = ctx.scene;
         let fluid = &init.fluid;
         let dx = fluid.dx;
-        let walls = fluid.walls;
         let mass = fluid.density * dx.powi(3);
         let lo = Vector::from(scene.domain.min);
         let hi = Vector::from(scene.domain.max);
@@ -202,133 +119,12 @@ impl FluidSystem {
         let skin = skin_ratio * cell;
         let mut grid = CellGrid::new(lo, hi, cell + skin).map_err(SolverError::Failed)?;
         grid.set_stale_reach(0.5 * skin);
-
-        // Eq. 22 defaults (documented in docs/VALIDATION.md): the spring is as stiff as the
-        // water itself over one particle spacing, K_S = ½ρ0c²·dx (bulk modulus ρ0c² times the
-        // particle's face dx² over its spacing dx, halved), so a wall yields no more than the
-        // water does; the damper is critical for that spring and the particle mass; the margin is
-        // half a spacing, the clearance of the initial lattice.
-        let ks = scene
-            .coupling
-            .penalty_stiffness
-            .unwrap_or(0.5 * fluid.density * sound_speed * sound_speed * dx);
-        let kd = scene
-            .coupling
-            .penalty_damping
-            .unwrap_or(2.0 * (ks * mass).sqrt());
-        let margin = scene.coupling.margin.unwrap_or(0.5 * dx);
-        // With boundary particles the blocks and the terrain hold the water by pressure; Eq. 22
-        // is then a backstop that acts on a block's water closer than half the margin, so it
-        // does not bear the load, and on the terrain's only under its surface. The fill lays
-        // water anywhere from 0 to dx off a bed that is off the lattice (fill.rs), and a
-        // backstop reaching above the bed would push that water at rest: the synthetic
-        // reservoir's still water sloshed ±0.75 m at dx = 4 m with it reaching dx/4, ±0.2 m
-        // without. The blocks keep it above their faces: a tank's walls are often the domain's
-        // bounds, which a particle must not touch (without it the dam breaks of fluid-validate
-        // stop at a/dx = 6, a particle on the floor at z = −0.0000 m), and the water the fill
-        // lays within dx/4 of a face off the lattice is pushed a little at rest (the default
-        // scene's still water moves ±3.5 mm with it, ±2.8 mm without). The terrain looks for
-        // crossings as deep as the blocks' backstop reaches.
-        let (fixed_margin, terrain_margin) = match walls {
-            Walls::Particles => (0.5 * margin, 0.0),
-            Walls::Penalty => (margin, margin),
-        };
-        let moving_margin = fixed_margin;
-        let moving = scene.moving_blocks();
-        let obstacles = scene
-            .blocks
-            .iter()
-            .zip(&init.blocks)
-            .enumerate()
-            .map(|(i, (spec, poly))| {
-                let mut state = resting_state(i as u32, poly);
-                match moving.iter().position(|&m| m == i) {
-                    Some(k) => {
-                        state.velocity = spec.velocity;
-                        state.angular_velocity = spec.angular_velocity;
-                        if spec.elastic.is_some() {
-                            state.flags = BlockState::DEFORMABLE;
-                        }
-                        Obstacle::new(poly.clone(), state, Some(k), moving_margin)
-                    }
-                    None => Obstacle::new(poly.clone(), state, None, fixed_margin),
-                }
-            })
-            .collect();
-        let penalty = Penalty::new(ks, kd, obstacles);
-
-        // The moving blocks' boundary particles, sampled at the scene pose like the fixed ones.
-        let bodies = match walls {
-            Walls::Penalty => None,
-            Walls::Particles if moving.is_empty() => None,
-            Walls::Particles => {
-                let polys: Vec<Polyhedron> =
-                    moving.iter().map(|&i| init.blocks[i].clone()).collect();
-                Some(BodyParticles::new(
-                    &polys,
-                    &init.fill.anchor,
-                    dx,
-                    cell,
-                    grid.clone(),
-                ))
-            }
-        };
-        let fixed = match walls {
-            Walls::Penalty => None,
-            Walls::Particles => {
-                let fixed: Vec<Polyhedron> = scene
-                    .blocks
-                    .iter()
-                    .zip(&init.blocks)
-                    .filter(|(b, _)| b.kind == BlockKind::Fixed)
-                    .map(|(_, p)| p.clone())
-                    .collect();
-                let reach = Vector::repeat(cell);
-                let mut pts = WallParticles::sample(
-                    &fixed,
-                    &init.fill.anchor,
-                    dx,
-                    cell,
-                    &(lo - reach),
-                    &(hi + reach),
-                );
-                // The terrain's, on the same lattice, each lattice point once.
-                let anchor = init.fill.anchor;
-                let taken: std::collections::BTreeSet<[i64; 3]> = pts
-                    .iter()
-                    .map(|p| crate::core::fill::lattice_key(p, &anchor, dx))
-                    .collect();
-                pts.extend(
-                    crate::boundary::terrain::sample(
-                        &init.terrain,
-                        &anchor,
-                        dx,
-                        cell,
-                        &(lo - reach),
-                        &(hi + reach),
-                    )
-                    .into_iter()
-                    .filter(|p| !taken.contains(&crate::core::fill::lattice_key(p, &anchor, dx))),
-                );
-                Some(WallParticles::new(pts, grid.clone()))
-            }
-        };
-
-        // The bed under a gauge: the highest fixed block or terrain surface under it.
-        let beds: Vec<Real> = scene
-            .gauges
-            .iter()
-            .map(|g| shared::terrain::bed_elevation(scene, &init.terrain, g.x, g.y))
-            .collect();
-        let terrain =
-            TerrainPenalty::new(init.terrain.clone(), ks, kd, terrain_margin, fixed_margin);
-        let recorder = Recorder::new(
-            ctx.run_dir,
-            &scene.gauges,
-            &beds,
-            &scene.probes,
-            scene.output.interval,
-        )?;
+        let eq22 = Eq22::of(scene, fluid, sound_speed, mass);
+        let penalty = eq22.penalty(scene, init);
+        let bodies = setup::body_particles(scene, init, cell, &grid);
+        let fixed = setup::wall_particles(scene, init, cell, (lo, hi), &grid);
+        let terrain = eq22.terrain(init);
+        let recorder = setup::recorder(ctx, init)?;
         let mut sys = Self {
             solver,
             particles: Particles::new(init.fill.positions.clone(), density),
