@@ -33,7 +33,7 @@ pub mod system;
 pub mod validation;
 
 use methods::SphMethod;
-use shared::registry::{Entry, Registry, check_params};
+use shared::registry::{Advice, Entry, Registry, check_params};
 use shared::scene::{FieldError, Scene};
 use shared::solver::{SetupContext, SolverError};
 use sph::{Sph, SphSolver};
@@ -55,6 +55,11 @@ pub const fn entry<S: SphMethod>() -> Entry<dyn SphSolver> {
         description: S::DESCRIPTION,
         build: build_scheme::<S>,
         check: check_scheme::<S>,
+        advice: Advice {
+            estimate_dt: S::estimate_dt,
+            warnings: S::warnings,
+            study_table: S::study_table,
+        },
     }
 }
 
@@ -118,5 +123,26 @@ mod tests {
             here
         });
         assert!(outer.is_some());
+    }
+
+    /// The registry's advice is each method's own: DFSPH's step on the flow speed and its
+    /// warning about added mass with the blocks in its solve, the others' speed of sound.
+    #[test]
+    fn the_registry_advises_per_method() {
+        use shared::scene::CouplingScheme::{Parallel, Serial};
+        let mut scene = shared::scene::Scene::default_scene();
+        let (dx, depth) = (0.02, 0.5);
+        let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let advice = |name| super::REGISTRY.get(name).unwrap().advice;
+        let dfsph = (advice("dfsph").estimate_dt)(&scene, dx, depth).unwrap();
+        assert_eq!(dfsph, 0.4 * dx / (g * depth).sqrt());
+        let wcsph = (advice("wcsph").estimate_dt)(&scene, dx, depth).unwrap();
+        assert_eq!(wcsph, 0.2 * 1.3 * dx / (10.0 * (2.0 * g * depth).sqrt()));
+        scene.coupling.added_mass = 0.5;
+        assert_eq!((advice("dfsph").warnings)(&scene, Parallel).len(), 1);
+        assert!((advice("dfsph").warnings)(&scene, Serial).is_empty());
+        assert!((advice("wcsph").warnings)(&scene, Parallel).is_empty());
+        assert!((advice("dfsph").study_table)("still_water").is_some());
+        assert!((advice("muller").study_table)("still_water").is_none());
     }
 }

@@ -10,7 +10,7 @@ use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SetupContext, Solver};
 
 /// Still water with `pressure_tolerance = 5` (the setting for pressure studies; the case sets
-/// it, `validation::DFSPH_PRESSURE_STUDY`): the probes' means are hydrostatic within 5 % of ρ0 g H.
+/// it, `methods::dfsph::PRESSURE_STUDY`): the probes' means are hydrostatic within 5 % of ρ0 g H.
 #[test]
 fn dfsph_still_water_is_hydrostatic() {
     let (depth, dx) = (0.1, 0.1 / 8.0);

@@ -9,6 +9,7 @@ use crate::system::{FluidSystem, Initial, Layout};
 use shared::math::Real;
 use shared::protocol::BlockLoad;
 use shared::registry::SolverParams;
+use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SolverError, StepReport};
 
 /// One SPH method.
@@ -65,4 +66,30 @@ pub trait SphMethod:
 
     /// Largest stable step for the current largest speed and acceleration.
     fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real;
+
+    /// The step this method would take on a scene's water of depth `depth` at spacing `dx`,
+    /// before it is built (`coupler check`'s estimate of a run's steps; the registry's
+    /// [`shared::registry::Advice::estimate_dt`]). The default is a speed-of-sound method's:
+    /// CFL 0.2 over h = 1.3 dx at the default sound speed c0 = 10·sqrt(2 g H)
+    /// ([`Initial::default_sound_speed`]).
+    fn estimate_dt(scene: &Scene, dx: Real, depth: Real) -> Option<Real> {
+        let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let c0 = 10.0 * (2.0 * g * depth).sqrt().max(1e-6);
+        Some(0.2 * 1.3 * dx / c0)
+    }
+
+    /// Warnings about the scene's combination of options for this method under `scheme`
+    /// (the registry's [`shared::registry::Advice::warnings`]): none by default.
+    fn warnings(scene: &Scene, scheme: CouplingScheme) -> Vec<String> {
+        let _ = (scene, scheme);
+        Vec::new()
+    }
+
+    /// This method's table `[fluid.<NAME>]` (TOML) for the validation study named, when it runs
+    /// with other than its defaults (the registry's [`shared::registry::Advice::study_table`]):
+    /// none by default.
+    fn study_table(study: &str) -> Option<&'static str> {
+        let _ = study;
+        None
+    }
 }

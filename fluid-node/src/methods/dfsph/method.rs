@@ -4,8 +4,8 @@
 
 use super::{
     ABSURD_DENSITY_ERROR, BLOCKS_IN_SOLVE, DEFAULT_CFL, DEFICIENT_FRACTION, Dfsph, DfsphConstants,
-    DfsphParams, MIRROR, SURFACE_FRACTION, SolveStats, WALL_PRESSURE, hydrostatic,
-    lattice_neighbours,
+    DfsphParams, MIRROR, PRESSURE_STUDY, SURFACE_FRACTION, SolveStats, WALL_PRESSURE,
+    blocks_in_solve, hydrostatic, lattice_neighbours,
 };
 use crate::core::neighbors::PairValues;
 use crate::core::phases::Phase;
@@ -16,6 +16,7 @@ use crate::system::{FluidSystem, Initial, Layout};
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
+use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SolverError, StepReport};
 
 impl SphMethod for Dfsph {
@@ -295,5 +296,32 @@ impl SphMethod for Dfsph {
             dt = dt.min((self.mass / self.penalty_stiffness).sqrt());
         }
         dt
+    }
+
+    /// The CFL step on the flow speed: [`DEFAULT_CFL`]·dx over the speed sqrt(g H) of a shallow
+    /// water wave of the water's depth (no speed of sound).
+    fn estimate_dt(scene: &Scene, dx: Real, depth: Real) -> Option<Real> {
+        let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+        Some(DEFAULT_CFL * dx / (g * depth).sqrt().max(1e-6))
+    }
+
+    fn warnings(scene: &Scene, scheme: CouplingScheme) -> Vec<String> {
+        let mut out = Vec::new();
+        if scheme == CouplingScheme::Parallel
+            && scene.coupling.added_mass > 0.0
+            && blocks_in_solve(scene)
+        {
+            out.push(format!(
+                "[coupling] added_mass = {} relaxes the loads of blocks that DFSPH already moves inside its pressure solve (its default in the parallel scheme): the solid then moves them otherwise than the water predicted (docs/REFERENCES.md §4.1b). Fix: drop --added-mass, or set [fluid.dfsph] blocks_in_solve = false to relax lagged loads instead",
+                scene.coupling.added_mass
+            ));
+        }
+        out
+    }
+
+    /// The still-water case is a pressure study against fixed walls: there DFSPH runs with its
+    /// pressure-change stop, [`PRESSURE_STUDY`] (module doc).
+    fn study_table(study: &str) -> Option<&'static str> {
+        (study == "still_water").then_some(PRESSURE_STUDY)
     }
 }
