@@ -5,9 +5,11 @@
 use super::{
     ABSURD_DENSITY_ERROR, BLOCKS_IN_SOLVE, DEFAULT_CFL, DEFICIENT_FRACTION, Dfsph, DfsphConstants,
     DfsphParams, MIRROR, PRESSURE_STUDY, SURFACE_FRACTION, SolveStats, WALL_PRESSURE,
-    blocks_in_solve, hydrostatic, lattice_neighbours,
+    blocks_in_solve, density_stiffness, divergence_stiffness, hydrostatic, lattice_neighbours,
+    stiffnesses,
 };
 use crate::core::neighbors::PairValues;
+use crate::core::particles::Particles;
 use crate::core::phases::Phase;
 use crate::kernels::WendlandC2;
 use crate::kernels::{Kernel, lattice_density};
@@ -112,11 +114,21 @@ impl SphMethod for Dfsph {
         // The particles were sorted: decode the hydrostatic pressure from their own densities,
         // and warm-start the first density solve from it (k = p/ρ0²).
         let (rho0, c2) = (self.rest_density, self.penalty_speed * self.penalty_speed);
-        let p = &mut sys.particles;
-        p.pressure
+        let Particles {
+            pressure,
+            density,
+            density0: density_stiffness,
+            density_rate: divergence_stiffness,
+            ..
+        } = &mut sys.particles;
+        pressure
             .par_iter_mut()
-            .zip(p.density.par_iter_mut())
-            .zip(p.density0.par_iter_mut().zip(p.density_rate.par_iter_mut()))
+            .zip(density.par_iter_mut())
+            .zip(
+                density_stiffness
+                    .par_iter_mut()
+                    .zip(divergence_stiffness.par_iter_mut()),
+            )
             .for_each(|((pr, r), (kd, kv))| {
                 *pr = (*r - rho0) * c2;
                 *kd = *pr / (rho0 * rho0);
@@ -139,10 +151,11 @@ impl SphMethod for Dfsph {
         let rho0 = self.rest_density;
         if self.mirrored {
             let p = &sys.particles;
+            let (kd, kv) = stiffnesses(p);
             self.k_last.resize(p.len(), 0.0);
             self.k_last
                 .par_iter_mut()
-                .zip(p.density0.par_iter().zip(p.density_rate.par_iter()))
+                .zip(kd.par_iter().zip(kv.par_iter()))
                 .for_each(|(k, (a, b))| *k = a + b);
         } else {
             sys.boundary
@@ -157,9 +170,9 @@ impl SphMethod for Dfsph {
         }
         let t = sys.phases.lap(Phase::Blocks, t);
         // Algorithm 1's divergence solve (Algorithm 2), rotated to the start on the current velocities.
-        let kv = std::mem::take(&mut sys.particles.density_rate);
+        let kv = std::mem::take(divergence_stiffness(&mut sys.particles));
         let (div_it, div_err, kv) = self.solve(sys, dt, false, kv);
-        sys.particles.density_rate = kv;
+        *divergence_stiffness(&mut sys.particles) = kv;
         let t = sys.phases.lap(Phase::DivergenceSolve, t);
         // Non-pressure forces and predicted velocities.
         self.non_pressure(sys, dt);
@@ -180,9 +193,9 @@ impl SphMethod for Dfsph {
         }
         let t = sys.phases.lap(Phase::Blocks, t);
         // The constant-density solve (Algorithm 3) on v*.
-        let kd = std::mem::take(&mut sys.particles.density0);
+        let kd = std::mem::take(density_stiffness(&mut sys.particles));
         let (it, err, kd) = self.solve(sys, dt, true, kd);
-        sys.particles.density0 = kd;
+        *density_stiffness(&mut sys.particles) = kd;
         let t = sys.phases.lap(Phase::DensitySolve, t);
         // Positions. The pressure the step applied, p = (k_ρ + k_v)ρ², for output and
         // probes; the density the constant-density solve predicts at the new positions.
@@ -190,15 +203,27 @@ impl SphMethod for Dfsph {
             // The solid node moves the blocks; the next pose brings their velocities.
             bodies.settle();
         }
-        let p = &mut sys.particles;
-        p.position
+        let Particles {
+            position,
+            velocity,
+            pressure,
+            density,
+            density0: density_stiffness,
+            density_rate: divergence_stiffness,
+            ..
+        } = &mut sys.particles;
+        position
             .par_iter_mut()
-            .zip(p.velocity.par_iter())
+            .zip(velocity.par_iter())
             .for_each(|(x, v)| *x += v * dt);
-        p.pressure
+        pressure
             .par_iter_mut()
-            .zip(p.density.par_iter_mut())
-            .zip(p.density0.par_iter().zip(p.density_rate.par_iter()))
+            .zip(density.par_iter_mut())
+            .zip(
+                density_stiffness
+                    .par_iter()
+                    .zip(divergence_stiffness.par_iter()),
+            )
             .zip(self.predicted.par_iter())
             .for_each(|(((pr, r), (kd, kv)), pred)| {
                 *pr = (kd + kv) * *r * *r;
@@ -250,9 +275,10 @@ impl SphMethod for Dfsph {
                 .update_moving(&self.kernel, &sys.particles, &sys.gravity, rho0, |_| rho0);
         }
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
+        let (kd, kv) = stiffnesses(p);
         sys.boundary
             .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
-                let ki = p.density0[i] + p.density_rate[i];
+                let ki = kd[i] + kv[i];
                 let k = if self.mirrored {
                     MIRROR * ki + hydrostatic(&sys.gravity, r, rho0, ki)
                 } else {

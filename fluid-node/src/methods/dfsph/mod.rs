@@ -139,8 +139,10 @@
 //! and streamed by every later pass (the `pairs` field), which made a step 1.7× faster.
 //!
 //! State across steps: the per-particle warm-start stiffnesses must follow the system's sort, so
-//! they live in two [`crate::core::particles::Particles`] arrays this scheme does not otherwise use:
-//! `density0` holds k of the density solve and `density_rate` k of the divergence solve.
+//! they live in two [`Particles`] arrays this method does not otherwise use: `density0` holds
+//! k of the density solve and `density_rate` k of the divergence solve. This method's files
+//! name them for what they hold (`density_stiffness`, `divergence_stiffness`, `stiffnesses`
+//! and `density_stiffness`/`divergence_stiffness` where a pass destructures the particles).
 //!
 //! Files: this one holds the constants and the state; `params.rs` reads `[fluid.dfsph]`,
 //! `method.rs` is the step (the [`SphMethod`] interface), `passes.rs` the passes over a step's
@@ -153,6 +155,7 @@ mod passes;
 mod solve;
 
 use crate::core::neighbors::PairValues;
+use crate::core::particles::Particles;
 use crate::kernels::WendlandC2;
 use crate::methods::SphMethod;
 use shared::math::{Real, Vector};
@@ -183,6 +186,21 @@ pub fn blocks_in_solve(scene: &shared::scene::Scene) -> bool {
         .and_then(|t| t.get("blocks_in_solve"))
         .and_then(|v| v.as_bool())
         .unwrap_or(BLOCKS_IN_SOLVE)
+}
+
+/// k of the density solve, per particle (module doc, "State across steps").
+fn density_stiffness(p: &mut Particles) -> &mut Vec<Real> {
+    &mut p.density0
+}
+
+/// k of the divergence solve, per particle (module doc, "State across steps").
+fn divergence_stiffness(p: &mut Particles) -> &mut Vec<Real> {
+    &mut p.density_rate
+}
+
+/// (k of the density solve, k of the divergence solve), per particle, to read.
+fn stiffnesses(p: &Particles) -> (&[Real], &[Real]) {
+    (&p.density0, &p.density_rate)
 }
 
 /// Fraction of the last step's stiffness a solve starts from (the papers' warm start;
