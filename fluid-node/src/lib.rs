@@ -38,7 +38,7 @@ use shared::scene::{FieldError, Scene};
 use shared::solver::{SetupContext, SolverError};
 use sph::{Sph, SphSolver};
 
-/// Every fluid solver, by name: add a scheme here with one `entry` line.
+/// Every fluid solver, by name: add a method here with one `entry` line (recipe: [`methods`]).
 pub static REGISTRY: Registry<dyn SphSolver> = Registry {
     role: "fluid",
     entries: &[
@@ -48,13 +48,13 @@ pub static REGISTRY: Registry<dyn SphSolver> = Registry {
     ],
 };
 
-/// The registry entry of scheme `S`: built as [`Sph<S>`], its parameters in `[fluid.<S::NAME>]`.
+/// The registry entry of method `S`: built as [`Sph<S>`], its parameters in `[fluid.<S::NAME>]`.
 pub const fn entry<S: SphMethod>() -> Entry<dyn SphSolver> {
     Entry {
         name: S::NAME,
         description: S::DESCRIPTION,
-        build: build_scheme::<S>,
-        check: check_scheme::<S>,
+        build: build_method::<S>,
+        check: check_method::<S>,
         advice: Advice {
             estimate_dt: S::estimate_dt,
             warnings: S::warnings,
@@ -63,11 +63,11 @@ pub const fn entry<S: SphMethod>() -> Entry<dyn SphSolver> {
     }
 }
 
-fn build_scheme<S: SphMethod>(ctx: &SetupContext) -> Result<Box<dyn SphSolver>, SolverError> {
+fn build_method<S: SphMethod>(ctx: &SetupContext) -> Result<Box<dyn SphSolver>, SolverError> {
     Ok(Box::new(Sph::<S>::new(ctx)?))
 }
 
-fn check_scheme<S: SphMethod>(scene: &Scene) -> Vec<FieldError> {
+fn check_method<S: SphMethod>(scene: &Scene) -> Vec<FieldError> {
     match &scene.fluid {
         Some(f) => check_params::<S::Params>(&f.solvers, "fluid", S::NAME),
         None => Vec::new(),

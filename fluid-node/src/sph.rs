@@ -25,10 +25,10 @@ use shared::protocol::{BlockLoad, BlockState};
 use shared::registry::solver_params;
 use shared::solver::{FluidSolver, SetupContext, Solver, SolverError, StepReport};
 
-/// An SPH solver: the shared system and one scheme.
+/// An SPH solver: the shared system and one method.
 pub struct Sph<S: SphMethod> {
     pub sys: FluidSystem,
-    pub scheme: S,
+    pub method: S,
     dt_next: Real,
 }
 
@@ -42,17 +42,17 @@ pub trait SphSolver: FluidSolver + Send {
 }
 
 impl<S: SphMethod> Sph<S> {
-    /// Fills the scene's water and builds the scheme from its table `[fluid.<S::NAME>]`.
+    /// Fills the scene's water and builds the method from its table `[fluid.<S::NAME>]`.
     pub fn new(ctx: &SetupContext) -> Result<Self, SolverError> {
         let init = Initial::from_scene(ctx.scene)?;
         let params = solver_params::<S::Params>(&init.fluid.solvers, "fluid", S::NAME)?;
-        let (mut scheme, layout) = S::new(params, &init)?;
+        let (mut method, layout) = S::new(params, &init)?;
         let mut sys = FluidSystem::new(ctx, S::NAME, &init, layout)?;
-        scheme.start(&mut sys);
-        let dt_next = scheme.dt_proposal(0.0, init.gravity.norm());
+        method.start(&mut sys);
+        let dt_next = method.dt_proposal(0.0, init.gravity.norm());
         Ok(Self {
             sys,
-            scheme,
+            method,
             dt_next,
         })
     }
@@ -81,15 +81,15 @@ impl<S: SphMethod> Solver for Sph<S> {
         if !self.sys.is_prepared() {
             self.prepare_step();
         }
-        let mut report = self.scheme.step(&mut self.sys, dt)?;
-        let (low, reference) = self.scheme.density_check();
+        let mut report = self.method.step(&mut self.sys, dt)?;
+        let (low, reference) = self.method.density_check();
         let (v, a) = self
             .sys
-            .end_step(dt, self.scheme.kernel(), low, reference)?;
-        self.dt_next = self.scheme.dt_proposal(v, a);
+            .end_step(dt, self.method.kernel(), low, reference)?;
+        self.dt_next = self.method.dt_proposal(v, a);
         if let Some(w) = self.sys.take_warning() {
             report.warning = Some(match report.warning {
-                Some(scheme) => format!("{scheme}; {w}"),
+                Some(own) => format!("{own}; {w}"),
                 None => w,
             });
         }
@@ -105,7 +105,7 @@ impl<S: SphMethod> Solver for Sph<S> {
     }
 
     fn save_state(&mut self) -> Result<Vec<u8>, SolverError> {
-        crate::system::checkpoint::save(&mut self.sys, &self.scheme, self.dt_next)
+        crate::system::checkpoint::save(&mut self.sys, &self.method, self.dt_next)
     }
 
     fn restore_state(
@@ -114,7 +114,7 @@ impl<S: SphMethod> Solver for Sph<S> {
         run_dir: &std::path::Path,
     ) -> Result<(), SolverError> {
         self.dt_next =
-            crate::system::checkpoint::restore(&mut self.sys, &mut self.scheme, state, run_dir)?;
+            crate::system::checkpoint::restore(&mut self.sys, &mut self.method, state, run_dir)?;
         Ok(())
     }
 }
@@ -125,27 +125,27 @@ impl<S: SphMethod> FluidSolver for Sph<S> {
     }
 
     fn loads_follow_step(&self) -> bool {
-        self.scheme.loads_follow_step(&self.sys)
+        self.method.loads_follow_step(&self.sys)
     }
 
     fn prepare_step(&mut self) {
         self.sys.prepare_bodies();
-        if !self.scheme.loads_follow_step(&self.sys) {
+        if !self.method.loads_follow_step(&self.sys) {
             // The water's pressure on the moving blocks' boundary particles at the current
             // state: the fluid pressures of the last step's end, the wall pressures
             // extrapolated at the new pose.
             let t = self.sys.phases.start();
-            self.scheme.react(&mut self.sys);
+            self.method.react(&mut self.sys);
             self.sys.phases.stop(Phase::BlockLoads, t);
         }
         self.sys.apply_coupling_forces();
     }
 
     fn write_loads(&mut self, loads: &mut [BlockLoad]) {
-        if self.scheme.loads_follow_step(&self.sys) {
+        if self.method.loads_follow_step(&self.sys) {
             // Called after the step: the forces the method moved the blocks with.
             let t = self.sys.phases.start();
-            self.scheme.step_loads(&self.sys, loads);
+            self.method.step_loads(&self.sys, loads);
             self.sys.phases.stop(Phase::BlockLoads, t);
             return;
         }

@@ -137,7 +137,7 @@ fn dfsph_solves_converge_on_still_water() {
         let dt = s.dt_proposal().min(scene.time.dt_max);
         let r = s.advance(dt).unwrap();
         assert!(r.warning.is_none(), "{:?}", r.warning);
-        let st = s.scheme.stats;
+        let st = s.method.stats;
         assert!(st.density_error <= 0.0005, "{st:?}");
         worst = worst.max(st.density_iterations);
         total += st.density_iterations;

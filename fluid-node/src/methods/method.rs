@@ -1,8 +1,9 @@
 //! What makes one SPH method differ from another: its kernel, equation of state, force
 //! evaluation, integrator and stable step. Everything else (particles, neighbours, the blocks'
 //! boundary particles, paper Eq. 22, instruments, checks, output) is the [`FluidSystem`] every
-//! scheme shares, and [`crate::sph::Sph`] turns any scheme into a coupled solver. A new SPH
-//! method is one file implementing this trait plus one line in [`crate::REGISTRY`].
+//! method shares, and [`crate::sph::Sph`] turns any method into a coupled solver. A new SPH
+//! method is one folder implementing this trait plus one line in [`crate::REGISTRY`] (the
+//! recipe, a doc-test: [`crate::methods`]).
 
 use crate::kernels::Kernel;
 use crate::system::{FluidSystem, Initial, Layout};
@@ -13,7 +14,7 @@ use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SolverError, StepReport};
 
 /// One SPH method.
-/// Serde: a scheme is saved whole in a checkpoint (its history, e.g. the Verlet step
+/// Serde: a method is saved whole in a checkpoint (its history, e.g. the Verlet step
 /// counter or DFSPH's warm-start factors, affects the steps to come).
 pub trait SphMethod:
     Sized + Send + 'static + serde::Serialize + serde::de::DeserializeOwned
@@ -22,12 +23,12 @@ pub trait SphMethod:
     const NAME: &'static str;
     /// One line for `--list` and the docs.
     const DESCRIPTION: &'static str;
-    /// The scheme's own parameters (every field optional; unset ones are derived).
+    /// The method's own parameters (every field optional; unset ones are derived).
     type Params: SolverParams;
     /// The kernel the instruments interpolate with.
     type Kernel: Kernel;
 
-    /// Derives the scheme from its parameters and the filled scene.
+    /// Derives the method from its parameters and the filled scene.
     fn new(params: Self::Params, init: &Initial) -> Result<(Self, Layout), SolverError>;
 
     /// Once the system exists (particles sorted by cell, Eq. 22 stiffness known): initial
@@ -35,17 +36,17 @@ pub trait SphMethod:
     fn start(&mut self, sys: &mut FluidSystem);
 
     /// Force evaluation(s) and integration over `dt`. The system has begun the step (grid and
-    /// Eq. 22 forces current); it checks, re-sorts and samples after. A scheme that finds its
+    /// Eq. 22 forces current); it checks, re-sorts and samples after. A method that finds its
     /// own step unstable (an implicit solve far from converged) says so with
     /// [`SolverError::Unstable`], naming the cause.
     fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError>;
 
     /// At a new pose of the moving blocks: their boundary pressures, then the water's force on
-    /// them, pair by pair the reverse of this scheme's pressure force on the fluid
+    /// them, pair by pair the reverse of this method's pressure force on the fluid
     /// ([`crate::boundary::Boundary::react`]).
     fn react(&self, sys: &mut FluidSystem);
 
-    /// Whether this scheme moves the free blocks within its step, so that its loads are the
+    /// Whether this method moves the free blocks within its step, so that its loads are the
     /// forces of the step just taken ([`shared::solver::FluidSolver::loads_follow_step`]).
     fn loads_follow_step(&self, sys: &FluidSystem) -> bool {
         let _ = sys;
