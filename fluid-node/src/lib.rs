@@ -89,8 +89,8 @@ pub fn check_scene(scene: &Scene) -> Vec<FieldError> {
 /// second to the other worker, pass after pass. Called from a thread outside the pool, every
 /// pass is injected into the pool and the caller sleeps until it is done: a wake-up per pass
 /// (a few dozen per step), and the halves change threads, and caches, between passes. The
-/// fluid node, `fluid-validate` and the sweeps run their loops here (docs/PERFORMANCE.md:
-/// 9 % of the default scene's wall time, 40 % of `fluid-validate --quick`'s).
+/// fluid node, `fluid-validate` and the sweeps run their loops here
+/// (docs/journal/2026-11-performance.md, "Inner loops, third round").
 pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     rayon::scope(|_| f())
 }

@@ -73,8 +73,8 @@ fn scene(solver: &str, particles: usize, params: &[String]) -> Scene {
 /// VmHWM from /proc/self/status (Linux), in MB.
 /// Voluntary context switches of the process's threads so far (Linux: the sum over
 /// /proc/self/task/*/status): each is a thread that blocked, here a rayon worker that found no
-/// work and went to sleep, and that a later pass had to wake (docs/PERFORMANCE.md, "Inner loops,
-/// sixth round"). Threads that ended are not counted, so only differences over a live pool mean
+/// work and went to sleep, and that a later pass had to wake (docs/journal/2026-11-performance.md,
+/// "Inner loops, sixth round"). Threads that ended are not counted, so only differences over a live pool mean
 /// anything.
 fn thread_sleeps() -> Option<u64> {
     let mut sum = 0;

@@ -3,8 +3,8 @@
 //! distance test eight candidates per instruction (sixteen with AVX-512) whose hits are packed
 //! into the list without a branch per hit.
 //!
-//! Why: building Verlet lists was 44 % of a Müller step and 17 % of a WCSPH step
-//! (docs/PERFORMANCE.md). Scanning the 9 rows of a query separately left a short loop per row
+//! Why: building the lists is a large part of a step (of Müller's most, its lists are rebuilt
+//! every step). Scanning the 9 rows of a query separately left a short loop per row
 //! whose exit mispredicts (rows hold 2–3 blocks of candidates) and a scalar tail per row; a
 //! loop over "is this bit set" mispredicts about once per hit. Particles are sorted by cell, so
 //! consecutive queries share their cell and the gathered block is reused; one long loop over it

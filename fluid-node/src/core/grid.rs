@@ -170,10 +170,10 @@ impl CellGrid {
         // `COUNTERS_PER_PARTICLE` counters in all (a grid far sparser than its particles sorts
         // serially: clearing and scanning the counters would cost more than the parts save).
         // The counters are cleared and scanned in parallel (`first_slots`), so a grid with more
-        // cells than particles, as a tank with headroom has, still splits: with the old cap of
-        // two per particle the dam-break bench's grid (two cells per particle) counted and
-        // scattered on one thread, and the second, idle for that long, fell asleep before the
-        // next pass (docs/PERFORMANCE.md, "fifth round").
+        // cells than particles, as a tank with headroom has, still splits: a grid with a few
+        // cells per particle would otherwise count and scatter on one thread, and the second,
+        // idle for that long, fall asleep before the next pass
+        // (docs/journal/2026-11-performance.md, "Inner loops, fifth round").
         let parts = rayon::current_num_threads()
             .min(n / 4096)
             .min(COUNTERS_PER_PARTICLE * n / cells.max(1))

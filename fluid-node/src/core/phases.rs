@@ -3,8 +3,7 @@
 //!
 //! Why here and not in a profiler: the 2 ÷ 1-thread question is about which *parallel region*
 //! waits, and a region's wall time on the calling thread is what a sampling profiler does not
-//! give directly (docs/PERFORMANCE.md, "Where a step's second thread waited"). The phase tables
-//! there were once built with scratch timers; this makes them a committed command.
+//! give directly. The phase tables of docs/PERFORMANCE.md come from this clock.
 //!
 //! Cost: the clock lives in the [`crate::system::FluidSystem`] and is off unless a caller turns
 //! it on. Off, a phase costs one test of a `bool` ([`PhaseClock::start`] returns `None`, and

@@ -44,9 +44,9 @@ impl<A: Send, B: Send> Target for (&mut [A], &mut [B]) {
 
 /// Entries per task below which a part is written serially. Small enough that a scatter over
 /// a few thousand wall particles splits into several tasks: their cost per entry is uneven
-/// (a wall particle under deep water has twice the fluid neighbours of one at the edge), and
-/// with 2 048 Müller's wall pressures split into two uneven halves and gave 1.26 on two threads
-/// (1.69 with 512; docs/PERFORMANCE.md, "The first committed phase table").
+/// (a wall particle under deep water has twice the fluid neighbours of one at the edge), and a
+/// larger threshold split Müller's wall pressures into two uneven halves
+/// (docs/journal/2026-11-performance.md, "The first committed phase table").
 const SERIAL: usize = 512;
 
 /// `out[index[k]] = f(k, index[k])` for every k, in parallel. `index` must be strictly

@@ -6,12 +6,11 @@
 //! particle is uneven (a pair loop: a particle at a wall or under the column has more
 //! neighbours than one at the free surface; Eq. 22: only particles near a block compute a
 //! force), one thread ends its share while the other is still inside a piece of several
-//! thousand particles. A rayon worker that finds no work for 32 rounds of `sched_yield` (about
-//! 20 µs here) goes to sleep, and the next pass must wake it: a futex call on the thread that
-//! starts the pass, and about 30 µs before the woken thread runs on a virtual machine (`perf
-//! sched timehist`; docs/PERFORMANCE.md, "Inner loops, sixth round"). Before these limits a
-//! 31 250-particle Müller step put a thread to sleep and woke it four to seven times; with them,
-//! about once, and its 2 ÷ 1 threads went from 1.84–1.86 to 1.91–1.93.
+//! thousand particles. A rayon worker that finds no work for 32 rounds of `sched_yield` goes to
+//! sleep, and the next pass must wake it: a futex call on the thread that starts the pass, and
+//! a wait before the woken thread runs that is long on a virtual machine
+//! (docs/journal/2026-11-performance.md, "Inner loops, sixth round"). These limits make a step
+//! put a thread to sleep far more rarely.
 //!
 //! The limits are on the tasks, not on the results: every particle is computed as before and
 //! written by one task, so a run is the same to the bit with any cut (the sums that must not

@@ -51,10 +51,10 @@
 //!   `continued_surface = true` (experimental, off by default) lets a particle with fewer than
 //!   [`SURFACE_FRACTION`] of a full lattice's neighbours keep the larger of its sum and the ρ*
 //!   the last step predicted for it (the continuity equation's density, which has no deficit):
-//!   the surface then holds (−0.016 spacings), Example 1's gauges follow WCSPH's within 3 mm in
-//!   deep water, and the floating block's draft error goes from −3.5 % to −2.3 %
-//!   (docs/PERFORMANCE.md, docs/VALIDATION.md). Not yet the default: the validation tables
-//!   have not been rerun with it.
+//!   the surface then holds, Example 1's gauges follow WCSPH's in deep water, and the floating
+//!   block's draft comes closer to Archimedes' (docs/VALIDATION.md; the runs:
+//!   docs/journal/2026-11-performance.md, "DFSPH against WCSPH on the default scene: a
+//!   resolution study"). Not yet the default: the validation tables have not been rerun with it.
 //! - Warm start: each solve starts from half the stiffness of the last step where the particle is
 //!   compressed (the papers' warm start; the ½ and the test on compression as SPlisHSPlasH).
 //! - Stopping: mean compression below `density_tolerance` (0.05 %, at least two iterations) and
@@ -132,11 +132,11 @@
 //! (ρ_b/ρ_w = 2.5) lands and rests as under WCSPH, the light block (0.1) floats unrelaxed, the
 //! default scene's wedge lands at the toe at 10 ms steps, and with mirrored walls the heavier,
 //! faster landings too (ρ_b/ρ_w = 2 and 3 in the floating-block tank, Example 3's block,
-//! docs/stability.md). Cost: two passes over the moving boundary per iteration, nothing
-//! measurable on the default scene (docs/PERFORMANCE.md).
+//! docs/stability.md). Cost: two passes over the moving boundary per iteration, small beside
+//! the fluid's passes.
 //!
 //! Speed: the kernel gradients and values of a step's fluid pairs are computed once, in f32,
-//! and streamed by every later pass (the `pairs` field), which made a step 1.7× faster.
+//! and streamed by every later pass (the `pairs` field), instead of once per pass.
 //!
 //! State across steps: the per-particle warm-start stiffnesses must follow the system's sort, so
 //! they live in two [`Particles`] arrays this method does not otherwise use: `density0` holds
@@ -168,8 +168,8 @@ pub use params::DfsphParams;
 pub const DEFAULT_CFL: Real = 0.4;
 
 /// `[fluid.dfsph]` for a pressure study against fixed walls (the validation's still water):
-/// the pressure-change stop, without which one step's pressure scatters by ~40 % and a
-/// probe's mean over the run by ±5 %.
+/// the pressure-change stop, without which one step's pressure scatters widely and a probe's
+/// mean over the run with it.
 pub const PRESSURE_STUDY: &str = "pressure_tolerance = 5.0";
 
 /// Default of `[fluid.dfsph] blocks_in_solve`: the free blocks move inside the pressure solves
@@ -221,8 +221,9 @@ pub const SURFACE_FRACTION: Real = 0.9;
 /// Blocks in the solve: a solve also runs until its last iteration changed every free block's
 /// load by less than this fraction of the block's weight (force, and torque over the block's
 /// radius of gyration), so the block's answer is converged where the mean density error alone
-/// would stop at two iterations with the block mode still moving. 1 % cost a quarter more
-/// time on the default scene for crests within ±3 % of these (docs/PERFORMANCE.md).
+/// would stop at two iterations with the block mode still moving. A tighter tolerance costs
+/// more iterations for crests that barely move (docs/journal/2026-11-performance.md, "The
+/// blocks in DFSPH's pressure solve").
 pub const BLOCK_TOLERANCE: Real = 0.05;
 /// The values of `[fluid.dfsph] wall_pressure`; the first is the default.
 pub const WALL_PRESSURE: [&str; 2] = ["mirrored", "extrapolated"];

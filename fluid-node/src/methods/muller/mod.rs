@@ -168,8 +168,8 @@ impl Muller {
     /// it Eq. 21's symplectic Euler, velocity first, then position with the new velocity. The
     /// force sums read the records of the density pass, never `position` or `velocity`, so a
     /// particle can move as soon as its acceleration is known: one pass over the particles.
-    /// (The integration's own pass took as long on two threads as on one, 46 µs of a 3 ms
-    /// step: docs/PERFORMANCE.md, "fifth round".)
+    /// (An integration pass of its own gained nothing from a second thread:
+    /// docs/journal/2026-11-performance.md, "Inner loops, fifth round".)
     fn accelerate_and_move(&self, sys: &mut FluidSystem, dt: Real) {
         let (m, g) = (sys.mass, sys.gravity);
         let pc = self.pair_constants();
@@ -256,7 +256,7 @@ impl SphMethod for Muller {
             support: h,
             sound_speed: sound,
             // Lists rebuilt every step: Müller's step is long enough that a developed flow moves
-            // a particle past half of any useful skin in one step (measured, docs/PERFORMANCE.md).
+            // a particle past half of any useful skin in one step.
             skin_ratio: 0.0,
             poly6_sums: true,
             // Eq. 12 rewrites the densities and pressures too, but the frames and probes read

@@ -114,9 +114,9 @@ pub enum Integrator {
 pub const VERLET_EULER_EVERY: u64 = 40;
 
 /// Default Verlet skin of WCSPH's neighbour lists over the support: lists reach 1.1 supports
-/// and are kept until a particle may have moved half the skin (0.13 h: about four steps at the
-/// acoustic step in a developed dam-break flow). Measured against 0, 0.05 and 0.2 on the 3D
-/// dam break: docs/PERFORMANCE.md.
+/// and are kept until a particle may have moved half the skin (0.13 h: a few steps at the
+/// acoustic step in a developed dam-break flow), chosen against 0, 0.05 and 0.2 on the 3D dam
+/// break (docs/journal/2026-11-performance.md).
 pub const WCSPH_SKIN: Real = 0.1;
 
 /// The scheme's constants, resolved from `[fluid.wcsph]` and the scene.
@@ -235,9 +235,9 @@ impl Wcsph {
     }
 
     /// Predictor: keeps (r, v, ρ)^n and moves half a step with the rates in `acceleration`
-    /// and `density_rate`. One parallel pass, the copies included (three serial copies before
-    /// it kept the second thread idle long enough to fall asleep: docs/PERFORMANCE.md, "fifth
-    /// round").
+    /// and `density_rate`. One parallel pass, the copies included (serial copies before it kept
+    /// the second thread idle long enough to fall asleep: docs/journal/2026-11-performance.md,
+    /// "Inner loops, fifth round").
     fn predict_half_step(sys: &mut FluidSystem, dt: Real) {
         let p = &mut sys.particles;
         let half = 0.5 * dt;

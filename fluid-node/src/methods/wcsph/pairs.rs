@@ -5,8 +5,7 @@
 //! with its own partial sum. Compiled also for AVX2 and NEON and chosen at run time
 //! (multiversion). Against the f64 loop with four lanes before: eight lanes per instruction, a
 //! neighbour in half a cache line loaded whole, and one division per pair instead of three
-//! ((r² + η²)(ρ_i + ρ_j)ρ_j inverted once); docs/PERFORMANCE.md has the gain and
-//! docs/VALIDATION.md the table with it.
+//! ((r² + η²)(ρ_i + ρ_j)ρ_j inverted once); docs/VALIDATION.md has the table with it.
 
 use crate::core::lanes::{L, Packed, block, gather, sum};
 use crate::kernels::WendlandC2;
