@@ -322,7 +322,7 @@ mod tests {
     }
 
     /// With boundary particles the fill leaves dry exactly the lattice points the sample takes
-    /// (`near_or_inside` at the fill's clearance, system.rs): along the slope, off the lattice, every
+    /// (`near_or_inside` at the fill's clearance, system/setup.rs): along the slope, off the lattice, every
     /// point within the sample's depth under the surface or above it is one or the other, never
     /// both, never neither; with clearance dx/2 (Eq. 22 alone) a layer is neither.
     #[test]
@@ -389,7 +389,7 @@ mod tests {
         );
     }
 
-    /// With boundary particles the backstop starts at the surface (system.rs): water resting
+    /// With boundary particles the backstop starts at the surface (system/setup.rs): water resting
     /// on the bed, however close, feels nothing; water that has crossed it, to the reach, is
     /// pushed back out.
     #[test]

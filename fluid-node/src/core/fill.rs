@@ -93,7 +93,7 @@ pub fn fill_water(fluid: &FluidSpec, blocks: &[Polyhedron]) -> Result<Fill, Stri
 }
 
 /// [`fill_water`], also leaving dry the lattice points where `dry` holds (those the terrain's
-/// boundary particles take, or with Eq. 22 alone also within dx/2 above it: system.rs).
+/// boundary particles take, or with Eq. 22 alone also within dx/2 above it: system/setup.rs).
 pub fn fill_water_with(
     fluid: &FluidSpec,
     blocks: &[Polyhedron],

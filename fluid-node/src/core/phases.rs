@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 /// which is said per variant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
-    /// The counting sort of the particles by cell (`CellGrid::sort`, neighbors.rs).
+    /// The counting sort of the particles by cell (`CellGrid::sort`, grid.rs).
     Sort,
     /// The particle arrays put in the sorted order (`Particles::permute`).
     Permutation,
