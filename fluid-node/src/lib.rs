@@ -1,84 +1,73 @@
 //! rockwave's water: SPH solvers behind the [`shared::solver::FluidSolver`] interface.
 //!
-//! A solver is a [`scheme::SphMethod`] (what one SPH method does differently: kernel, equation of
-//! state, forces, integrator, stable step) run by [`sph::Sph`], which implements the coupling
-//! interface once over the [`system::FluidSystem`] every scheme shares. The schemes:
+//! A solver is a [`methods::SphMethod`] (what one SPH method does differently: kernel, equation
+//! of state, forces, integrator, stable step) run by [`sph::Sph`], which implements the coupling
+//! interface once over the [`system::FluidSystem`] every method shares. The methods
+//! ([`methods`]):
 //!
-//! - [`muller`]: the paper's scheme (Müller et al. 2003; paper Eqs. 11–21), `--solver muller`;
-//! - [`wcsph`]: weakly compressible SPH in the DualSPHysics standard, `--solver wcsph`;
-//! - [`dfsph`]: divergence-free SPH (Bender & Koschier 2015, 2017), `--solver dfsph`, which
-//!   steps on the flow speed instead of a numerical speed of sound.
+//! - [`methods::muller`]: the paper's method (Müller et al. 2003; paper Eqs. 11–21), `--solver muller`;
+//! - [`methods::wcsph`]: weakly compressible SPH in the DualSPHysics standard, `--solver wcsph`;
+//! - [`methods::dfsph`]: divergence-free SPH (Bender & Koschier 2015, 2017), `--solver dfsph`,
+//!   which steps on the flow speed instead of a numerical speed of sound.
 //!
 //! They are listed once, in [`REGISTRY`], which the node binary, `fluid-validate`,
-//! `fluid-bench` and the coupler's sweeps read. The shared parts: [`kernel`]/[`kernels`]
-//! (smoothing kernels), [`particles`] (struct-of-arrays state), [`neighbors`] (cell grid,
-//! counting sort, neighbour lists; [`candidates`] their branch-free test), [`fill`] (water volumes on a lattice), [`boundary`] (the blocks' boundary
-//! particles, [`walls`] on fixed blocks and [`bodies`] on moving ones), [`penalty`] (paper Eq. 22
-//! both ways), [`terrain`] (the `[[terrain]]` ground: boundary
-//! particles under its surface and Eq. 22 against its triangles), [`dt`] (stable step), [`gauges`] (wave gauges and pressure probes) and
-//! [`system`]; [`tasks`] sets how finely a parallel pass is cut; [`phases`] times a step's phases for `fluid-bench --phases`. [`validation`]
-//! holds the cases run by `fluid-validate` and by the tests.
+//! `fluid-bench` and the coupler's sweeps read. The folders:
+//!
+//! - [`core`]: the machinery every method shares (particles, cell grid, neighbour lists, pair
+//!   records, parallel passes, stable step, the water fill, the phase clock);
+//! - [`kernels`]: the smoothing kernels behind the [`kernels::Kernel`] trait;
+//! - [`methods`]: the SPH methods;
+//! - [`boundary`]: the blocks' and the terrain's boundary particles, and paper Eq. 22;
+//! - [`instruments`]: wave gauges, pressure probes and the after-step survey;
+//! - [`system`]: the [`system::FluidSystem`] (and its checkpoint) the methods share, [`sph`] the
+//!   adapter to the coupling interface;
+//! - [`validation`]: the cases run by `fluid-validate` and by the tests.
 
-pub mod bodies;
 pub mod boundary;
-pub mod candidates;
-pub mod dfsph;
-pub mod dt;
-pub mod fill;
-pub mod fixed_sum;
-pub mod gauges;
-pub mod kernel;
+pub mod core;
+pub mod instruments;
 pub mod kernels;
-pub mod lanes;
-pub mod muller;
-pub mod muller_pairs;
-pub mod neighbors;
-pub mod particles;
-pub mod penalty;
-pub mod phases;
-pub mod scatter;
-pub mod scheme;
+pub mod methods;
 pub mod sph;
-pub mod survey;
 pub mod system;
-pub mod tasks;
-pub mod terrain;
 pub mod validation;
-pub mod walls;
-pub mod wcsph;
-pub mod wcsph_pairs;
 
-use scheme::SphMethod;
-use shared::registry::{Entry, Registry, check_params};
+use methods::SphMethod;
+use shared::registry::{Advice, Entry, Registry, check_params};
 use shared::scene::{FieldError, Scene};
 use shared::solver::{SetupContext, SolverError};
 use sph::{Sph, SphSolver};
 
-/// Every fluid solver, by name: add a scheme here with one `entry` line.
+/// Every fluid solver, by name: add a method here with one `entry` line (recipe: [`methods`]).
 pub static REGISTRY: Registry<dyn SphSolver> = Registry {
     role: "fluid",
     entries: &[
-        entry::<wcsph::Wcsph>(),
-        entry::<muller::Muller>(),
-        entry::<dfsph::Dfsph>(),
+        entry::<methods::wcsph::Wcsph>(),
+        entry::<methods::muller::Muller>(),
+        entry::<methods::dfsph::Dfsph>(),
     ],
 };
 
-/// The registry entry of scheme `S`: built as [`Sph<S>`], its parameters in `[fluid.<S::NAME>]`.
+/// The registry entry of method `S`: built as [`Sph<S>`], its parameters in `[fluid.<S::NAME>]`.
 pub const fn entry<S: SphMethod>() -> Entry<dyn SphSolver> {
     Entry {
         name: S::NAME,
         description: S::DESCRIPTION,
-        build: build_scheme::<S>,
-        check: check_scheme::<S>,
+        build: build_method::<S>,
+        check: check_method::<S>,
+        advice: Advice {
+            estimate_dt: S::estimate_dt,
+            warnings: S::warnings,
+            study_table: S::study_table,
+        },
     }
 }
 
-fn build_scheme<S: SphMethod>(ctx: &SetupContext) -> Result<Box<dyn SphSolver>, SolverError> {
+fn build_method<S: SphMethod>(ctx: &SetupContext) -> Result<Box<dyn SphSolver>, SolverError> {
     Ok(Box::new(Sph::<S>::new(ctx)?))
 }
 
-fn check_scheme<S: SphMethod>(scene: &Scene) -> Vec<FieldError> {
+fn check_method<S: SphMethod>(scene: &Scene) -> Vec<FieldError> {
     match &scene.fluid {
         Some(f) => check_params::<S::Params>(&f.solvers, "fluid", S::NAME),
         None => Vec::new(),
@@ -100,8 +89,8 @@ pub fn check_scene(scene: &Scene) -> Vec<FieldError> {
 /// second to the other worker, pass after pass. Called from a thread outside the pool, every
 /// pass is injected into the pool and the caller sleeps until it is done: a wake-up per pass
 /// (a few dozen per step), and the halves change threads, and caches, between passes. The
-/// fluid node, `fluid-validate` and the sweeps run their loops here (docs/PERFORMANCE.md:
-/// 9 % of the default scene's wall time, 40 % of `fluid-validate --quick`'s).
+/// fluid node, `fluid-validate` and the sweeps run their loops here
+/// (docs/journal/2026-11-performance.md, "Inner loops, third round").
 pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     rayon::scope(|_| f())
 }
@@ -134,5 +123,26 @@ mod tests {
             here
         });
         assert!(outer.is_some());
+    }
+
+    /// The registry's advice is each method's own: DFSPH's step on the flow speed and its
+    /// warning about added mass with the blocks in its solve, the others' speed of sound.
+    #[test]
+    fn the_registry_advises_per_method() {
+        use shared::scene::CouplingScheme::{Parallel, Serial};
+        let mut scene = shared::scene::Scene::default_scene();
+        let (dx, depth) = (0.02, 0.5);
+        let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let advice = |name| super::REGISTRY.get(name).unwrap().advice;
+        let dfsph = (advice("dfsph").estimate_dt)(&scene, dx, depth).unwrap();
+        assert_eq!(dfsph, 0.4 * dx / (g * depth).sqrt());
+        let wcsph = (advice("wcsph").estimate_dt)(&scene, dx, depth).unwrap();
+        assert_eq!(wcsph, 0.2 * 1.3 * dx / (10.0 * (2.0 * g * depth).sqrt()));
+        scene.coupling.added_mass = 0.5;
+        assert_eq!((advice("dfsph").warnings)(&scene, Parallel).len(), 1);
+        assert!((advice("dfsph").warnings)(&scene, Serial).is_empty());
+        assert!((advice("wcsph").warnings)(&scene, Parallel).is_empty());
+        assert!((advice("dfsph").study_table)("still_water").is_some());
+        assert!((advice("muller").study_table)("still_water").is_none());
     }
 }

@@ -1,18 +1,34 @@
 //! Any [`SphMethod`] as a coupled solver: [`Sph`] implements the coupling interface
-//! ([`Solver`], [`FluidSolver`]) once, for every scheme.
+//! ([`Solver`], [`FluidSolver`]) once, for every method.
+//!
+//! One fluid step, in the order the runtime calls it (`shared::solver`):
+//! 1. [`FluidSolver::read_geometry`]: the moving blocks' new poses (when a solid node runs);
+//! 2. [`FluidSolver::prepare_step`]: the coupling forces of the coming step at the current
+//!    particles and poses: the method's [`SphMethod::react`] (the water's pressure on the
+//!    blocks' boundary particles, unless the method's loads follow its step), then paper
+//!    Eq. 22 on the particles and its reaction on the blocks
+//!    ([`FluidSystem::apply_coupling_forces`]);
+//! 3. [`FluidSolver::write_loads`]: those loads, summed per block (nothing is computed there);
+//! 4. [`Solver::advance`]: the method's step, then the system's checks, re-sort and
+//!    instruments ([`FluidSystem::end_step`]);
+//! 5. with [`FluidSolver::loads_follow_step`], [`FluidSolver::write_loads`] after the step
+//!    instead of before: the forces the method moved the blocks with.
+//!
+//! A caller that drives the solver by [`Solver::advance`] alone (no loads to write) may skip
+//! step 2: `advance` does it when it was not done since the last pose or step.
 
-use crate::phases::{Phase, PhaseClock};
-use crate::scheme::SphMethod;
+use crate::core::phases::{Phase, PhaseClock};
+use crate::methods::SphMethod;
 use crate::system::{FluidSystem, Initial};
 use shared::math::Real;
 use shared::protocol::{BlockLoad, BlockState};
 use shared::registry::solver_params;
 use shared::solver::{FluidSolver, SetupContext, Solver, SolverError, StepReport};
 
-/// An SPH solver: the shared system and one scheme.
+/// An SPH solver: the shared system and one method.
 pub struct Sph<S: SphMethod> {
     pub sys: FluidSystem,
-    pub scheme: S,
+    pub method: S,
     dt_next: Real,
 }
 
@@ -26,17 +42,17 @@ pub trait SphSolver: FluidSolver + Send {
 }
 
 impl<S: SphMethod> Sph<S> {
-    /// Fills the scene's water and builds the scheme from its table `[fluid.<S::NAME>]`.
+    /// Fills the scene's water and builds the method from its table `[fluid.<S::NAME>]`.
     pub fn new(ctx: &SetupContext) -> Result<Self, SolverError> {
         let init = Initial::from_scene(ctx.scene)?;
         let params = solver_params::<S::Params>(&init.fluid.solvers, "fluid", S::NAME)?;
-        let (mut scheme, layout) = S::new(params, &init)?;
+        let (mut method, layout) = S::new(params, &init)?;
         let mut sys = FluidSystem::new(ctx, S::NAME, &init, layout)?;
-        scheme.start(&mut sys);
-        let dt_next = scheme.dt_proposal(0.0, init.gravity.norm());
+        method.start(&mut sys);
+        let dt_next = method.dt_proposal(0.0, init.gravity.norm());
         Ok(Self {
             sys,
-            scheme,
+            method,
             dt_next,
         })
     }
@@ -62,16 +78,18 @@ impl<S: SphMethod> Solver for Sph<S> {
     }
 
     fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
-        self.sys.begin_step();
-        let mut report = self.scheme.step(&mut self.sys, dt)?;
-        let (low, reference) = self.scheme.density_check();
+        if !self.sys.is_prepared() {
+            self.prepare_step();
+        }
+        let mut report = self.method.step(&mut self.sys, dt)?;
+        let (low, reference) = self.method.density_check();
         let (v, a) = self
             .sys
-            .end_step(dt, self.scheme.kernel(), low, reference)?;
-        self.dt_next = self.scheme.dt_proposal(v, a);
+            .end_step(dt, self.method.kernel(), low, reference)?;
+        self.dt_next = self.method.dt_proposal(v, a);
         if let Some(w) = self.sys.take_warning() {
             report.warning = Some(match report.warning {
-                Some(scheme) => format!("{scheme}; {w}"),
+                Some(own) => format!("{own}; {w}"),
                 None => w,
             });
         }
@@ -87,7 +105,7 @@ impl<S: SphMethod> Solver for Sph<S> {
     }
 
     fn save_state(&mut self) -> Result<Vec<u8>, SolverError> {
-        crate::system::checkpoint::save(&mut self.sys, &self.scheme, self.dt_next)
+        crate::system::checkpoint::save(&mut self.sys, &self.method, self.dt_next)
     }
 
     fn restore_state(
@@ -96,7 +114,7 @@ impl<S: SphMethod> Solver for Sph<S> {
         run_dir: &std::path::Path,
     ) -> Result<(), SolverError> {
         self.dt_next =
-            crate::system::checkpoint::restore(&mut self.sys, &mut self.scheme, state, run_dir)?;
+            crate::system::checkpoint::restore(&mut self.sys, &mut self.method, state, run_dir)?;
         Ok(())
     }
 }
@@ -107,24 +125,34 @@ impl<S: SphMethod> FluidSolver for Sph<S> {
     }
 
     fn loads_follow_step(&self) -> bool {
-        self.scheme.loads_follow_step(&self.sys)
+        self.method.loads_follow_step(&self.sys)
+    }
+
+    fn prepare_step(&mut self) {
+        self.sys.prepare_bodies();
+        if !self.method.loads_follow_step(&self.sys) {
+            // The water's pressure on the moving blocks' boundary particles at the current
+            // state: the fluid pressures of the last step's end, the wall pressures
+            // extrapolated at the new pose.
+            let t = self.sys.phases.start();
+            self.method.react(&mut self.sys);
+            self.sys.phases.stop(Phase::BlockLoads, t);
+        }
+        self.sys.apply_coupling_forces();
     }
 
     fn write_loads(&mut self, loads: &mut [BlockLoad]) {
-        if self.scheme.loads_follow_step(&self.sys) {
-            // Called after the step: the forces the scheme moved the blocks with.
+        if self.method.loads_follow_step(&self.sys) {
+            // Called after the step: the forces the method moved the blocks with.
             let t = self.sys.phases.start();
-            self.scheme.step_loads(&self.sys, loads);
+            self.method.step_loads(&self.sys, loads);
             self.sys.phases.stop(Phase::BlockLoads, t);
             return;
         }
-        // The water's pressure on the moving blocks' boundary particles at the current state:
-        // the fluid pressures of the last step's end, the wall pressures extrapolated at the new
-        // pose. Then Eq. 22 for the coming step.
-        self.sys.prepare_bodies();
-        let t = self.sys.phases.start();
-        self.scheme.react(&mut self.sys);
-        self.sys.phases.stop(Phase::BlockLoads, t);
+        debug_assert!(
+            loads.is_empty() || self.sys.is_prepared(),
+            "write_loads before prepare_step: the loads would be those of the last step"
+        );
         self.sys.write_loads(loads);
     }
 }

@@ -1,16 +1,16 @@
-//! Divergence-free SPH (fluid-node/src/dfsph.rs) at coarse resolutions: hydrostatics, the
+//! Divergence-free SPH (fluid-node/src/methods/dfsph/) at coarse resolutions: hydrostatics, the
 //! Martin & Moyce fronts with self-convergence, the steps it saves over WCSPH, its parameter
 //! checks and its convergence warning.
 
 use fluid_node::REGISTRY;
-use fluid_node::dfsph::Dfsph;
+use fluid_node::methods::dfsph::Dfsph;
 use fluid_node::sph::Sph;
 use fluid_node::validation::*;
 use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SetupContext, Solver};
 
 /// Still water with `pressure_tolerance = 5` (the setting for pressure studies; the case sets
-/// it, `validation::DFSPH_PRESSURE_STUDY`): the probes' means are hydrostatic within 5 % of ρ0 g H.
+/// it, `methods::dfsph::PRESSURE_STUDY`): the probes' means are hydrostatic within 5 % of ρ0 g H.
 #[test]
 fn dfsph_still_water_is_hydrostatic() {
     let (depth, dx) = (0.1, 0.1 / 8.0);
@@ -137,7 +137,7 @@ fn dfsph_solves_converge_on_still_water() {
         let dt = s.dt_proposal().min(scene.time.dt_max);
         let r = s.advance(dt).unwrap();
         assert!(r.warning.is_none(), "{:?}", r.warning);
-        let st = s.scheme.stats;
+        let st = s.method.stats;
         assert!(st.density_error <= 0.0005, "{st:?}");
         worst = worst.max(st.density_iterations);
         total += st.density_iterations;
@@ -245,7 +245,7 @@ fn droplets_approaching(extra: &str) -> f64 {
     fastest
 }
 
-/// Spray is left out of the divergence solve ([`fluid_node::dfsph::DEFICIENT_FRACTION`], as
+/// Spray is left out of the divergence solve ([`fluid_node::methods::dfsph::DEFICIENT_FRACTION`], as
 /// SPlisHSPlasH does): two droplets far below a full neighbourhood close in without the solve
 /// touching them. With the rule off (`deficient_fraction = 0`) the solve's large factor on
 /// sparse particles already pushes them apart before they meet; in the default scene at
@@ -298,7 +298,7 @@ fn dfsph_free_surface_holds_its_level_with_the_continued_density() {
 
 /// A DFSPH run gives the same bits on any number of threads: a dam break stepped on 1, 2 and 3
 /// threads ends with the same particles. Where its solves stop depends on sums over all
-/// particles (the mean errors), added in a fixed order for this (`fluid_node::fixed_sum`;
+/// particles (the mean errors), added in a fixed order for this (`fluid_node::core::fixed_sum`;
 /// rayon's own sums round by the split, which a mean at its tolerance's edge would show only
 /// rarely); every other pass writes each particle's own values. A reduction whose order
 /// follows the threads, in a pass that feeds the state, fails this.
@@ -337,7 +337,7 @@ fn dfsph_gives_the_same_bits_on_any_number_of_threads() {
     let one = run(1);
     // More particles than one block of the fixed-order sums.
     assert!(
-        one.0.len() / 3 > fluid_node::fixed_sum::BLOCK,
+        one.0.len() / 3 > fluid_node::core::fixed_sum::BLOCK,
         "{} particles",
         one.0.len() / 3
     );

@@ -2,11 +2,11 @@
 //! end 10 cm above the water. Closed, the top stops the run, named; open, the jet flies on above
 //! it, is said once, and falls back into the tank when a ballistic column would.
 
-use fluid_node::dfsph::Dfsph;
-use fluid_node::scheme::SphMethod;
+use fluid_node::methods::SphMethod;
+use fluid_node::methods::dfsph::Dfsph;
+use fluid_node::methods::wcsph::Wcsph;
 use fluid_node::sph::{Sph, SphSolver};
 use fluid_node::validation::*;
-use fluid_node::wcsph::Wcsph;
 use shared::coupling::step::StepRule;
 use shared::scene::{CouplingScheme as Coupling, Scene};
 use shared::solver::{SetupContext, Solver, SolverError};

@@ -1,11 +1,11 @@
-//! The phase clock (`fluid_node::phases`, `fluid-bench --phases`) reads time and nothing else:
+//! The phase clock (`fluid_node::core::phases`, `fluid-bench --phases`) reads time and nothing else:
 //! every solver stepped with it on takes the same steps to the bit as with it off, and on it
 //! has seen the phases every step enters.
 
 mod common;
 
 use fluid_node::REGISTRY;
-use fluid_node::phases::Phase;
+use fluid_node::core::phases::Phase;
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::*;
 use shared::scene::Scene;

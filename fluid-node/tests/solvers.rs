@@ -288,6 +288,7 @@ fn default_scene_couples_with_the_moving_wedge() {
         let mut s = REGISTRY.build(solver, &ctx_for(&scene, &dir)).unwrap();
         s.read_geometry(&[state], &[]);
         let mut loads = vec![shared::protocol::BlockLoad::default(); moving.len()];
+        s.prepare_step();
         s.write_loads(&mut loads);
         assert_eq!(loads[0].block, moving[0] as u32);
         let f = loads[0].force;
@@ -297,6 +298,7 @@ fn default_scene_couples_with_the_moving_wedge() {
             "{solver}: load {f:?}"
         );
         for _ in 0..5 {
+            s.prepare_step();
             s.write_loads(&mut loads);
             let dt = s.dt_proposal().min(scene.time.dt_max);
             s.advance(dt).unwrap();

@@ -1,7 +1,7 @@
 //! Every solver takes the same steps to the bit on any number of threads. The passes are cut
-//! into tasks of a few hundred particles (`fluid_node::tasks`) and rayon hands them to whichever
+//! into tasks of a few hundred particles (`fluid_node::core::tasks`) and rayon hands them to whichever
 //! thread is free; each particle's values are still computed by one task, in its own order, and
-//! the totals a step depends on are added in a fixed order (`fluid_node::fixed_sum`). A pass
+//! the totals a step depends on are added in a fixed order (`fluid_node::core::fixed_sum`). A pass
 //! whose result followed the cut or the schedule fails this.
 
 mod common;
@@ -36,7 +36,7 @@ fn every_solver_gives_the_same_bits_on_one_two_and_three_threads() {
         };
         let one = run(1);
         assert!(
-            one.1.len() / 11 > 4 * fluid_node::tasks::PARTICLES,
+            one.1.len() / 11 > 4 * fluid_node::core::tasks::PARTICLES,
             "{solver}: {} particles make too few tasks to test",
             one.1.len() / 11
         );

@@ -7,7 +7,7 @@
 //! (`[fluid.wcsph]`, `[solid.implicit]`, …), kept by [`crate::scene`] as raw TOML until the
 //! solver reads it with [`params`].
 
-use crate::scene::{FieldError, Scene, SolverTables};
+use crate::scene::{CouplingScheme, FieldError, Scene, SolverTables};
 use crate::solver::{SetupContext, SolverError};
 use serde::de::DeserializeOwned;
 
@@ -121,6 +121,33 @@ pub struct Entry<S: ?Sized> {
     pub build: fn(&SetupContext) -> Result<Box<S>, SolverError>,
     /// Checks the solver's own table of the scene, naming each bad field.
     pub check: fn(&Scene) -> Vec<FieldError>,
+    /// What the tools around the solver ask of it without building it ([`Advice::NONE`]: nothing).
+    pub advice: Advice,
+}
+
+/// What a solver tells the tools around it (the coupler's checks and estimates, the validation)
+/// without being built, so that no tool names a solver: each asks the registry's entry.
+#[derive(Clone, Copy)]
+pub struct Advice {
+    /// The solver's step [s] for a scene's water of depth `depth` [m] at spacing `dx` [m]
+    /// (`coupler check`'s estimate of a run's steps; `(scene, dx, depth)`), or `None` if it has
+    /// no estimate of its own.
+    pub estimate_dt: fn(&Scene, f64, f64) -> Option<f64>,
+    /// Warnings about the scene's combination of options for this solver under `scheme`, one
+    /// sentence each with its fix (the coupler prints them when a run starts).
+    pub warnings: fn(&Scene, CouplingScheme) -> Vec<String>,
+    /// The solver's own table (TOML of `[<role>.<name>]`) for the validation study named, when
+    /// the study runs it with other than its defaults (`"still_water"`: a pressure study).
+    pub study_table: fn(&str) -> Option<&'static str>,
+}
+
+impl Advice {
+    /// No estimate, no warning, the defaults for every study.
+    pub const NONE: Advice = Advice {
+        estimate_dt: |_, _, _| None,
+        warnings: |_, _| Vec::new(),
+        study_table: |_| None,
+    };
 }
 
 /// The solvers of one role (`fluid` or `solid`), in the order they are listed.

@@ -3,8 +3,10 @@
 //! knows who is on the other side, nor how the data travels; [`crate::runtime`] does that.
 //!
 //! Per step, the runtime calls, depending on the role:
-//! - fluid: [`FluidSolver::read_geometry`] (if a solid node runs), [`FluidSolver::write_loads`],
-//!   then [`Solver::advance`];
+//! - fluid: [`FluidSolver::read_geometry`] (if a solid node runs), [`FluidSolver::prepare_step`],
+//!   [`FluidSolver::write_loads`] (if a solid node runs), then [`Solver::advance`]; with
+//!   [`FluidSolver::loads_follow_step`] in the parallel scheme, [`FluidSolver::write_loads`]
+//!   after [`Solver::advance`] instead of before;
 //! - solid: [`SolidSolver::read_loads`] (if a fluid node runs), [`Solver::advance`], then
 //!   [`SolidSolver::write_geometry`].
 //!
@@ -93,8 +95,14 @@ pub trait FluidSolver: Solver {
     /// with world-frame corners in `vertices`.
     fn read_geometry(&mut self, blocks: &[BlockState], vertices: &[[f64; 3]]);
     /// Computes the coupling forces (paper Eq. 22) on the particles for the coming advance,
-    /// from the current particles and geometry, and writes the opposite force and its torque
-    /// about the centroid, summed per moving block, into `loads` (same order as the geometry).
+    /// from the current particles and geometry, and their reaction on the moving blocks. Once
+    /// per step, after [`FluidSolver::read_geometry`] and before [`FluidSolver::write_loads`]
+    /// and [`Solver::advance`]. The default does nothing (a solver that computes its loads in
+    /// `write_loads`).
+    fn prepare_step(&mut self) {}
+    /// Writes the loads of the coming advance ([`FluidSolver::prepare_step`]): the opposite of
+    /// the coupling force and its torque about the centroid, summed per moving block, into
+    /// `loads` (same order as the geometry).
     fn write_loads(&mut self, loads: &mut [BlockLoad]);
     /// Whether this solver's loads are those of the step it has just taken rather than of the
     /// state it starts from: a solver that moves the blocks within its step (their inertia in

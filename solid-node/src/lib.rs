@@ -52,6 +52,7 @@ pub const fn entry<S: DdaMethod>() -> Entry<DdaSolver> {
         description: S::DESCRIPTION,
         build: build_scheme::<S>,
         check: check_scheme::<S>,
+        advice: shared::registry::Advice::NONE,
     }
 }
 

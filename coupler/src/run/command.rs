@@ -187,17 +187,13 @@ impl Solvers {
     }
 }
 
-/// Warnings about settings that work against each other.
+/// Warnings about settings that work against each other, from the fluid solver's registry
+/// entry.
 fn warn(scene: &Scene, fluid_solver: Option<&str>, scheme: CouplingScheme) {
-    if fluid_solver == Some(<fluid_node::dfsph::Dfsph as fluid_node::scheme::SphMethod>::NAME)
-        && scheme == CouplingScheme::Parallel
-        && scene.coupling.added_mass > 0.0
-        && fluid_node::dfsph::blocks_in_solve(scene)
-    {
-        eprintln!(
-            "coupler: warning: [coupling] added_mass = {} relaxes the loads of blocks that DFSPH already moves inside its pressure solve (its default in the parallel scheme): the solid then moves them otherwise than the water predicted (docs/REFERENCES.md §4.1b). Fix: drop --added-mass, or set [fluid.dfsph] blocks_in_solve = false to relax lagged loads instead",
-            scene.coupling.added_mass
-        );
+    if let Some(entry) = fluid_solver.and_then(|n| fluid_node::REGISTRY.get(n).ok()) {
+        for w in (entry.advice.warnings)(scene, scheme) {
+            eprintln!("coupler: warning: {w}");
+        }
     }
 }
 

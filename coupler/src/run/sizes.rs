@@ -104,15 +104,15 @@ pub fn estimate(scene: &Scene, solver: Option<&str>) -> Option<Estimate> {
         Walls::Penalty => 0.0,
     };
     let memory = BASE_BYTES + BYTES_PER_PARTICLE * (fluid_particles + boundary_particles);
-    let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
     let height = (top - bottom).max(dx);
-    let dt = if solver == "dfsph" {
-        fluid_node::dfsph::DEFAULT_CFL * dx / (g * height).sqrt().max(1e-6)
-    } else {
-        let c0 = 10.0 * (2.0 * g * height).sqrt().max(1e-6);
-        0.2 * 1.3 * dx / c0
-    }
-    .min(scene.time.dt_max);
+    // The solver's own step for this water (its registry entry); one without an estimate is
+    // taken at the scene's largest step.
+    let dt = fluid_node::REGISTRY
+        .get(solver)
+        .ok()
+        .and_then(|e| (e.advice.estimate_dt)(scene, dx, height))
+        .unwrap_or(scene.time.dt_max)
+        .min(scene.time.dt_max);
     let frames = scene.time.end / scene.output.interval;
     let disk = if scene.output.vtk {
         let per_particle = match scene.output.vtk_format {

@@ -101,7 +101,9 @@ const QUICK: Plan = Plan {
     solid_dt: &[0.5, 1.0],
     coupled_dx: &[0.04, 0.02],
     // The default fluid solver only.
-    coupled_fluid: || vec![<fluid_node::wcsph::Wcsph as fluid_node::scheme::SphMethod>::NAME],
+    coupled_fluid: || {
+        vec![<fluid_node::methods::wcsph::Wcsph as fluid_node::methods::SphMethod>::NAME]
+    },
     // The paper's scheme only.
     coupled_solid: || vec![solid_node::verification::EXPLICIT],
     coupled_end: 1.0,

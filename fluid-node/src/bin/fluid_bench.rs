@@ -7,7 +7,7 @@
 //! below):
 //! particle-steps per second on a 3D dam break (a water column a × a × 2a at one end of a
 //! 4a × a tank) at about the given particle counts, with each thread count. The timed steps are
-//! the full coupling step as the node runtime drives it (`write_loads` + `advance`), after
+//! the full coupling step as the node runtime drives it (`prepare_step`, `write_loads`, `advance`), after
 //! warm-up steps that let the reused buffers reach their size. Also printed: the listed
 //! neighbour pairs per particle (fluid and boundary; each force pass visits every one), how
 //! often per timed step a thread of the process went to sleep (voluntary context switches:
@@ -17,7 +17,7 @@
 //!
 //! `--phases` also times each phase of the timed steps (sort, permutation, fluid and wall
 //! lists, Eq. 22, density pass, wall pressures, forces, DFSPH's solves, integration, survey,
-//! …: the calls a step already makes, `fluid_node::phases`) and prints, after the rows, one
+//! …: the calls a step already makes, `fluid_node::core::phases`) and prints, after the rows, one
 //! table per solver and size: mean µs per step of each phase per thread count, and with 1 and
 //! 2 threads their 2 ÷ 1 per phase (the `phase_table` module). Off, the clock costs a test of
 //! a flag per phase; on or off, the steps are the same to the bit.
@@ -73,8 +73,8 @@ fn scene(solver: &str, particles: usize, params: &[String]) -> Scene {
 /// VmHWM from /proc/self/status (Linux), in MB.
 /// Voluntary context switches of the process's threads so far (Linux: the sum over
 /// /proc/self/task/*/status): each is a thread that blocked, here a rayon worker that found no
-/// work and went to sleep, and that a later pass had to wake (docs/PERFORMANCE.md, "Inner loops,
-/// sixth round"). Threads that ended are not counted, so only differences over a live pool mean
+/// work and went to sleep, and that a later pass had to wake (docs/journal/2026-11-performance.md,
+/// "Inner loops, sixth round"). Threads that ended are not counted, so only differences over a live pool mean
 /// anything.
 fn thread_sleeps() -> Option<u64> {
     let mut sum = 0;

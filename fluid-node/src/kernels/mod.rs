@@ -1,11 +1,14 @@
 //! The kernels used by the solvers: Müller et al. (2003)'s three (paper Eqs. 13, 15, 19) and
-//! Wendland's C2 (Wendland 1995), the one DualSPHysics-style WCSPH uses.
+//! Wendland's C2 (Wendland 1995), the one DualSPHysics-style WCSPH uses, behind one trait,
+//! [`Kernel`] (`kernel.rs`).
 
+mod kernel;
 mod poly6;
 mod spiky;
 mod viscosity;
 mod wendland;
 
+pub use kernel::{Kernel, lattice_density};
 pub use poly6::Poly6;
 pub use spiky::Spiky;
 pub use viscosity::ViscosityKernel;
@@ -14,7 +17,7 @@ pub use wendland::WendlandC2;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kernel::Kernel;
+    use crate::kernels::Kernel;
     use std::f64::consts::PI;
 
     /// ∫ W dV over the support by Simpson's rule on 4π r² W(r).

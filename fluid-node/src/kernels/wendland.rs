@@ -1,4 +1,4 @@
-use crate::kernel::Kernel;
+use super::kernel::Kernel;
 use shared::math::Real;
 use std::f64::consts::PI;
 

@@ -71,7 +71,7 @@ pub fn scene_errors(text: &str) -> String {
 
 /// One step of a solver alone, granted by the coupler's rule ([`shared::coupling::step::grant`]: its
 /// proposal bounded by the scene's dt limits, times `rule.dt_factor`, landing on `target`), the
-/// way the node runtime drives it (write_loads, advance). Returns the time reached and the
+/// way the node runtime drives it (prepare_step, write_loads, advance). Returns the time reached and the
 /// step's report; a collapsed proposal is an instability.
 pub fn step(
     solver: &mut dyn SphSolver,
@@ -80,6 +80,7 @@ pub fn step(
     target: f64,
     loads: &mut [BlockLoad],
 ) -> Result<(f64, StepReport), SolverError> {
+    solver.prepare_step();
     solver.write_loads(loads);
     let (dt, reached) = grant([(solver.name(), solver.dt_proposal())], rule, time, target)
         .map(|g| (g.dt, g.end_time(time, target)))

@@ -30,20 +30,28 @@ pub fn still_water_scene(
     );
     let mut scene = Scene::parse(&text, "still_water (generated)")
         .expect("generated still-water scene is valid");
-    if solver == "dfsph" {
-        // A pressure study against fixed walls: DFSPH with its pressure-change stop, as
-        // fluid-node/src/dfsph/ advises (without it one step's pressure scatters by ~40 % and
-        // a probe's mean over the run by ±5 %).
-        let table = toml::from_str(DFSPH_PRESSURE_STUDY).expect("valid table");
+    // A pressure study against fixed walls: a method may ask for other than its defaults
+    // (DFSPH: its pressure-change stop).
+    if let Some(text) = study_table(solver, STILL_WATER_STUDY) {
+        let table = toml::from_str(text).expect("valid table");
         if let Some(f) = scene.fluid.as_mut() {
-            f.solvers.insert("dfsph".into(), toml::Value::Table(table));
+            f.solvers.insert(solver.into(), toml::Value::Table(table));
         }
     }
     scene
 }
 
-/// `[fluid.dfsph]` of the still-water case (see [`still_water_scene`]).
-pub const DFSPH_PRESSURE_STUDY: &str = "pressure_tolerance = 5.0";
+/// The study name the still-water case asks the methods' tables for
+/// ([`shared::registry::Advice::study_table`]).
+pub const STILL_WATER_STUDY: &str = "still_water";
+
+/// Solver `solver`'s table for validation study `study`, if it asks for one.
+pub fn study_table(solver: &str, study: &str) -> Option<&'static str> {
+    REGISTRY
+        .get(solver)
+        .ok()
+        .and_then(|e| (e.advice.study_table)(study))
+}
 
 /// Result of a still-water run.
 #[derive(Debug, Clone)]

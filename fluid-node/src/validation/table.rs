@@ -67,9 +67,9 @@ pub fn validate_solver(
     };
     let depth = 0.1;
     let dx = depth / plan.still_per_depth as f64;
-    let still_label = match solver {
-        "dfsph" => format!("{label} ({DFSPH_PRESSURE_STUDY})"),
-        _ => label.clone(),
+    let still_label = match study_table(solver, STILL_WATER_STUDY) {
+        Some(table) => format!("{label} ({table})"),
+        None => label.clone(),
     };
     match still_water(solver, depth, dx, plan.still_end, walls) {
         Ok(s) => {

@@ -21,7 +21,7 @@ pub fn bits(s: &dyn SphSolver) -> Vec<u64> {
 pub fn advance(s: &mut dyn SphSolver, steps: usize) -> Vec<f64> {
     (0..steps)
         .map(|_| {
-            s.write_loads(&mut []);
+            s.prepare_step();
             let dt = s.dt_proposal();
             s.advance(dt).unwrap();
             dt
@@ -70,6 +70,7 @@ pub fn wedge_steps(
         .map(|_| {
             s.read_geometry(&[state], &[]);
             let after = s.loads_follow_step();
+            s.prepare_step();
             if !after {
                 s.write_loads(&mut loads);
             }

@@ -1,14 +1,15 @@
 //! The fluid node: reads the solid's geometry, writes the loads on the blocks, advances.
 //!
 //! Per step n (when a solid node runs): wait for geometry message G_n (parallel scheme) or
-//! G_{n+1} (serial scheme), hand it to the solver, compute the loads straight into shared
-//! memory (or, over zenoh, into a reused buffer) and send them tagged for the solid step that consumes them (n, or n + 1), then
+//! G_{n+1} (serial scheme), hand it to the solver, prepare the step (the coupling forces at
+//! that geometry), write the loads straight into shared memory (or, over zenoh, into a reused
+//! buffer) and send them tagged for the solid step that consumes them (n, or n + 1), then
 //! advance. In the serial scheme the loads for solid step 0 are computed at set-up from G_0.
 //! A solver whose loads are those of the step it takes (it moves the blocks within it:
 //! `FluidSolver::loads_follow_step`) advances first and sends them after, in the parallel
 //! scheme; the solid waits for them, the tags are the same.
-//! Without a solid node the loads are still computed (on fixed walls only) through the same
-//! path, and nothing is sent.
+//! Without a solid node the step is still prepared (Eq. 22 on fixed walls only), and nothing
+//! is sent.
 
 use super::FluidFactory;
 use super::args::NodeArgs;
@@ -140,8 +141,9 @@ impl SolidLink {
         Ok(read)
     }
 
-    /// Computes the coupling loads straight into the outgoing message (loaned shared memory
-    /// over iceoryx2) and sends them; keeps a copy in `sent` (a few numbers per moving block).
+    /// Writes the coupling loads (prepared by [`FluidSolver::prepare_step`]) straight into the
+    /// outgoing message (loaned shared memory over iceoryx2) and sends them; keeps a copy in
+    /// `sent` (a few numbers per moving block).
     fn send_loads(
         &self,
         solver: &mut dyn FluidSolver,
@@ -206,6 +208,7 @@ impl Side for Fluid {
                 Some(_) => link.resend_loads(&self.sent)?,
                 None => {
                     link.receive_geometry(control, self.solver.as_mut(), 0)?;
+                    self.solver.prepare_step();
                     // Serial: the loads never follow the step.
                     link.send_loads(
                         self.solver.as_mut(),
@@ -245,6 +248,9 @@ impl Side for Fluid {
                     CouplingScheme::Serial => cmd.step + 1,
                 };
                 compute += link.receive_geometry(control, self.solver.as_mut(), tag)?;
+                let t = Instant::now();
+                self.solver.prepare_step();
+                compute += t.elapsed();
                 // The loads of the step about to be taken are sent after it (the solid waits
                 // for them); the others before.
                 let follow =
@@ -270,9 +276,9 @@ impl Side for Fluid {
                 }
             }
             Solid::Absent => {
-                // Only fixed walls, still computed through the same path.
+                // Only fixed walls: the step's Eq. 22 forces, no loads to send.
                 let t = Instant::now();
-                self.solver.write_loads(&mut []);
+                self.solver.prepare_step();
                 compute += t.elapsed();
             }
         }

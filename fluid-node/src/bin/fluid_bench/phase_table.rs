@@ -5,13 +5,12 @@
 //! solver and size gives the mean µs per step of each phase the solver entered, one column per
 //! thread count, and, when 1 and 2 threads were both timed, their ratio per phase (1-thread
 //! time over 2-thread time: the speed-up, as the rows' 2 ÷ 1 of particle-steps/s). The
-//! tables are those of docs/PERFORMANCE.md ("Where a step's second thread waited"), which
-//! scratch timers built before this existed.
+//! phase tables of docs/PERFORMANCE.md are made with it.
 //!
 //! "outside the phases" is the row's step time minus the phases' sum: the step grant, the
 //! schemes' bookkeeping and the clock's own reads; a few µs when the phases cover the step.
 
-use fluid_node::phases::{Phase, PhaseClock};
+use fluid_node::core::phases::{Phase, PhaseClock};
 
 /// One timed row's phase sums.
 pub struct Timed {

@@ -1,0 +1,101 @@
+//! One implicit solve of DFSPH: the divergence solve (2017 Algorithm 2) or the constant-density
+//! solve (Algorithm 3), warm-started Jacobi iterations on the stiffness.
+
+use super::{Dfsph, WARM_START};
+use crate::core::fixed_sum::fixed_sum;
+use crate::system::FluidSystem;
+use rayon::prelude::*;
+use shared::math::Real;
+
+impl Dfsph {
+    /// One implicit solve, 2017 Algorithm 2 (divergence, `density` false) or Algorithm 3
+    /// (constant density): warm start, then Jacobi iterations on the stiffness until the mean
+    /// error is below the tolerance (at least 1 resp. 2 iterations) or the cap. The accumulated
+    /// stiffness is left in `k` (per particle, the warm start read from it). Returns
+    /// (iterations, final mean error).
+    pub(super) fn solve(
+        &mut self,
+        sys: &mut FluidSystem,
+        dt: Real,
+        density: bool,
+        mut k: Vec<Real>,
+    ) -> (usize, Real, Vec<Real>) {
+        let c = self.constants;
+        let (tolerance, min_iterations, scale) = if density {
+            (c.density_tolerance, 2, 1.0 / (dt * dt))
+        } else {
+            (c.divergence_tolerance, 1, 1.0 / dt)
+        };
+        // The constant-density solve also runs until its pressure has settled (module doc,
+        // "Stopping"); the divergence solve's stiffness is a velocity correction, not read.
+        let pressure_tolerance = if density {
+            c.pressure_tolerance
+        } else {
+            Real::INFINITY
+        };
+        let mut change = Real::INFINITY;
+        // Warm start (both papers): a fraction of the last step's stiffness where compressed.
+        let blocks = self.moves_blocks(sys);
+        self.predict(sys, dt, density);
+        let mut dk = std::mem::take(&mut self.dk);
+        dk.par_iter_mut()
+            .zip(k.par_iter_mut())
+            .zip(self.error.par_iter())
+            .for_each(|((d, k), &e)| {
+                *k = if e > 0.0 {
+                    WARM_START * k.max(0.0)
+                } else {
+                    0.0
+                };
+                *d = *k;
+            });
+        if dk.par_iter().any(|&d| d != 0.0) {
+            self.apply(sys, &dk, dt);
+            if blocks {
+                let kbar = std::mem::take(&mut self.kbar);
+                // The walls' k̄_i (zero unless mirrored) is the second half of each pair.
+                self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + kbar[i]);
+                self.kbar = kbar;
+            }
+        }
+        let mut err = self.predict(sys, dt, density);
+        let mut it = 0;
+        // How far the free blocks' loads are from converged (module doc, "Blocks in the solve").
+        let mut block_left = if blocks { Real::INFINITY } else { 0.0 };
+        while (it < min_iterations
+            || err > tolerance
+            || change > pressure_tolerance
+            || block_left > 1.0)
+            && it < c.max_iterations
+        {
+            // κ_i = (ρ*_i − ρ0)·α_i/dt² (Algorithm 3) or (Dρ_i/Dt)·α_i/dt (Algorithm 2), here
+            // divided by ρ_i: k_i = error_i·β_i·scale.
+            // Damped next to a free block in the solve (`block_damping`).
+            let damping = blocks.then_some(&self.damping[..]);
+            dk.par_iter_mut()
+                .zip(k.par_iter_mut())
+                .zip(self.error.par_iter().zip(self.beta.par_iter()))
+                .enumerate()
+                .for_each(|(i, ((d, k), (&e, &b)))| {
+                    *d = e * b * scale * damping.map_or(1.0, |w| w[i]);
+                    *k += *d;
+                });
+            if pressure_tolerance.is_finite() {
+                // Σ|Δk| / Σ|k|: how much this iteration still moved the pressure field.
+                let [moved, total] =
+                    fixed_sum(k.len(), &mut self.partials2, |i| [dk[i].abs(), k[i].abs()]);
+                change = if total > 0.0 { moved / total } else { 0.0 };
+            }
+            self.apply(sys, &dk, dt);
+            if blocks {
+                let kbar = std::mem::take(&mut self.kbar);
+                block_left = self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + kbar[i]);
+                self.kbar = kbar;
+            }
+            err = self.predict(sys, dt, density);
+            it += 1;
+        }
+        self.dk = dk;
+        (it, err, k)
+    }
+}

@@ -1,0 +1,96 @@
+//! What makes one SPH method differ from another: its kernel, equation of state, force
+//! evaluation, integrator and stable step. Everything else (particles, neighbours, the blocks'
+//! boundary particles, paper Eq. 22, instruments, checks, output) is the [`FluidSystem`] every
+//! method shares, and [`crate::sph::Sph`] turns any method into a coupled solver. A new SPH
+//! method is one folder implementing this trait plus one line in [`crate::REGISTRY`] (the
+//! recipe, a doc-test: [`crate::methods`]).
+
+use crate::kernels::Kernel;
+use crate::system::{FluidSystem, Initial, Layout};
+use shared::math::Real;
+use shared::protocol::BlockLoad;
+use shared::registry::SolverParams;
+use shared::scene::{CouplingScheme, Scene};
+use shared::solver::{SolverError, StepReport};
+
+/// One SPH method.
+/// Serde: a method is saved whole in a checkpoint (its history, e.g. the Verlet step
+/// counter or DFSPH's warm-start factors, affects the steps to come).
+pub trait SphMethod:
+    Sized + Send + 'static + serde::Serialize + serde::de::DeserializeOwned
+{
+    /// `--solver` name, and the scene table `[fluid.<NAME>]` that holds [`Self::Params`].
+    const NAME: &'static str;
+    /// One line for `--list` and the docs.
+    const DESCRIPTION: &'static str;
+    /// The method's own parameters (every field optional; unset ones are derived).
+    type Params: SolverParams;
+    /// The kernel the instruments interpolate with.
+    type Kernel: Kernel;
+
+    /// Derives the method from its parameters and the filled scene.
+    fn new(params: Self::Params, init: &Initial) -> Result<(Self, Layout), SolverError>;
+
+    /// Once the system exists (particles sorted by cell, Eq. 22 stiffness known): initial
+    /// pressures and step limits.
+    fn start(&mut self, sys: &mut FluidSystem);
+
+    /// Force evaluation(s) and integration over `dt`. The system has begun the step (grid and
+    /// Eq. 22 forces current); it checks, re-sorts and samples after. A method that finds its
+    /// own step unstable (an implicit solve far from converged) says so with
+    /// [`SolverError::Unstable`], naming the cause.
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError>;
+
+    /// At a new pose of the moving blocks: their boundary pressures, then the water's force on
+    /// them, pair by pair the reverse of this method's pressure force on the fluid
+    /// ([`crate::boundary::Boundary::react`]).
+    fn react(&self, sys: &mut FluidSystem);
+
+    /// Whether this method moves the free blocks within its step, so that its loads are the
+    /// forces of the step just taken ([`shared::solver::FluidSolver::loads_follow_step`]).
+    fn loads_follow_step(&self, sys: &FluidSystem) -> bool {
+        let _ = sys;
+        false
+    }
+
+    /// The loads of the step just taken, when [`Self::loads_follow_step`] (the water's force on
+    /// each moving block over the step, Eq. 22 included), into `loads`.
+    fn step_loads(&self, sys: &FluidSystem, loads: &mut [BlockLoad]) {
+        let _ = (sys, loads);
+    }
+
+    fn kernel(&self) -> &Self::Kernel;
+
+    /// Density check after a step: whether a low density is an instability too (false for
+    /// summed densities, low at a free surface by construction), and the reference density.
+    fn density_check(&self) -> (bool, Real);
+
+    /// Largest stable step for the current largest speed and acceleration.
+    fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real;
+
+    /// The step this method would take on a scene's water of depth `depth` at spacing `dx`,
+    /// before it is built (`coupler check`'s estimate of a run's steps; the registry's
+    /// [`shared::registry::Advice::estimate_dt`]). The default is a speed-of-sound method's:
+    /// CFL 0.2 over h = 1.3 dx at the default sound speed c0 = 10·sqrt(2 g H)
+    /// ([`Initial::default_sound_speed`]).
+    fn estimate_dt(scene: &Scene, dx: Real, depth: Real) -> Option<Real> {
+        let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let c0 = 10.0 * (2.0 * g * depth).sqrt().max(1e-6);
+        Some(0.2 * 1.3 * dx / c0)
+    }
+
+    /// Warnings about the scene's combination of options for this method under `scheme`
+    /// (the registry's [`shared::registry::Advice::warnings`]): none by default.
+    fn warnings(scene: &Scene, scheme: CouplingScheme) -> Vec<String> {
+        let _ = (scene, scheme);
+        Vec::new()
+    }
+
+    /// This method's table `[fluid.<NAME>]` (TOML) for the validation study named, when it runs
+    /// with other than its defaults (the registry's [`shared::registry::Advice::study_table`]):
+    /// none by default.
+    fn study_table(study: &str) -> Option<&'static str> {
+        let _ = study;
+        None
+    }
+}

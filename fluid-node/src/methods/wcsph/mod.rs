@@ -1,0 +1,490 @@
+//! Weakly compressible SPH in the DualSPHysics standard (Crespo et al. 2015; Domínguez et al.
+//! 2022): Tait's equation of state p = B((ρ/ρ0)^γ − 1), B = ρ0c0²/γ (Monaghan 1994); the
+//! Wendland C2 kernel (Wendland 1995); density from the continuity equation with δ-SPH diffusion
+//! (Molteni & Colagrossi 2009) in Fourtakas et al. (2019)'s form, which subtracts the hydrostatic
+//! density difference so the diffusion does not flatten a column at rest; Monaghan (1992)'s
+//! artificial viscosity; the symplectic position-Verlet scheme (Leimkuhler 1996, as DualSPHysics),
+//! by default with one force evaluation per step (its corrector alone, [`Integrator::Leapfrog`]),
+//! or Verlet (Verlet 1967) with an Euler step every 40; adaptive dt.
+
+pub mod pairs;
+
+use crate::core::dt::StepLimits;
+use crate::core::lanes::Packed;
+use crate::core::phases::Phase;
+use crate::core::tasks;
+use crate::kernels::Kernel;
+use crate::kernels::WendlandC2;
+use crate::methods::SphMethod;
+use crate::system::{FluidSystem, Initial, Layout};
+use pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
+use rayon::prelude::*;
+use serde::Deserialize;
+use shared::math::Real;
+use shared::registry::{ParamCheck, SolverParams};
+use shared::solver::{SolverError, StepReport};
+
+/// `[fluid.wcsph]`: parameters of the weakly compressible solver. Unset values are derived.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WcsphParams {
+    /// Numerical speed of sound c0 [m/s]; default 10·sqrt(2 g H) for the deepest water H.
+    pub sound_speed: Option<f64>,
+    /// Tait exponent γ; default 7.
+    pub gamma: Option<f64>,
+    /// Artificial viscosity α (Monaghan 1992); default 0.01.
+    pub alpha: Option<f64>,
+    /// δ-SPH density diffusion coefficient (Molteni & Colagrossi 2009); default 0.1, 0 disables.
+    pub delta: Option<f64>,
+    /// Smoothing length h over dx (Wendland C2 support is 2h); default 1.3.
+    pub smoothing_ratio: Option<f64>,
+    /// `leapfrog` (default: one force evaluation per step), `symplectic` (predictor and
+    /// corrector: two) or `verlet` (one).
+    #[serde(default)]
+    pub integrator: Integrator,
+    /// CFL number; default 0.2.
+    pub cfl: Option<f64>,
+    /// Verlet skin of the neighbour lists, as a fraction of the kernel support; default 0.1
+    /// ([`WCSPH_SKIN`]); 0 rebuilds the lists at every step.
+    pub skin: Option<f64>,
+}
+
+impl SolverParams for WcsphParams {
+    fn check(&self, c: &mut ParamCheck) {
+        c.positive(
+            "sound_speed",
+            self.sound_speed,
+            "give c0 in m/s (≥ 10 × the largest flow speed), or leave it out",
+        );
+        if let Some(g) = self.gamma
+            && !(g.is_finite() && g >= 1.0)
+        {
+            c.fail(
+                "gamma",
+                g,
+                "must be a finite number >= 1",
+                "water is gamma = 7",
+            );
+        }
+        c.non_negative("alpha", self.alpha, "e.g. alpha = 0.01");
+        c.non_negative("delta", self.delta, "e.g. delta = 0.1; 0 disables δ-SPH");
+        if let Some(r) = self.smoothing_ratio
+            && !(r.is_finite() && r >= 0.5)
+        {
+            c.fail(
+                "smoothing_ratio",
+                r,
+                "must be a finite number >= 0.5 (the support 2h must reach the nearest neighbours)",
+                "e.g. smoothing_ratio = 1.3",
+            );
+        }
+        c.positive("cfl", self.cfl, "e.g. cfl = 0.2");
+        if let Some(k) = self.skin
+            && !(k.is_finite() && (0.0..=1.0).contains(&k))
+        {
+            c.fail(
+                "skin",
+                k,
+                "must be a fraction of the kernel support in [0, 1]",
+                "e.g. skin = 0.1, or 0 to rebuild the neighbour lists every step",
+            );
+        }
+    }
+}
+
+/// Time integration scheme.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Integrator {
+    /// Predictor at t + dt/2, corrector to t + dt: two force evaluations, second order.
+    Symplectic,
+    /// The symplectic scheme's corrector alone (drift–kick–drift leapfrog, Leimkuhler 1996):
+    /// positions drift half a step on v^n alone, so the one force evaluation per step is at
+    /// t + dt/2; the half-step velocity and density it reads are predicted with the previous
+    /// step's rates, which differ from the predictor's by O(dt): second order still, at half
+    /// the pair work.
+    #[default]
+    Leapfrog,
+    /// Leapfrog over two steps, one evaluation per step, an Euler step every [`VERLET_EULER_EVERY`].
+    Verlet,
+}
+
+/// Verlet's two-step recurrence decouples odd and even steps; an Euler step every 40 re-couples
+/// them (Monaghan 1989; DualSPHysics' default).
+pub const VERLET_EULER_EVERY: u64 = 40;
+
+/// Default Verlet skin of WCSPH's neighbour lists over the support: lists reach 1.1 supports
+/// and are kept until a particle may have moved half the skin (0.13 h: a few steps at the
+/// acoustic step in a developed dam-break flow), chosen against 0, 0.05 and 0.2 on the 3D dam
+/// break (docs/journal/2026-11-performance.md).
+pub const WCSPH_SKIN: Real = 0.1;
+
+/// The scheme's constants, resolved from `[fluid.wcsph]` and the scene.
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
+pub struct WcsphConstants {
+    pub sound_speed: Real,
+    pub gamma: Real,
+    /// B = ρ0 c0²/γ [Pa].
+    pub b: Real,
+    pub alpha: Real,
+    pub delta: Real,
+    pub h: Real,
+    pub integrator: Integrator,
+}
+
+#[derive(serde::Serialize, serde::Deserialize)]
+pub struct Wcsph {
+    kernel: WendlandC2,
+    pub constants: WcsphConstants,
+    rest_density: Real,
+    limits: StepLimits,
+    /// Step of the Verlet cycle (0 = Euler).
+    verlet_step: u64,
+    /// What the pair loop reads of a neighbour, packed into one cache line per particle
+    /// (scratch, recomputed before every evaluation): p/ρ² and 1/ρ are computed once per
+    /// particle, so the loop divides once per pair rather than five times, and a neighbour
+    /// costs one line fetch rather than five. Not checkpointed: scratch.
+    #[serde(skip)]
+    near: Vec<Packed>,
+}
+
+impl Wcsph {
+    /// The Tait density of a boundary particle's pressure: ρ0(1 + p/B)^(1/γ).
+    fn density_of(&self, pw: Real) -> Real {
+        let prm = &self.constants;
+        self.rest_density * (1.0 + pw / prm.b).powf(1.0 / prm.gamma)
+    }
+
+    /// Pressure of every fluid particle from its density (and the pair loop's f32 copy of its
+    /// state, with p/ρ²), then the boundary pressures (Adami).
+    fn pressures(&mut self, sys: &mut FluidSystem) {
+        let t = sys.phases.start();
+        let (prm, rho0) = (self.constants, self.rest_density);
+        let origin = sys.grid.centre();
+        let p = &mut sys.particles;
+        let n = p.len();
+        self.near.resize(n, Packed::default());
+        let (pos, vel) = (&p.position, &p.velocity);
+        p.pressure
+            .par_iter_mut()
+            .zip(self.near.par_iter_mut())
+            .zip(p.density.par_iter())
+            .enumerate()
+            .for_each(|(i, ((pr, near), &r))| {
+                *pr = tait(&prm, rho0, r);
+                *near = fluid_record(&pos[i], &origin, &vel[i], r, rho0, *pr);
+            });
+        let t = sys.phases.lap(Phase::Density, t);
+        let this = &*self;
+        sys.boundary
+            .update(&this.kernel, &sys.particles, &sys.gravity, rho0, |pw| {
+                this.density_of(pw)
+            });
+        sys.boundary
+            .pack(|x, v, pw, rw| boundary_record(x, &origin, v, pw, rw));
+        sys.phases.stop(Phase::WallPressures, t);
+    }
+
+    /// Momentum and continuity: acceleration and dρ/dt of every particle at the current state.
+    fn rates(&mut self, sys: &mut FluidSystem) {
+        self.pressures(sys);
+        let t = sys.phases.start();
+        let prm = self.constants;
+        let (m, g, rho0) = (sys.mass, sys.gravity, sys.rest_density);
+        let kernel = &self.kernel;
+        let near = &self.near;
+        let delta_coef = prm.delta * prm.h * prm.sound_speed;
+        let inv_c2 = 1.0 / (prm.sound_speed * prm.sound_speed);
+        let pc = PairConstants::new(
+            kernel,
+            sys.grid.centre(),
+            rho0,
+            0.01 * prm.h * prm.h,
+            -2.0 * prm.alpha * prm.sound_speed * prm.h,
+            g * (rho0 * inv_c2),
+        );
+        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
+        let p = &mut sys.particles;
+        let pen = &p.penalty;
+        p.acceleration
+            .par_iter_mut()
+            .zip(p.density_rate.par_iter_mut())
+            .enumerate()
+            .with_max_len(tasks::PARTICLES)
+            .for_each(|(i, (a, d))| {
+                let me = &near[i];
+                // Fluid neighbours (wcsph_pairs.rs): symmetric pressure gradient and artificial
+                // viscosity (Monaghan 1992), continuity, δ-SPH diffusion (Molteni & Colagrossi
+                // 2009) minus its hydrostatic part (Fourtakas et al. 2019), linearised:
+                // ρ0((1 + ρ0 g·r_ji/B)^(1/γ) − 1) ≈ ρ0 g·r_ji/c0², exact to O((ρ0gΔz/B)²).
+                let (mut ai, mut di, diffusion) = fluid_sums(me, lists.of(i), near, &pc);
+                di += 2.0 * delta_coef * diffusion;
+                // Boundary particles, fixed and moving: the same pressure term (a moving block
+                // takes its reverse, see `react`) and continuity with the wall's velocity, zero
+                // on a fixed block (Adami 2012: free slip, the wall velocity enters through
+                // v_i − v_w only).
+                boundary.for_each_list(i, |list, walls| {
+                    let (ab, db) = boundary_sums(me, list, walls, &pc);
+                    ai += ab;
+                    di += db;
+                });
+                *a = ai * m + g + pen[i] / m;
+                *d = di * m;
+            });
+        sys.phases.stop(Phase::Forces, t);
+    }
+
+    /// Predictor: keeps (r, v, ρ)^n and moves half a step with the rates in `acceleration`
+    /// and `density_rate`. One parallel pass, the copies included (serial copies before it kept
+    /// the second thread idle long enough to fall asleep: docs/journal/2026-11-performance.md,
+    /// "Inner loops, fifth round").
+    fn predict_half_step(sys: &mut FluidSystem, dt: Real) {
+        let p = &mut sys.particles;
+        let half = 0.5 * dt;
+        let start = p
+            .position0
+            .par_iter_mut()
+            .zip(p.velocity0.par_iter_mut())
+            .zip(p.density0.par_iter_mut());
+        let rates = p.acceleration.par_iter().zip(p.density_rate.par_iter());
+        p.position
+            .par_iter_mut()
+            .zip(p.velocity.par_iter_mut())
+            .zip(p.density.par_iter_mut())
+            .zip(start)
+            .zip(rates)
+            .for_each(|((((x, v), r), ((x0, v0), r0)), (a, d))| {
+                (*x0, *v0, *r0) = (*x, *v, *r);
+                *x += *v * half;
+                *v += a * half;
+                *r += d * half;
+            });
+    }
+
+    /// Corrector: from (r, v, ρ)^n to n + 1 with the rates at n + 1/2 (evaluated on the
+    /// neighbour lists of the last sort; the lists' skin covers the move). One parallel pass.
+    fn correct(sys: &mut FluidSystem, dt: Real) {
+        let p = &mut sys.particles;
+        let half = 0.5 * dt;
+        let start = p
+            .velocity0
+            .par_iter()
+            .zip(p.position0.par_iter())
+            .zip(p.density0.par_iter());
+        let rates = p.acceleration.par_iter().zip(p.density_rate.par_iter());
+        p.velocity
+            .par_iter_mut()
+            .zip(p.position.par_iter_mut())
+            .zip(p.density.par_iter_mut())
+            .zip(start)
+            .zip(rates)
+            .for_each(|((((v, x), r), ((v0, x0), r0)), (a, d))| {
+                *v = v0 + a * dt;
+                *x = x0 + (*v + v0) * half;
+                let eps = -d / *r * dt;
+                *r = r0 * (2.0 - eps) / (2.0 + eps);
+            });
+    }
+
+    /// Symplectic position Verlet: the predictor with the rates at n, the corrector with those
+    /// at n + 1/2.
+    fn symplectic(&mut self, sys: &mut FluidSystem, dt: Real) {
+        self.rates(sys);
+        let t = sys.phases.start();
+        Self::predict_half_step(sys, dt);
+        sys.phases.stop(Phase::Predictor, t);
+        self.rates(sys);
+        let t = sys.phases.start();
+        Self::correct(sys, dt);
+        sys.phases.stop(Phase::Integration, t);
+    }
+
+    /// Drift–kick–drift with one evaluation (see [`Integrator::Leapfrog`]): the predictor with
+    /// the last step's rates (positions drift on v^n alone, exact; velocity and density enter
+    /// only viscosity, continuity and the EOS), the corrector unchanged. The first step
+    /// evaluates the rates once.
+    fn leapfrog(&mut self, sys: &mut FluidSystem, dt: Real) {
+        if sys.steps == 0 {
+            self.rates(sys);
+        }
+        let t = sys.phases.start();
+        Self::predict_half_step(sys, dt);
+        sys.phases.stop(Phase::Predictor, t);
+        self.rates(sys);
+        let t = sys.phases.start();
+        Self::correct(sys, dt);
+        sys.phases.stop(Phase::Integration, t);
+    }
+
+    fn verlet(&mut self, sys: &mut FluidSystem, dt: Real) {
+        self.rates(sys);
+        let t = sys.phases.start();
+        let euler = self.verlet_step.is_multiple_of(VERLET_EULER_EVERY);
+        self.verlet_step += 1;
+        let p = &mut sys.particles;
+        // velocity0/density0 hold the values one step back.
+        p.position
+            .par_iter_mut()
+            .zip(p.velocity.par_iter_mut())
+            .zip(p.velocity0.par_iter_mut())
+            .zip(p.acceleration.par_iter())
+            .for_each(|(((x, v), vprev), a)| {
+                let vn = *v;
+                *x += vn * dt + a * (0.5 * dt * dt);
+                *v = if euler {
+                    vn + a * dt
+                } else {
+                    *vprev + a * (2.0 * dt)
+                };
+                *vprev = vn;
+            });
+        p.density
+            .par_iter_mut()
+            .zip(p.density0.par_iter_mut())
+            .zip(p.density_rate.par_iter())
+            .for_each(|((r, rprev), d)| {
+                let rn = *r;
+                *r = if euler {
+                    rn + d * dt
+                } else {
+                    *rprev + d * (2.0 * dt)
+                };
+                *rprev = rn;
+            });
+        sys.phases.stop(Phase::Integration, t);
+    }
+}
+
+/// Tait's equation of state.
+#[inline]
+pub fn tait(p: &WcsphConstants, rho0: Real, rho: Real) -> Real {
+    let x = rho / rho0;
+    // Water's γ = 7 by multiplications: `powf` was a visible share of the step.
+    let xg = if p.gamma == 7.0 {
+        let x2 = x * x;
+        x2 * x2 * x2 * x
+    } else {
+        x.powf(p.gamma)
+    };
+    p.b * (xg - 1.0)
+}
+
+impl SphMethod for Wcsph {
+    const NAME: &'static str = "wcsph";
+    const DESCRIPTION: &'static str = "weakly compressible SPH (DualSPHysics standard): Tait EOS, Wendland C2, δ-SPH, artificial viscosity";
+    type Params = WcsphParams;
+    type Kernel = WendlandC2;
+
+    fn new(spec: WcsphParams, init: &Initial) -> Result<(Self, Layout), SolverError> {
+        let dx = init.fluid.dx;
+        let rho0 = init.fluid.density;
+        let h = spec.smoothing_ratio.unwrap_or(1.3) * dx;
+        let c0 = spec
+            .sound_speed
+            .unwrap_or_else(|| init.default_sound_speed());
+        let gamma = spec.gamma.unwrap_or(7.0);
+        let constants = WcsphConstants {
+            sound_speed: c0,
+            gamma,
+            b: rho0 * c0 * c0 / gamma,
+            alpha: spec.alpha.unwrap_or(0.01),
+            delta: spec.delta.unwrap_or(0.1),
+            h,
+            integrator: spec.integrator,
+        };
+        let g = init.gravity.norm();
+        // Hydrostatic start: the Tait density of the pressure ρ0·g·depth.
+        let density = init
+            .fill
+            .depth
+            .iter()
+            .map(|d| rho0 * (1.0 + rho0 * g * d / constants.b).powf(1.0 / gamma))
+            .collect();
+        let kernel = WendlandC2::new(h);
+        let limits = StepLimits {
+            h,
+            sound_speed: c0,
+            viscosity: init.fluid.kinematic_viscosity,
+            // Set in `start`, once the system has chosen the Eq. 22 spring.
+            penalty_stiffness: 0.0,
+            mass: rho0 * dx.powi(3),
+            cfl: spec.cfl.unwrap_or(0.2),
+        };
+        let layout = Layout {
+            density,
+            support: kernel.support(),
+            sound_speed: c0,
+            skin_ratio: spec.skin.unwrap_or(WCSPH_SKIN),
+            poly6_sums: false,
+            carried: crate::core::particles::Carried::ALL,
+        };
+        let scheme = Self {
+            kernel,
+            constants,
+            rest_density: rho0,
+            limits,
+            verlet_step: 0,
+            near: Vec::new(),
+        };
+        Ok((scheme, layout))
+    }
+
+    fn start(&mut self, sys: &mut FluidSystem) {
+        let (prm, rho0) = (self.constants, self.rest_density);
+        let p = &mut sys.particles;
+        p.pressure
+            .par_iter_mut()
+            .zip(p.density.par_iter())
+            .for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
+        self.limits.penalty_stiffness = sys.penalty.stiffness;
+        self.limits.mass = sys.mass;
+    }
+
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError> {
+        match self.constants.integrator {
+            Integrator::Symplectic => self.symplectic(sys, dt),
+            Integrator::Leapfrog => self.leapfrog(sys, dt),
+            Integrator::Verlet => self.verlet(sys, dt),
+        }
+        // The pressures of the new densities, for the frames and probes: integration's tail.
+        let t = sys.phases.start();
+        let (prm, rho0) = (self.constants, self.rest_density);
+        let p = &mut sys.particles;
+        p.pressure
+            .par_iter_mut()
+            .zip(p.density.par_iter())
+            .for_each(|(pr, r)| *pr = tait(&prm, rho0, *r));
+        sys.phases.stop(Phase::Integration, t);
+        Ok(StepReport::default())
+    }
+
+    fn react(&self, sys: &mut FluidSystem) {
+        // Exactly the reverse of what the coming predictor applies to the fluid.
+        sys.boundary.update_moving(
+            &self.kernel,
+            &sys.particles,
+            &sys.gravity,
+            self.rest_density,
+            |pw| self.density_of(pw),
+        );
+        let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
+        sys.boundary
+            .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
+                let ri = p.density[i];
+                r * (kernel.gradient_factor(len)
+                    * (-m * m * (p.pressure[i] / (ri * ri) + pw / (rw * rw))))
+            });
+    }
+
+    fn kernel(&self) -> &WendlandC2 {
+        &self.kernel
+    }
+
+    fn density_check(&self) -> (bool, Real) {
+        (true, self.rest_density)
+    }
+
+    fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real {
+        self.limits.propose(v_max, a_max).0
+    }
+}

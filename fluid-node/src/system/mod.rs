@@ -1,0 +1,450 @@
+//! What every SPH solver here shares: the particles and their grid, the wall particles, the
+//! Eq. 22 coupling with the blocks, the instruments, the stability checks and the frame output.
+//! A method ([`crate::methods::SphMethod`]) adds its own force evaluation and integrator;
+//! [`crate::sph::Sph`] joins the two into a solver. The folder: this file is the system and its
+//! step (`prepare_bodies`, `apply_coupling_forces`, `end_step`), `setup.rs` what it is built
+//! from and its parts built along their seams, `checkpoint.rs` its saved state.
+
+use crate::boundary::Boundary;
+use crate::boundary::penalty::Penalty;
+use crate::boundary::terrain::TerrainPenalty;
+use crate::core::grid::CellGrid;
+use crate::core::neighbors::NeighborLists;
+use crate::core::particles::{Carried, Particles};
+use crate::core::phases::{Phase, PhaseClock};
+use crate::instruments::gauges::{FluidView, Recorder};
+use crate::instruments::survey::{Rules, Survey};
+use crate::kernels::Kernel;
+use rayon::prelude::*;
+use shared::math::{Real, Vector};
+use shared::protocol::{BlockLoad, BlockState};
+use shared::scene::VtkFormat;
+use shared::solver::{SetupContext, SolverError};
+use std::path::PathBuf;
+
+// A child module: a checkpoint saves and restores the system's private state.
+pub(crate) mod checkpoint;
+mod setup;
+
+use setup::Eq22;
+pub use setup::{Initial, Layout};
+
+/// Per-step state shared by the solvers.
+pub struct FluidSystem {
+    pub solver: &'static str,
+    pub particles: Particles,
+    pub grid: CellGrid,
+    /// Fluid neighbours of each fluid particle (itself excluded): rebuilt at every sort.
+    pub fluid_lists: NeighborLists,
+    /// The blocks' boundary particles and the fluid's neighbours among them (fixed part listed at
+    /// every sort, moving part after every sort and every new pose).
+    pub boundary: Boundary,
+    pub penalty: Penalty,
+    /// Eq. 22 against the terrain's triangles (the backstop of its boundary particles).
+    pub terrain: TerrainPenalty,
+    recorder: Recorder,
+    pub dx: Real,
+    pub mass: Real,
+    pub rest_density: Real,
+    pub gravity: Vector,
+    pub density_bound: Real,
+    domain: (Vector, Vector),
+    /// `[domain] open_top`: water above the top flies on (see [`Self::end_step`]).
+    open_top: bool,
+    /// Particles above the domain's top at the end of the last step.
+    aloft: usize,
+    /// A warning of the last step for the step's report ([`Self::take_warning`]).
+    warning: Option<String>,
+    run_dir: PathBuf,
+    /// Encoding of the particle frames (`output.vtk_format`).
+    vtk_format: VtkFormat,
+    pub time: Real,
+    pub steps: u64,
+    grid_valid: bool,
+    bodies_valid: bool,
+    /// How far beyond the kernel support the grid and the lists reach [m].
+    skin: Real,
+    /// Positions at the last sort: the lists are those of these positions.
+    sorted_at: Vec<Vector>,
+    /// The particle arrays the scheme reads across a sort.
+    carried: Carried,
+    /// Sorts (list rebuilds) so far.
+    pub sorts: u64,
+    /// Whether the coming step's coupling forces are computed ([`Self::apply_coupling_forces`]):
+    /// false after a new pose, a step or a restore.
+    prepared: bool,
+    /// The Eq. 22 load on each moving block for the step under way (what a scheme that moves
+    /// the blocks within its step adds to their motion).
+    pub penalty_loads: Vec<BlockLoad>,
+    /// Whether the loads may be those of the step just taken (the parallel scheme: the
+    /// runtime can send them after the step, and the solid then waits for them). In the serial
+    /// scheme the fluid's step starts from the solid's next pose: a scheme cannot move the
+    /// blocks within it.
+    pub loads_may_follow_step: bool,
+    /// Wall time per phase of the steps, off unless a caller turns it on (`fluid-bench
+    /// --phases`); the scheme times its own phases on it too.
+    pub phases: PhaseClock,
+}
+
+impl FluidSystem {
+    /// Builds the system from the filled scene as the scheme's `layout` asks: its support is
+    /// the neighbour radius, its sound speed sets the default Eq. 22 stiffness, its skin ratio
+    /// the Verlet skin of the lists over the support.
+    pub fn new(
+        ctx: &SetupContext,
+        solver: &'static str,
+        init: &Initial,
+        layout: Layout,
+    ) -> Result<Self, SolverError> {
+        let Layout {
+            density,
+            support: cell,
+            sound_speed,
+            skin_ratio,
+            poly6_sums,
+            carried,
+        } = layout;
+        assert!(
+            !poly6_sums || skin_ratio == 0.0,
+            "poly6 sums need lists rebuilt every step"
+        );
+        let scene = ctx.scene;
+        let fluid = &init.fluid;
+        let dx = fluid.dx;
+        let mass = fluid.density * dx.powi(3);
+        let lo = Vector::from(scene.domain.min);
+        let hi = Vector::from(scene.domain.max);
+        // Verlet lists: the grid and the lists reach one skin beyond the kernel support, so
+        // they stay valid until a particle has moved half the skin (see `end_step`).
+        let skin = skin_ratio * cell;
+        let mut grid = CellGrid::new(lo, hi, cell + skin).map_err(SolverError::Failed)?;
+        grid.set_stale_reach(0.5 * skin);
+        let eq22 = Eq22::of(scene, fluid, sound_speed, mass);
+        let penalty = eq22.penalty(scene, init);
+        let bodies = setup::body_particles(scene, init, cell, &grid);
+        let fixed = setup::wall_particles(scene, init, cell, (lo, hi), &grid);
+        let terrain = eq22.terrain(init);
+        let recorder = setup::recorder(ctx, init)?;
+        let mut sys = Self {
+            solver,
+            particles: Particles::new(init.fill.positions.clone(), density),
+            grid,
+            fluid_lists: {
+                let mut lists = NeighborLists::default();
+                if poly6_sums {
+                    lists.sum_poly6(cell);
+                }
+                lists
+            },
+            boundary: Boundary::new(fixed, bodies),
+            penalty,
+            terrain,
+            recorder,
+            dx,
+            mass,
+            rest_density: fluid.density,
+            gravity: init.gravity,
+            density_bound: fluid.density_ratio_bound,
+            domain: (lo, hi),
+            open_top: scene.domain.open_top,
+            aloft: 0,
+            warning: None,
+            run_dir: ctx.run_dir.to_path_buf(),
+            vtk_format: scene.output.vtk_format,
+            time: 0.0,
+            steps: 0,
+            grid_valid: false,
+            bodies_valid: false,
+            skin,
+            sorted_at: Vec::new(),
+            carried,
+            sorts: 0,
+            prepared: false,
+            penalty_loads: Vec::new(),
+            loads_may_follow_step: ctx.scheme == shared::scene::CouplingScheme::Parallel,
+            phases: PhaseClock::default(),
+        };
+        sys.check_domain()?;
+        sys.prepare();
+        sys.write_counts()?;
+        Ok(sys)
+    }
+
+    pub fn len(&self) -> usize {
+        self.particles.len()
+    }
+
+    /// Writes `fluid.json` in the run directory: the particle counts the coupler puts in
+    /// `summary.json` (they are fixed for the run: particles carry fixed masses).
+    fn write_counts(&self) -> std::io::Result<()> {
+        let (fixed, moving) = self.boundary.counts();
+        let text = format!(
+            "{{\n  \"solver\": \"{}\",\n  \"particles\": {},\n  \"boundary_particles_fixed\": {fixed},\n  \"boundary_particles_moving\": {moving},\n  \"dx\": {}\n}}\n",
+            self.solver,
+            self.particles.len(),
+            self.dx
+        );
+        std::fs::write(self.run_dir.join("fluid.json"), text)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.particles.is_empty()
+    }
+
+    /// Pairs in the neighbour lists: (fluid–fluid, fluid–boundary). Every pair a force pass
+    /// visits is one of them (benchmarks report them per particle).
+    pub fn listed_pairs(&self) -> (usize, usize) {
+        (self.fluid_lists.pairs(), self.boundary.listed_pairs())
+    }
+
+    /// Sorts the particles by cell and lists their neighbours, if they moved since the last sort.
+    pub fn prepare(&mut self) {
+        if !self.grid_valid {
+            let t = self.phases.start();
+            let order = self.grid.sort(&self.particles.position);
+            let t = self.phases.lap(Phase::Sort, t);
+            self.particles
+                .permute(order, self.carried, &mut self.sorted_at);
+            let t = self.phases.lap(Phase::Permutation, t);
+            self.sorts += 1;
+            let (pos, radius) = (&self.particles.position, self.grid.radius());
+            self.fluid_lists.build(pos, pos, &self.grid, radius, true);
+            let t = self.phases.lap(Phase::FluidLists, t);
+            self.boundary.list_fixed(pos, &self.grid, radius);
+            self.phases.stop(Phase::WallLists, t);
+            self.grid_valid = true;
+            self.bodies_valid = false;
+        }
+    }
+
+    /// The grid and lists of the last sort, rebuilt from the positions then (after a restart:
+    /// the particles are in that sort's order, so sorting those positions is the identity).
+    fn relist_as_sorted(&mut self) -> Result<(), SolverError> {
+        let order = self.grid.sort(&self.sorted_at);
+        if order.iter().enumerate().any(|(k, &i)| k != i as usize) {
+            return Err(SolverError::Failed(
+                "the checkpoint's particles are not in the order of their last sort: the file is damaged or from another build".into(),
+            ));
+        }
+        let (pos, radius) = (&self.sorted_at, self.grid.radius());
+        self.fluid_lists.build(pos, pos, &self.grid, radius, true);
+        self.boundary.list_fixed(pos, &self.grid, radius);
+        self.grid_valid = true;
+        self.bodies_valid = false;
+        Ok(())
+    }
+
+    /// [`Self::prepare`], then the fluid's neighbours among the moving blocks' boundary
+    /// particles, if the fluid or the blocks moved since they were listed.
+    pub fn prepare_bodies(&mut self) {
+        self.prepare();
+        if !self.bodies_valid {
+            let t = self.phases.start();
+            let (pos, radius) = (&self.particles.position, self.grid.radius());
+            self.boundary.list_moving(pos, &self.grid, radius);
+            self.phases.stop(Phase::WallLists, t);
+            self.bodies_valid = true;
+        }
+    }
+
+    /// Takes the moving blocks' poses and velocities, and carries their boundary particles.
+    pub fn read_geometry(&mut self, blocks: &[BlockState]) {
+        self.penalty.set_moving(blocks);
+        self.boundary.place(blocks);
+        self.penalty_loads
+            .resize(blocks.len(), BlockLoad::default());
+        self.bodies_valid = false;
+        self.prepared = false;
+    }
+
+    /// The coupling forces of the coming step at the current particles and poses: the grid and
+    /// lists made current ([`Self::prepare_bodies`]), paper Eq. 22 on the particles with its
+    /// reaction on each moving block (into [`Self::penalty_loads`]), and Eq. 22 against the
+    /// terrain. Called once per step, after the method's [`crate::methods::SphMethod::react`]
+    /// when the loads are those of the state the step starts from ([`crate::sph::Sph`]).
+    pub fn apply_coupling_forces(&mut self) {
+        self.prepare_bodies();
+        let t = self.phases.start();
+        let loads = Some(&mut self.penalty_loads[..]).filter(|l| !l.is_empty());
+        self.penalty.apply(&mut self.particles, &self.grid, loads);
+        self.terrain.apply(&mut self.particles, &self.grid);
+        self.phases.stop(Phase::Penalty, t);
+        self.prepared = true;
+    }
+
+    /// Whether [`Self::apply_coupling_forces`] ran since the last pose, step or restore.
+    pub fn is_prepared(&self) -> bool {
+        self.prepared
+    }
+
+    /// The loads on the moving blocks of the coming step, from [`Self::apply_coupling_forces`]
+    /// and the method's [`crate::methods::SphMethod::react`] before it: the Eq. 22 reaction plus
+    /// the water's pressure on the blocks' boundary particles.
+    pub fn write_loads(&mut self, loads: &mut [BlockLoad]) {
+        let t = self.phases.start();
+        loads.clone_from_slice(&self.penalty_loads);
+        self.boundary.add_loads(loads);
+        self.phases.stop(Phase::BlockLoads, t);
+    }
+
+    /// After the particles moved by `dt`: checks stability, re-sorts and samples the
+    /// instruments; returns the largest speed and acceleration (for the next step's proposal).
+    /// `check_low_density` is false for summed densities, which are low at a free surface by
+    /// construction: there only compression is an instability.
+    pub fn end_step<K: Kernel>(
+        &mut self,
+        dt: Real,
+        kernel: &K,
+        check_low_density: bool,
+        reference_density: Real,
+    ) -> Result<(Real, Real), SolverError> {
+        self.time += dt;
+        self.steps += 1;
+        self.prepared = false;
+        // Keep the lists while every pair within the support at the next evaluation is surely
+        // in them: a listed pair was closer than support + skin at the sort, so it suffices
+        // that no particle moves half the skin from its sorted position before then. The next
+        // step's move is bounded by twice this step's (|v|·dt, doubled for the speed-up and a
+        // longer step).
+        let t = self.phases.start();
+        let p = &self.particles;
+        let survey = Survey::of(
+            &p.position,
+            &p.velocity,
+            &p.acceleration,
+            &p.density,
+            &self.sorted_at,
+            &Rules {
+                domain: self.domain,
+                open_top: self.open_top,
+                density_bound: self.density_bound,
+                reference_density,
+                check_low_density,
+                reach: 0.5 * self.skin,
+                dt,
+            },
+        );
+        self.phases.stop(Phase::Survey, t);
+        if let Some(i) = survey.not_finite {
+            return Err(SolverError::Unstable(format!(
+                "{}: NaN/inf limit exceeded: particle {i} has position {:?}, velocity {:?}, density {}",
+                self.solver,
+                p.position[i].as_slice(),
+                p.velocity[i].as_slice(),
+                p.density[i]
+            )));
+        }
+        if let Some(i) = survey.outside {
+            return Err(self.outside_domain(i));
+        }
+        // Water above an open top is a splash's spray: it stays SPH water (the grid keeps it in
+        // its top layer of cells, where the pair loops measure true distances), meets no wall
+        // (validation refuses blocks and terrain above an open top), and falls back. Said when
+        // water rises there after none was.
+        if survey.aloft > 0 && self.aloft == 0 {
+            self.warning = Some(format!(
+                "{}: {} particle(s) ({:.3} % of the water) thrown above the open domain top z = {} m at t = {:.4} s: spray that meets no wall up there until it falls back",
+                self.solver,
+                survey.aloft,
+                100.0 * survey.aloft as Real / p.len() as Real,
+                self.domain.1.z,
+                self.time
+            ));
+        }
+        self.aloft = survey.aloft;
+        if let Some(i) = survey.density {
+            let (q, b) = (p.density[i] / reference_density, self.density_bound);
+            let (what, bound) = if q > b {
+                ("exceeds", b)
+            } else {
+                ("is below", 1.0 / b)
+            };
+            return Err(SolverError::Unstable(format!(
+                "{}: density ratio limit exceeded: ρ/ρ0 = {q:.4} {what} the bound {bound:.4} at particle {i}",
+                self.solver
+            )));
+        }
+        if survey.moved || self.skin == 0.0 {
+            self.grid_valid = false;
+        }
+        self.bodies_valid = false;
+        self.prepare();
+        let t = self.phases.start();
+        let view = FluidView {
+            particles: &self.particles,
+            grid: &self.grid,
+            kernel,
+            mass: self.mass,
+            rest_density: self.rest_density,
+            dx: self.dx,
+        };
+        self.recorder.sample(self.time, &view)?;
+        self.phases.stop(Phase::Gauges, t);
+        Ok((survey.v_max, survey.a_max))
+    }
+
+    /// The last step's warning, if any (taken: said once).
+    pub fn take_warning(&mut self) -> Option<String> {
+        self.warning.take()
+    }
+
+    /// Particles above the domain's top now.
+    pub fn count_aloft(&self) -> usize {
+        let top = self.domain.1.z;
+        self.particles
+            .position
+            .par_iter()
+            .filter(|x| x.z > top)
+            .count()
+    }
+
+    /// The instability a particle outside the domain is (checked at set-up too).
+    fn check_domain(&self) -> Result<(), SolverError> {
+        let (lo, hi) = self.domain;
+        match self
+            .particles
+            .position
+            .par_iter()
+            .position_first(|x| (0..3).any(|k| x[k] < lo[k] || x[k] > hi[k]))
+        {
+            Some(i) => Err(self.outside_domain(i)),
+            None => Ok(()),
+        }
+    }
+
+    fn outside_domain(&self, i: usize) -> SolverError {
+        let (lo, hi) = self.domain;
+        let x = self.particles.position[i];
+        SolverError::Unstable(format!(
+            "{}: domain limit exceeded: particle {i} at ({:.4}, {:.4}, {:.4}) m left the domain [{:?}, {:?}]",
+            self.solver,
+            x.x,
+            x.y,
+            x.z,
+            lo.as_slice(),
+            hi.as_slice()
+        ))
+    }
+
+    /// `particles_{frame:05}.vtp` with density, pressure and velocity.
+    pub fn write_frame(&mut self, frame: u32) -> Result<(), SolverError> {
+        self.recorder.flush()?;
+        let p = &self.particles;
+        let pos: Vec<[f64; 3]> = p.position.iter().map(|x| [x.x, x.y, x.z]).collect();
+        let vel: Vec<[f64; 3]> = p.velocity.iter().map(|x| [x.x, x.y, x.z]).collect();
+        let path = self.run_dir.join(format!("particles_{frame:05}.vtp"));
+        shared::vtk::write_particles(
+            &path,
+            &pos,
+            &[("density", &p.density), ("pressure", &p.pressure)],
+            &[("velocity", &vel)],
+            self.vtk_format,
+        )?;
+        Ok(())
+    }
+
+    pub fn finish(&mut self) -> Result<(), SolverError> {
+        self.recorder.flush()?;
+        Ok(())
+    }
+}
