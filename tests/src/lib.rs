@@ -11,4 +11,9 @@
 //!   pushes nothing and checks against free fall. A message from the wrong time therefore
 //!   fails the run, naming the step: the toys test the data tags of both schemes end to end.
 
+//!
+//! [`extension`] holds a third SPH method and a second DDA integrator added from outside the
+//! node crates (binaries `extended-fluid-node`, `extended-solid-node`).
+
+pub mod extension;
 pub mod toy;
