@@ -68,7 +68,7 @@ pub fn params<P: SolverParams>(
                 "{…}".into(),
                 e.message().trim(),
                 &format!(
-                    "see the fields of [{role}.{name}]: the doc comments of its parameter type in {role}-node/src/{name}.rs"
+                    "see the fields of [{role}.{name}]: the doc comments of its parameter type, in the solver's own file (docs/ARCHITECTURE.md, \"Solvers: registries and their own parameters\")"
                 ),
             )]
         })?,

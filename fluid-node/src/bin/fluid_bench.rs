@@ -36,39 +36,16 @@ mod ceiling;
 mod paired;
 #[path = "fluid_bench/phase_table.rs"]
 mod phase_table;
+/// The dam-break scene of every row.
+#[path = "fluid_bench/scene.rs"]
+mod scene;
 
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, TempRunDir, build};
+use scene::scene;
 use shared::coupling::step::StepRule;
 use shared::protocol::BlockLoad;
-use shared::scene::Scene;
 use std::time::Instant;
-
-fn scene(solver: &str, particles: usize, params: &[String]) -> Scene {
-    // N = 2·(a/dx)³ with a = 1 m.
-    let dx = (2.0 / particles as f64).cbrt();
-    let blk = |name: &str, min: [f64; 3], max: [f64; 3]| {
-        format!(
-            "[[block]]\nname = \"{name}\"\nkind = \"fixed\"\nshape = {{ type = \"box\", min = {min:?}, max = {max:?} }}\n\n"
-        )
-    };
-    let t = 0.2;
-    let walls = [
-        blk("floor", [-t, -t, -t], [4.0 + t, 1.0 + t, 0.0]),
-        blk("left", [-t, -t, -t], [0.0, 1.0 + t, 3.0]),
-        blk("right", [4.0, -t, -t], [4.0 + t, 1.0 + t, 3.0]),
-        blk("south", [-t, -t, -t], [4.0 + t, 0.0, 3.0]),
-        blk("north", [-t, 1.0, -t], [4.0 + t, 1.0 + t, 3.0]),
-    ]
-    .concat();
-    let text = format!(
-        "name = \"bench\"\n[time]\nend = 1.0\n[domain]\nmin = [0.0, 0.0, 0.0]\nmax = [4.0, 1.0, 3.0]\n\
-         [fluid]\nsolver = \"{solver}\"\ndx = {dx}\n[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 2.0] }}\n\n{walls}\
-         [fluid.{solver}]\n{}\n",
-        params.join("\n")
-    );
-    Scene::parse(&text, "bench (generated)").expect("bench scene is valid")
-}
 
 /// VmHWM from /proc/self/status (Linux), in MB.
 /// Voluntary context switches of the process's threads so far (Linux: the sum over

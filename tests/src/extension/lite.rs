@@ -163,7 +163,12 @@ impl SphMethod for Lite {
         }
         let p = &mut sys.particles;
         p.acceleration.copy_from_slice(&acceleration);
-        for ((x, v), a) in p.position.iter_mut().zip(&mut p.velocity).zip(&acceleration) {
+        for ((x, v), a) in p
+            .position
+            .iter_mut()
+            .zip(&mut p.velocity)
+            .zip(&acceleration)
+        {
             *v += a * dt;
             *x += *v * dt;
         }

@@ -10,7 +10,7 @@
 //! ratio, and the median and range of the per-pair ratios.
 
 use super::ceiling::median;
-use super::scene;
+use super::scene::scene;
 use fluid_node::sph::SphSolver;
 use fluid_node::validation::{self, TempRunDir, build};
 use rayon::ThreadPool;

@@ -161,7 +161,7 @@ use crate::methods::SphMethod;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
 
-pub use params::DfsphParams;
+pub use params::{DfsphParams, WALL_PRESSURE};
 
 /// Default Courant number of `[fluid.dfsph] cfl` (Bender & Koschier's 0.4 on the particle
 /// diameter); also what `coupler check` estimates a DFSPH run's steps with.
@@ -225,8 +225,6 @@ pub const SURFACE_FRACTION: Real = 0.9;
 /// more iterations for crests that barely move (docs/journal/2026-11-performance.md, "The
 /// blocks in DFSPH's pressure solve").
 pub const BLOCK_TOLERANCE: Real = 0.05;
-/// The values of `[fluid.dfsph] wall_pressure`; the first is the default.
-pub const WALL_PRESSURE: [&str; 2] = ["mirrored", "extrapolated"];
 /// Weight of a fluid particle's stiffness k_i in its pairs with mirrored walls, k_i + k_b with
 /// k_b ≈ k_i (Akinci et al. 2012's pressure mirroring, here on a wall filled like the water, so
 /// both halves of the symmetric pair term are there): the bound of [`hydrostatic`] and the

@@ -1,8 +1,10 @@
 //! `[fluid.dfsph]`: the divergence-free solver's parameters and their checks.
 
-use super::WALL_PRESSURE;
 use serde::Deserialize;
 use shared::registry::{ParamCheck, SolverParams};
+
+/// The values of `[fluid.dfsph] wall_pressure`; the first is the default.
+pub const WALL_PRESSURE: [&str; 2] = ["mirrored", "extrapolated"];
 
 /// `[fluid.dfsph]`: parameters of the divergence-free solver. Unset values take the defaults.
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
