@@ -153,6 +153,24 @@ pub(super) mod tests {
         image.write_data(z).unwrap();
     }
 
+    /// The ESRI ASCII grid of the 4 × 3 heights `z` the tests write as GeoTIFF (10 m cells,
+    /// corner at (1000, 2000)).
+    pub(crate) fn ascii_twin(z: &[f32]) -> String {
+        let rows: Vec<String> = z
+            .chunks(4)
+            .map(|r| {
+                r.iter()
+                    .map(|v| v.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
+            .collect();
+        format!(
+            "ncols 4\nnrows 3\nxllcorner 1000\nyllcorner 2000\ncellsize 10\n{}\n",
+            rows.join("\n")
+        )
+    }
+
     pub(crate) fn temp(name: &str) -> std::path::PathBuf {
         std::env::temp_dir().join(format!("rw-geotiff-{}-{name}.tif", std::process::id()))
     }
@@ -163,19 +181,7 @@ pub(super) mod tests {
         let path = temp("twin");
         write(&path, &z, None, false);
         let g = read(&path).unwrap();
-        let rows: Vec<String> = z
-            .chunks(4)
-            .map(|r| {
-                r.iter()
-                    .map(|v| v.to_string())
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            })
-            .collect();
-        let asc = format!(
-            "ncols 4\nnrows 3\nxllcorner 1000\nyllcorner 2000\ncellsize 10\n{}\n",
-            rows.join("\n")
-        );
+        let asc = ascii_twin(&z);
         let twin = super::super::dem::parse(&asc).unwrap();
         assert_eq!((g.ncols, g.nrows), (twin.ncols, twin.nrows));
         assert_eq!((g.x0, g.y0, g.cell), (twin.x0, twin.y0, twin.cell));

@@ -306,23 +306,11 @@ fn scene_paths_are_relative_to_the_scene_file() {
 /// A GeoTIFF `[[terrain]]` is the same surface as its ESRI ASCII twin.
 #[test]
 fn a_geotiff_terrain_is_the_same_surface_as_its_ascii_twin() {
-    use super::geotiff::tests::{temp, write};
+    use super::geotiff::tests::{ascii_twin, temp, write};
     let z: Vec<f32> = (0..12).map(|i| i as f32 * 0.5 - 1.0).collect();
     let path = temp("twin-terrain");
     write(&path, &z, None, false);
-    let rows: Vec<String> = z
-        .chunks(4)
-        .map(|r| {
-            r.iter()
-                .map(|v| v.to_string())
-                .collect::<Vec<_>>()
-                .join(" ")
-        })
-        .collect();
-    let asc = format!(
-        "ncols 4\nnrows 3\nxllcorner 1000\nyllcorner 2000\ncellsize 10\n{}\n",
-        rows.join("\n")
-    );
+    let asc = ascii_twin(&z);
     let asc_path = path.with_extension("asc");
     std::fs::write(&asc_path, &asc).unwrap();
     let domain = DomainSpec {
