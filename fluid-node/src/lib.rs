@@ -39,6 +39,7 @@ use shared::solver::{SetupContext, SolverError};
 use sph::{Sph, SphSolver};
 
 /// Every fluid solver, by name: add a method here with one `entry` line (recipe: [`methods`]).
+/// The first is the default solver ([`Registry::first`]).
 pub static REGISTRY: Registry<dyn SphSolver> = Registry {
     role: "fluid",
     entries: &[
@@ -59,6 +60,8 @@ pub const fn entry<S: SphMethod>() -> Entry<dyn SphSolver> {
             estimate_dt: S::estimate_dt,
             warnings: S::warnings,
             study_table: S::study_table,
+            study_variants: S::study_variants,
+            known_limitation: S::known_limitation,
         },
     }
 }
