@@ -16,11 +16,11 @@ use crate::kernels::{Kernel, lattice_density};
 use crate::kernels::{Poly6, Spiky, ViscosityKernel};
 use crate::methods::SphMethod;
 use crate::system::{FluidSystem, Initial, Layout};
+use crate::validation::Check;
 use pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
 use rayon::prelude::*;
 use serde::Deserialize;
 use shared::math::Real;
-use crate::validation::Check;
 use shared::registry::{ParamCheck, SolverParams, Variant, study};
 use shared::solver::{SolverError, StepReport};
 

@@ -17,11 +17,11 @@ use crate::kernels::Kernel;
 use crate::kernels::WendlandC2;
 use crate::methods::SphMethod;
 use crate::system::{FluidSystem, Initial, Layout};
+use crate::validation::Check;
 use pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
 use rayon::prelude::*;
 use serde::Deserialize;
 use shared::math::Real;
-use crate::validation::Check;
 use shared::registry::{ParamCheck, SolverParams, Variant, study};
 use shared::solver::{SolverError, StepReport};
 
