@@ -39,6 +39,7 @@ use shared::solver::{SetupContext, SolverError};
 use sph::{Sph, SphSolver};
 
 /// Every fluid solver, by name: add a method here with one `entry` line (recipe: [`methods`]).
+/// The first is the default solver ([`Registry::first`]).
 pub static REGISTRY: Registry<dyn SphSolver> = Registry {
     role: "fluid",
     entries: &[
@@ -59,6 +60,8 @@ pub const fn entry<S: SphMethod>() -> Entry<dyn SphSolver> {
             estimate_dt: S::estimate_dt,
             warnings: S::warnings,
             study_table: S::study_table,
+            study_variants: S::study_variants,
+            known_limitation: S::known_limitation,
         },
     }
 }
@@ -126,7 +129,8 @@ mod tests {
     }
 
     /// The registry's advice is each method's own: DFSPH's step on the flow speed and its
-    /// warning about added mass with the blocks in its solve, the others' speed of sound.
+    /// warning about added mass with the blocks in its solve, the others' speed of sound; the
+    /// studies' rows each takes part in, and its known limitations.
     #[test]
     fn the_registry_advises_per_method() {
         use shared::scene::CouplingScheme::{Parallel, Serial};
@@ -144,5 +148,14 @@ mod tests {
         assert!((advice("wcsph").warnings)(&scene, Parallel).is_empty());
         assert!((advice("dfsph").study_table)("still_water").is_some());
         assert!((advice("muller").study_table)("still_water").is_none());
+        use shared::registry::study;
+        let variants = |name, s| (advice(name).study_variants)(s).len();
+        assert_eq!(variants("wcsph", study::STABILITY_DT), 1);
+        assert_eq!(variants("dfsph", study::STABILITY_DENSITY), 2);
+        assert_eq!(variants("muller", study::STABILITY_DT), 0);
+        assert_eq!(variants("muller", study::PENALTY_WALLS), 1);
+        assert_eq!(variants("wcsph", study::PENALTY_WALLS), 0);
+        assert!((advice("muller").known_limitation)("still_pressure", 0).is_some());
+        assert!((advice("dfsph").known_limitation)("still_pressure", 0).is_none());
     }
 }

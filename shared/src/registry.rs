@@ -139,24 +139,115 @@ pub struct Advice {
     /// The solver's own table (TOML of `[<role>.<name>]`) for the validation study named, when
     /// the study runs it with other than its defaults (`"still_water"`: a pressure study).
     pub study_table: fn(&str) -> Option<&'static str>,
+    /// The ways a study runs the solver, in the order of the study's rows, for the study named
+    /// (one of [`study`]'s names); empty: the solver takes no part in it.
+    pub study_variants: fn(&str) -> &'static [Variant],
+    /// Why the validation's check named (one of the validation's check names, e.g.
+    /// `still_pressure`) at `resolution` (the check's own measure of it, e.g. particles per
+    /// water height; 0 where it has none) fails by design of the solver as published, or `None`
+    /// where the solver must pass it.
+    pub known_limitation: fn(&str, usize) -> Option<&'static str>,
 }
 
 impl Advice {
-    /// No estimate, no warning, the defaults for every study.
+    /// No estimate, no warning, the defaults for every study, in no study's rows, no known
+    /// limitation.
     pub const NONE: Advice = Advice {
         estimate_dt: |_, _, _| None,
         warnings: |_, _| Vec::new(),
         study_table: |_| None,
+        study_variants: |_| &[],
+        known_limitation: |_, _| None,
     };
 }
 
-/// The solvers of one role (`fluid` or `solid`), in the order they are listed.
+/// The studies that ask a solver's entry which rows it takes part in
+/// ([`Advice::study_variants`]).
+pub mod study {
+    /// `coupler stability`, the dt map's coupled floating-block rows.
+    pub const STABILITY_DT: &str = "stability_dt";
+    /// `coupler stability`, the density map's rows.
+    pub const STABILITY_DENSITY: &str = "stability_density";
+    /// `fluid-validate`: the solver run once more with Eq. 22 penalty walls only (group
+    /// `<name>-penalty`), to show what boundary particles buy.
+    pub const PENALTY_WALLS: &str = "penalty_walls";
+}
+
+/// One way a study runs a solver: its own table and the couplings of its rows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Variant {
+    /// Appended to the solver's name in the rows' labels ("" for none).
+    pub label: &'static str,
+    /// The solver's own table `[<role>.<name>]` for these rows, as TOML ("": its defaults).
+    pub table: &'static str,
+    /// Whether the rows are run with every solver of the other role (in its registry's order,
+    /// each with all of [`Self::couplings`]) or with its registry's first only.
+    pub every_partner: bool,
+    /// The couplings of the rows, in order (empty for a study without coupling).
+    pub couplings: &'static [StudyCoupling],
+}
+
+impl Variant {
+    /// The solver with its defaults, partnered with the other role's first solver, in no
+    /// coupling of its own (a study that only asks whether the solver takes part).
+    pub const DEFAULTS: Variant = Variant {
+        label: "",
+        table: "",
+        every_partner: false,
+        couplings: &[],
+    };
+}
+
+/// The coupling of a study's row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StudyCoupling {
+    pub scheme: CouplingScheme,
+    /// Whether the solid sub-cycles inside the coupling step, at the study's own rate
+    /// (`[coupling] solid_substeps`); single-rate otherwise.
+    pub subcycled: bool,
+    /// `[coupling] added_mass` (0: off).
+    pub added_mass: f64,
+}
+
+impl StudyCoupling {
+    /// Single-rate, no added mass, under `scheme`.
+    pub const fn plain(scheme: CouplingScheme) -> StudyCoupling {
+        StudyCoupling {
+            scheme,
+            subcycled: false,
+            added_mass: 0.0,
+        }
+    }
+
+    /// Sub-cycled at the study's rate, no added mass, under `scheme`.
+    pub const fn subcycled(scheme: CouplingScheme) -> StudyCoupling {
+        StudyCoupling {
+            scheme,
+            subcycled: true,
+            added_mass: 0.0,
+        }
+    }
+
+    /// This coupling with `[coupling] added_mass = added_mass`.
+    pub const fn relaxed(self, added_mass: f64) -> StudyCoupling {
+        StudyCoupling { added_mass, ..self }
+    }
+}
+
+/// The solvers of one role (`fluid` or `solid`), in the order they are listed. The first is the
+/// role's default solver: the scene schema's default, and the one the studies and validation
+/// cases that run a single solver take.
 pub struct Registry<S: ?Sized + 'static> {
     pub role: &'static str,
     pub entries: &'static [Entry<S>],
 }
 
 impl<S: ?Sized> Registry<S> {
+    /// The role's default solver: the first entry.
+    pub fn first(&self) -> &Entry<S> {
+        &self.entries[0]
+    }
+
     pub fn names(&self) -> Vec<&'static str> {
         self.entries.iter().map(|e| e.name).collect()
     }

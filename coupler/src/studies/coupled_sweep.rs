@@ -50,8 +50,11 @@ pub struct Config {
     pub solid_substeps: u32,
     /// Added-mass stabilisation, `[coupling] added_mass` (0: off).
     pub added_mass: f64,
-    /// DFSPH's `[fluid.dfsph] blocks_in_solve` (None: the solver's default, true).
-    pub blocks_in_solve: Option<bool>,
+    /// The fluid solver's own table `[fluid.<name>]` as TOML, merged into the scene's ("": the
+    /// scene's), from the solver's registry entry ([`shared::registry::Variant::table`]).
+    pub fluid_table: &'static str,
+    /// Appended to the fluid solver's name in the label ([`shared::registry::Variant::label`]).
+    pub fluid_label: &'static str,
 }
 
 impl Config {
@@ -65,12 +68,10 @@ impl Config {
         } else {
             String::new()
         };
-        // The lagged rows keep the label they had before blocks could move in the solve.
-        let fluid = match self.blocks_in_solve {
-            Some(true) => format!("{} (blocks in solve)", self.fluid),
-            _ => self.fluid.clone(),
-        };
-        format!("{fluid}+{}/{}{rate}{relaxed}", self.solid, self.scheme)
+        format!(
+            "{}{}+{}/{}{rate}{relaxed}",
+            self.fluid, self.fluid_label, self.solid, self.scheme
+        )
     }
 }
 
@@ -109,13 +110,15 @@ pub fn floating(exe: Option<&Path>, scratch: &Scratch, config: &Config) -> Float
     if let Some(k) = config.penalty_stiffness {
         scene.coupling.penalty_stiffness = Some(k);
     }
-    if let (Some(on), Some(fluid)) = (config.blocks_in_solve, scene.fluid.as_mut()) {
+    if let (false, Some(fluid)) = (config.fluid_table.is_empty(), scene.fluid.as_mut()) {
+        let own: toml::Table = toml::from_str(config.fluid_table)
+            .expect("a registry entry's study table is valid TOML");
         let table = fluid
             .solvers
-            .entry("dfsph".into())
+            .entry(config.fluid.clone())
             .or_insert_with(|| toml::Value::Table(Default::default()));
         if let toml::Value::Table(t) = table {
-            t.insert("blocks_in_solve".into(), toml::Value::Boolean(on));
+            t.extend(own);
         }
     }
     let rho_b = scene

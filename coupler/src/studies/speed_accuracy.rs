@@ -78,7 +78,7 @@ struct Plan {
     /// time).
     coupled_solid: fn() -> Vec<&'static str>,
     coupled_end: f64,
-    /// One finer run of the paper's pairing (wcsph + explicit, parallel): the 3 % check.
+    /// One finer run of the default fluid solver (the registry's first) with explicit DDA, parallel: the 3 % check.
     coupled_fine: Option<f64>,
 }
 
@@ -101,9 +101,7 @@ const QUICK: Plan = Plan {
     solid_dt: &[0.5, 1.0],
     coupled_dx: &[0.04, 0.02],
     // The default fluid solver only.
-    coupled_fluid: || {
-        vec![<fluid_node::methods::wcsph::Wcsph as fluid_node::methods::SphMethod>::NAME]
-    },
+    coupled_fluid: || vec![fluid_node::REGISTRY.first().name],
     // The paper's scheme only.
     coupled_solid: || vec![solid_node::verification::EXPLICIT],
     coupled_end: 1.0,
@@ -318,7 +316,8 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
                         end: plan.coupled_end,
                         solid_substeps: 1,
                         added_mass: 0.0,
-                        blocks_in_solve: None,
+                        fluid_table: "",
+                        fluid_label: "",
                     });
                 }
             }
@@ -326,8 +325,8 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
     }
     if let Some(dx) = plan.coupled_fine {
         configs.push(Config {
-            fluid: "wcsph".into(),
-            solid: "explicit".into(),
+            fluid: fluid_node::REGISTRY.first().name.into(),
+            solid: solid_node::verification::EXPLICIT.into(),
             scheme: CouplingScheme::Parallel,
             dx,
             dt_factor: 1.0,
@@ -336,7 +335,8 @@ fn coupled(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
             end: plan.coupled_end,
             solid_substeps: 1,
             added_mass: 0.0,
-            blocks_in_solve: None,
+            fluid_table: "",
+            fluid_label: "",
         });
     }
     for config in &configs {

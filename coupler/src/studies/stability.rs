@@ -4,15 +4,15 @@
 //!
 //! - `stability_dt_factor`: every step × 0.1 … 10 of what the method proposes: explicit DDA
 //!   and Shi's implicit DDA on a block resting on undamped springs, every SPH scheme on the
-//!   dam break, and the coupled floating block: WCSPH under both schemes and sub-cycled, DFSPH
-//!   single-rate and sub-cycled;
+//!   dam break, and the coupled floating block in the rows each fluid solver's registry entry
+//!   asks for (`shared::registry::Advice::study_variants`);
 //! - `stability_stiffness`: the contact spring over decades at a fixed dt = 1 ms (explicit DDA
 //!   must fail once ω·dt = dt·sqrt(4k/m) passes 2, i.e. k > m/dt²; the implicit scheme must not);
-//! - `stability_density`: block-to-water density ratio 0.001 … 3 under each coupling scheme and
-//!   solid solver with WCSPH, and with DFSPH single-rate and sub-cycled, its blocks held over
-//!   its step (relaxed or not) and moved in its solve (the asked range 0.3 … 3, and below it
-//!   down to where the added-mass instability of one-step-lagged loads appears:
-//!   `shared::coupling::added_mass`).
+//! - `stability_density`: block-to-water density ratio 0.001 … 3 in the rows each fluid
+//!   solver's registry entry asks for: coupling schemes, solid solvers, sub-cycling, relaxed
+//!   loads, and its own parameters (e.g. blocks held over the fluid's step or moved in its
+//!   solve); the asked range 0.3 … 3, and below it down to where the added-mass instability of
+//!   one-step-lagged loads appears (`shared::coupling::added_mass`).
 //!
 //! It also measures the numerical damping of Shi's scheme (restitution of an undamped bounce
 //! against exp(−πΩ/4)), written to `stability_implicit_damping.csv`.
@@ -23,7 +23,7 @@ use crate::studies::fluid_sweep;
 use crate::studies::runner::Scratch;
 use crate::studies::solid_sweep;
 use clap::Args;
-use shared::scene::CouplingScheme;
+use shared::registry::study;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -111,58 +111,46 @@ pub const STIFFNESS_DT: f64 = 1e-3;
 /// explicit DDA sub-cycles inside each coupling step with the water's loads held.
 const SUBSTEPS: u32 = 8;
 
-/// The coupled floating-block rows of the dt map: (fluid, scheme, solid substeps, blocks in
-/// the solve). WCSPH under both schemes, single-rate and sub-cycled (its own step binds, so
-/// sub-cycling changes nothing: the row says so); DFSPH single-rate and sub-cycled, where the
-/// fluid's longer step sets the coupling step and the solid sub-cycles, first with the blocks
-/// held over DFSPH's step (`blocks_in_solve = false`), then moved in its solve (its default).
-const COUPLED_DT_ROWS: [(&str, CouplingScheme, u32, bool); 7] = [
-    ("wcsph", CouplingScheme::Parallel, 1, false),
-    ("wcsph", CouplingScheme::Serial, 1, false),
-    ("wcsph", CouplingScheme::Parallel, SUBSTEPS, false),
-    ("dfsph", CouplingScheme::Parallel, 1, false),
-    ("dfsph", CouplingScheme::Parallel, SUBSTEPS, false),
-    ("dfsph", CouplingScheme::Parallel, 1, true),
-    ("dfsph", CouplingScheme::Parallel, SUBSTEPS, true),
-];
-
-/// The density map's DFSPH rows, (fluid, solid, scheme, substeps, added mass, blocks in the
-/// solve), beside WCSPH's with every solid solver and scheme. With the blocks' velocities held
-/// over the fluid's step (`blocks_in_solve = false`) an incompressible fluid answers a block's
-/// acceleration one step late at any dt, so the added-mass limit of explicit coupling is a
-/// density ratio that no smaller step moves (Causin, Gerbeau & Nobile 2005); the next rows
-/// relax those loads with an artificial added mass of ρ_w V (`[coupling] added_mass = 1`,
-/// `shared::coupling::load_relaxation`), which moves that limit; the last rows move the blocks inside
-/// the pressure solve (DFSPH's default), which removes the lag.
-const DFSPH_DENSITY_ROWS: [(&str, &str, CouplingScheme, u32, f64, bool); 6] = [
-    ("dfsph", "explicit", CouplingScheme::Parallel, 1, 0.0, false),
-    (
-        "dfsph",
-        "explicit",
-        CouplingScheme::Parallel,
-        SUBSTEPS,
-        0.0,
-        false,
-    ),
-    ("dfsph", "explicit", CouplingScheme::Parallel, 1, 1.0, false),
-    (
-        "dfsph",
-        "explicit",
-        CouplingScheme::Parallel,
-        SUBSTEPS,
-        1.0,
-        false,
-    ),
-    ("dfsph", "explicit", CouplingScheme::Parallel, 1, 0.0, true),
-    (
-        "dfsph",
-        "explicit",
-        CouplingScheme::Parallel,
-        SUBSTEPS,
-        0.0,
-        true,
-    ),
-];
+/// The coupled rows of a map: every fluid solver's variants for `study`, each with its own
+/// table, over its partners (the solid registry's first, or every solid solver) and couplings,
+/// in the registry's order (the fluid solvers' entries: [`shared::registry::Advice::study_variants`]).
+/// With the blocks' velocities held over the fluid's step an incompressible fluid answers a
+/// block's acceleration one step late at any dt, so the added-mass limit of explicit coupling is
+/// a density ratio that no smaller step moves (Causin, Gerbeau & Nobile 2005); relaxing those
+/// loads with an artificial added mass of ρ_w V (`[coupling] added_mass = 1`,
+/// `shared::coupling::load_relaxation`) moves that limit; moving the blocks inside the pressure
+/// solve removes the lag.
+fn coupled_rows(study: &str, plan: &Plan) -> Vec<Config> {
+    let mut rows = Vec::new();
+    for fluid in fluid_node::REGISTRY.entries {
+        for variant in (fluid.advice.study_variants)(study) {
+            let solids = if variant.every_partner {
+                solid_node::REGISTRY.names()
+            } else {
+                vec![solid_node::REGISTRY.first().name]
+            };
+            for solid in solids {
+                for c in variant.couplings {
+                    rows.push(Config {
+                        fluid: fluid.name.into(),
+                        solid: solid.into(),
+                        scheme: c.scheme,
+                        dx: 0.02,
+                        dt_factor: 1.0,
+                        density: None,
+                        penalty_stiffness: None,
+                        end: plan.coupled_end,
+                        solid_substeps: if c.subcycled { SUBSTEPS } else { 1 },
+                        added_mass: c.added_mass,
+                        fluid_table: variant.table,
+                        fluid_label: variant.label,
+                    });
+                }
+            }
+        }
+    }
+    rows
+}
 
 /// Runs `coupler stability`; returns the exit code.
 pub fn run(args: StabilityArgs) -> u8 {
@@ -364,21 +352,11 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch, rows: Option<&str>) -> Res
             trials.push(t);
         }
     }
-    for (fluid, scheme, solid_substeps, in_solve) in COUPLED_DT_ROWS {
+    for row in coupled_rows(study::STABILITY_DT, plan) {
         for &f in plan.coupled_dt_factors {
             let config = Config {
-                fluid: fluid.into(),
-                solid: "explicit".into(),
-                scheme,
-                dx: 0.02,
                 dt_factor: f,
-                density: None,
-                penalty_stiffness: None,
-                end: plan.coupled_end,
-                solid_substeps,
-                added_mass: 0.0,
-                // WCSPH ignores the table; DFSPH's held rows ask for the lag.
-                blocks_in_solve: (fluid == "dfsph").then_some(in_solve),
+                ..row.clone()
             };
             let label = format!("floating block, {}", config.label());
             if skip(&label) {
@@ -432,27 +410,11 @@ fn density_map(
         "block-to-water density ratio under each coupling scheme (floating-block tank, real processes)"
     );
     let mut trials = Vec::new();
-    let wcsph = solid_node::REGISTRY.names().into_iter().flat_map(|solid| {
-        [CouplingScheme::Parallel, CouplingScheme::Serial]
-            .map(|scheme| ("wcsph", solid, scheme, 1, 0.0, false))
-    });
-    for (fluid, solid, scheme, solid_substeps, added_mass, in_solve) in
-        wcsph.chain(DFSPH_DENSITY_ROWS)
-    {
+    for row in coupled_rows(study::STABILITY_DENSITY, plan) {
         for &ratio in plan.density {
             let config = Config {
-                fluid: fluid.into(),
-                solid: solid.into(),
-                scheme,
-                dx: 0.02,
-                dt_factor: 1.0,
                 density: Some(1000.0 * ratio),
-                penalty_stiffness: None,
-                end: plan.coupled_end,
-                solid_substeps,
-                added_mass,
-                // WCSPH ignores the table; DFSPH's lagged rows ask for the lag.
-                blocks_in_solve: (fluid == "dfsph").then_some(in_solve),
+                ..row.clone()
             };
             if rows.is_some_and(|r| !config.label().contains(r)) {
                 continue;
@@ -489,7 +451,7 @@ fn damping(plan: &Plan, out: &Path) -> Result<(), String> {
             None => ("none (real roots past Ω = 4)".into(), String::new()),
         };
         let asym = (-std::f64::consts::PI * om / 4.0).exp();
-        match solid_node::verification::mean_restitution("implicit", om) {
+        match solid_node::verification::mean_restitution(solid_node::verification::IMPLICIT, om) {
             Ok((e, spread)) => {
                 println!(
                     "  Ω = {om:<5} e = {e:.4} (spread {spread:.3}); exact Newmark {exact_text}; exp(−πΩ/4) = {asym:.4}"
@@ -509,6 +471,55 @@ fn damping(plan: &Plan, out: &Path) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The coupled rows the registry's entries ask for: the maps' rows as they were when the
+    /// study named them itself (same labels, order and tables).
+    #[test]
+    fn the_coupled_rows_come_from_the_registry_in_their_order() {
+        let rows = |study| {
+            coupled_rows(study, &QUICK)
+                .iter()
+                .map(|c| (c.label(), c.fluid_table))
+                .collect::<Vec<_>>()
+        };
+        let held = "blocks_in_solve = false";
+        let in_solve = "blocks_in_solve = true";
+        assert_eq!(
+            rows(study::STABILITY_DT),
+            [
+                ("wcsph+explicit/parallel", ""),
+                ("wcsph+explicit/serial", ""),
+                ("wcsph+explicit/parallel ×8 substeps", ""),
+                ("dfsph+explicit/parallel", held),
+                ("dfsph+explicit/parallel ×8 substeps", held),
+                ("dfsph (blocks in solve)+explicit/parallel", in_solve),
+                (
+                    "dfsph (blocks in solve)+explicit/parallel ×8 substeps",
+                    in_solve
+                ),
+            ]
+            .map(|(l, t)| (l.to_string(), t))
+        );
+        assert_eq!(
+            rows(study::STABILITY_DENSITY),
+            [
+                ("wcsph+explicit/parallel", ""),
+                ("wcsph+explicit/serial", ""),
+                ("wcsph+implicit/parallel", ""),
+                ("wcsph+implicit/serial", ""),
+                ("dfsph+explicit/parallel", held),
+                ("dfsph+explicit/parallel ×8 substeps", held),
+                ("dfsph+explicit/parallel +1 ρV added mass", held),
+                ("dfsph+explicit/parallel ×8 substeps +1 ρV added mass", held),
+                ("dfsph (blocks in solve)+explicit/parallel", in_solve),
+                (
+                    "dfsph (blocks in solve)+explicit/parallel ×8 substeps",
+                    in_solve
+                ),
+            ]
+            .map(|(l, t)| (l.to_string(), t))
+        );
+    }
 
     fn trial(method: &str, value: f64) -> Trial {
         Trial {

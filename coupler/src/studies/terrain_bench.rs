@@ -178,7 +178,8 @@ fn bench(args: &TerrainBenchArgs) -> Result<Vec<String>, String> {
         let scene = fluid_scene(file.as_deref());
         let t0 = Instant::now();
         let mut solver =
-            fluid_node::validation::build("wcsph", &scene, d.path()).map_err(|e| e.to_string())?;
+            fluid_node::validation::build(fluid_node::REGISTRY.first().name, &scene, d.path())
+                .map_err(|e| e.to_string())?;
         let setup = t0.elapsed().as_secs_f64();
         for _ in 0..5 {
             fluid_step(solver.as_mut(), scene.time.dt_max)?;
@@ -209,8 +210,9 @@ fn bench(args: &TerrainBenchArgs) -> Result<Vec<String>, String> {
     for (label, file) in &variants {
         let scene = solid_scene(file.as_deref());
         let t0 = Instant::now();
-        let mut h = solid_node::verification::Harness::new(&scene, "explicit")
-            .map_err(|e| e.to_string())?;
+        let mut h =
+            solid_node::verification::Harness::new(&scene, solid_node::verification::EXPLICIT)
+                .map_err(|e| e.to_string())?;
         let setup = t0.elapsed().as_secs_f64();
         let rule = h.rule;
         for _ in 0..50 {

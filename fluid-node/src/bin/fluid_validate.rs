@@ -1,7 +1,8 @@
 //! `fluid-validate [--quick] [--out FILE] [--only GROUP]…`: runs the fluid validation cases
-//! (still water, Martin & Moyce dam break n² = 2 and 1 with self-convergence, for every solver;
-//! still water over a `[[terrain]]` trough and the impact pressures of Lobovský et al. 2014,
-//! for the default WCSPH) in-process and prints a markdown table; `--out` also writes it to a
+//! (still water, Martin & Moyce dam break n² = 2 and 1 with self-convergence, for every solver,
+//! and again with Eq. 22 walls for the solvers whose registry entry asks for it; still water
+//! over a `[[terrain]]` trough and the impact pressures of Lobovský et al. 2014, for the
+//! default solver, the registry's first) in-process and prints a markdown table; `--out` also writes it to a
 //! file. Exits 0 when every row is as documented: every ordinary row passes and every known
 //! limitation (`validation::known_limitation`) fails.
 
@@ -9,11 +10,14 @@ use fluid_node::REGISTRY;
 use fluid_node::validation::{
     Plan, markdown, validate_impact, validate_solver, validate_terrain_basin,
 };
+use shared::registry::study;
 use shared::scene::Walls;
 use std::process::ExitCode;
 
-/// The group of rows that runs the paper's solver with its own walls (Eq. 22 only).
-const MULLER_PENALTY: &str = "muller-penalty";
+/// The group of rows that runs solver `name` with its own walls (Eq. 22 only).
+fn penalty_group(name: &str) -> String {
+    format!("{name}-penalty")
+}
 
 #[derive(clap::Parser)]
 #[command(about = "Runs the fluid validation cases and prints their table (docs/VALIDATION.md)")]
@@ -25,7 +29,8 @@ struct Args {
     #[arg(long, value_name = "FILE")]
     out: Option<String>,
     /// Run only these groups of rows (repeatable): a solver's name (its still water and dam
-    /// breaks), `muller-penalty`, `terrain` or `impact`. Default: all.
+    /// breaks), `<solver>-penalty` (a solver with Eq. 22 walls), `terrain` or `impact`.
+    /// Default: all.
     #[arg(long, value_name = "GROUP")]
     only: Vec<String>,
 }
@@ -33,10 +38,18 @@ struct Args {
 fn main() -> ExitCode {
     let args = <Args as clap::Parser>::parse();
     let solvers = REGISTRY.names();
+    // The solvers run again with Eq. 22 walls only, to show what boundary particles buy.
+    let penalty: Vec<(&str, String)> = REGISTRY
+        .entries
+        .iter()
+        .filter(|e| !(e.advice.study_variants)(study::PENALTY_WALLS).is_empty())
+        .map(|e| (e.name, penalty_group(e.name)))
+        .collect();
     let groups: Vec<&str> = solvers
         .iter()
         .copied()
-        .chain([MULLER_PENALTY, "terrain", "impact"])
+        .chain(penalty.iter().map(|(_, g)| g.as_str()))
+        .chain(["terrain", "impact"])
         .collect();
     if let Some(bad) = args.only.iter().find(|g| !groups.contains(&g.as_str())) {
         eprintln!(
@@ -53,26 +66,28 @@ fn main() -> ExitCode {
     );
     let start = std::time::Instant::now();
     let mut rows = Vec::new();
-    // Every solver, and the paper's also with its own walls (Eq. 22 only), to show what
-    // boundary particles buy.
+    // Every solver, then those with their own walls (Eq. 22 only).
     let runs = solvers.iter().map(|&s| (s, s, None));
-    let penalty = ("muller", MULLER_PENALTY, Some(Walls::Penalty));
-    for (solver, group, walls) in runs.chain([penalty]) {
+    let penalty = penalty
+        .iter()
+        .map(|(s, g)| (*s, g.as_str(), Some(Walls::Penalty)));
+    for (solver, group, walls) in runs.chain(penalty) {
         if wanted(group) {
             rows.extend(validate_solver(solver, &plan, walls, |l| {
                 eprintln!("  {l}")
             }));
         }
     }
+    let default = REGISTRY.first().name;
     // Still water over a terrain read from a file (a DEM trough): the default solver.
     if wanted("terrain") {
-        rows.extend(validate_terrain_basin("wcsph", &plan, |l| {
+        rows.extend(validate_terrain_basin(default, &plan, |l| {
             eprintln!("  {l}")
         }));
     }
     // The impact pressures of Lobovský et al. (2014): the default solver.
     if wanted("impact") {
-        rows.extend(validate_impact("wcsph", &plan, |l| eprintln!("  {l}")));
+        rows.extend(validate_impact(default, &plan, |l| eprintln!("  {l}")));
     }
     let table = markdown(&rows);
     println!("{table}");

@@ -9,7 +9,7 @@ use crate::kernels::Kernel;
 use crate::system::{FluidSystem, Initial, Layout};
 use shared::math::Real;
 use shared::protocol::BlockLoad;
-use shared::registry::SolverParams;
+use shared::registry::{SolverParams, Variant};
 use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SolverError, StepReport};
 
@@ -91,6 +91,22 @@ pub trait SphMethod:
     /// none by default.
     fn study_table(study: &str) -> Option<&'static str> {
         let _ = study;
+        None
+    }
+
+    /// The ways the study named ([`shared::registry::study`]) runs this method, in the order of
+    /// its rows (the registry's [`shared::registry::Advice::study_variants`]): none by default,
+    /// the method takes no part.
+    fn study_variants(study: &str) -> &'static [Variant] {
+        let _ = study;
+        &[]
+    }
+
+    /// Why the validation's check `check` ([`crate::validation::Check::name`]) at
+    /// `resolution` fails by design of this method as published (the registry's
+    /// [`shared::registry::Advice::known_limitation`]): none by default.
+    fn known_limitation(check: &str, resolution: usize) -> Option<&'static str> {
+        let _ = (check, resolution);
         None
     }
 }

@@ -15,7 +15,8 @@
 //! trait (a doc-test): every required item, on a method that only falls under gravity.
 //! Everything else (sorting, neighbour lists, boundary particles, paper Eq. 22, instruments,
 //! checks, frames, checkpoints) is the [`crate::system::FluidSystem`]'s; the optional items
-//! (`loads_follow_step`, `step_loads`, `estimate_dt`, `warnings`, `study_table`) have defaults.
+//! (`loads_follow_step`, `step_loads`, `estimate_dt`, `warnings`, `study_table`,
+//! `study_variants`, `known_limitation`) have defaults.
 //!
 //! ```no_run
 //! use fluid_node::core::particles::Carried;

@@ -304,16 +304,42 @@ pub enum Check {
     },
 }
 
+impl Check {
+    /// The check's name in a method's [`shared::registry::Advice::known_limitation`].
+    pub const fn name(self) -> &'static str {
+        match self {
+            Check::StillPressure => "still_pressure",
+            Check::StillSurface => "still_surface",
+            Check::FrontMean => "front_mean",
+            Check::FrontWorst => "front_worst",
+            Check::SelfConvergence { .. } => "self_convergence",
+            Check::ImpactPeak { .. } => "impact_peak",
+        }
+    }
+
+    /// The check's resolution in a method's [`shared::registry::Advice::known_limitation`]:
+    /// the finest particles across the column, particles per water height, or 0.
+    pub const fn resolution(self) -> usize {
+        match self {
+            Check::SelfConvergence { finest } => finest,
+            Check::ImpactPeak { per_h } => per_h,
+            _ => 0,
+        }
+    }
+}
+
 /// The rows that fail by design of the method as published (docs/VALIDATION.md, "What the table
 /// says"), with the reason the table prints: `fluid-validate` exits 0 when exactly these fail.
+/// A method's own limitations are in its registry entry
+/// ([`shared::registry::Advice::known_limitation`]); the walls' are here.
 pub fn known_limitation(solver: &str, walls: Option<Walls>, check: Check) -> Option<&'static str> {
     let penalty = walls == Some(Walls::Penalty);
+    let own = REGISTRY
+        .get(solver)
+        .ok()
+        .and_then(|e| (e.advice.known_limitation)(check.name(), check.resolution()));
     match check {
-        // Eq. 14's symmetric pressure force approximates ½∇p·(…) with summation density at the
-        // surface: about twice hydrostatic at depth, with either wall treatment.
-        Check::StillPressure if solver == "muller" => {
-            Some("Eq. 14 gives about 2× hydrostatic pressure")
-        }
+        _ if own.is_some() => own,
         // Eq. 22 penalty walls push the water about a spacing off every wall: the column
         // stands lower, and the front's error does not shrink with dx.
         Check::StillSurface if penalty => Some("Eq. 22 walls hold the water off the walls"),
@@ -323,13 +349,6 @@ pub fn known_limitation(solver: &str, walls: Option<Walls>, check: Check) -> Opt
         Check::SelfConvergence { finest } if penalty && finest > 16 => {
             Some("Eq. 22 walls do not converge with dx")
         }
-        // The weakly compressible impact peak is the first crest of an acoustic ringing at the
-        // wall that grows with resolution and depends on c0 (docs/VALIDATION.md "Impact
-        // pressure"): above the experiment's band from H/dx = 30; at H/dx = 15 the kernel still
-        // smears it into the band.
-        Check::ImpactPeak { per_h } if solver == "wcsph" && per_h >= 30 => Some(
-            "WCSPH impact peak is an acoustic crest that grows with resolution; the impulse is the check",
-        ),
         _ => None,
     }
 }

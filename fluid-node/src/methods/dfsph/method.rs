@@ -18,6 +18,7 @@ use crate::system::{FluidSystem, Initial, Layout};
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
+use shared::registry::{Variant, study};
 use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SolverError, StepReport};
 
@@ -349,5 +350,55 @@ impl SphMethod for Dfsph {
     /// pressure-change stop, [`PRESSURE_STUDY`] (module doc).
     fn study_table(study: &str) -> Option<&'static str> {
         (study == "still_water").then_some(PRESSURE_STUDY)
+    }
+
+    /// In the stability maps DFSPH runs with the explicit-coupling partner (the solid
+    /// registry's first), single-rate and sub-cycled under the parallel scheme: first with the
+    /// blocks held over its step (`blocks_in_solve = false`, the added-mass lag; in the density
+    /// map also with those loads relaxed by ρ_w V), then moved inside its solve (its default).
+    fn study_variants(study: &str) -> &'static [Variant] {
+        use shared::registry::StudyCoupling as C;
+        const P: CouplingScheme = CouplingScheme::Parallel;
+        const HELD: &str = "blocks_in_solve = false";
+        const IN_SOLVE: &str = "blocks_in_solve = true";
+        // The held rows keep the label they had before blocks could move in the solve.
+        const DT: &[Variant] = &[
+            Variant {
+                label: "",
+                table: HELD,
+                every_partner: false,
+                couplings: &[C::plain(P), C::subcycled(P)],
+            },
+            Variant {
+                label: " (blocks in solve)",
+                table: IN_SOLVE,
+                every_partner: false,
+                couplings: &[C::plain(P), C::subcycled(P)],
+            },
+        ];
+        const DENSITY: &[Variant] = &[
+            Variant {
+                label: "",
+                table: HELD,
+                every_partner: false,
+                couplings: &[
+                    C::plain(P),
+                    C::subcycled(P),
+                    C::plain(P).relaxed(1.0),
+                    C::subcycled(P).relaxed(1.0),
+                ],
+            },
+            Variant {
+                label: " (blocks in solve)",
+                table: IN_SOLVE,
+                every_partner: false,
+                couplings: &[C::plain(P), C::subcycled(P)],
+            },
+        ];
+        match study {
+            study::STABILITY_DT => DT,
+            study::STABILITY_DENSITY => DENSITY,
+            _ => &[],
+        }
     }
 }

@@ -16,11 +16,12 @@ use crate::kernels::{Kernel, lattice_density};
 use crate::kernels::{Poly6, Spiky, ViscosityKernel};
 use crate::methods::SphMethod;
 use crate::system::{FluidSystem, Initial, Layout};
+use crate::validation::Check;
 use pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
 use rayon::prelude::*;
 use serde::Deserialize;
 use shared::math::Real;
-use shared::registry::{ParamCheck, SolverParams};
+use shared::registry::{ParamCheck, SolverParams, Variant, study};
 use shared::solver::{SolverError, StepReport};
 
 /// `[fluid.muller]`: parameters of the paper's SPH. Unset values are derived from the scene.
@@ -331,5 +332,21 @@ impl SphMethod for Muller {
 
     fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real {
         self.limits.propose(v_max, a_max).0
+    }
+
+    /// `fluid-validate` runs the paper's method once more with its own walls (Eq. 22 only), to
+    /// show what boundary particles buy.
+    fn study_variants(study: &str) -> &'static [Variant] {
+        match study {
+            study::PENALTY_WALLS => &[Variant::DEFAULTS],
+            _ => &[],
+        }
+    }
+
+    /// Eq. 14's symmetric pressure force approximates ½∇p·(…) with summation density at the
+    /// surface: about twice hydrostatic at depth, with either wall treatment.
+    fn known_limitation(check: &str, _resolution: usize) -> Option<&'static str> {
+        (check == Check::StillPressure.name())
+            .then_some("Eq. 14 gives about 2× hydrostatic pressure")
     }
 }

@@ -184,6 +184,8 @@ impl std::fmt::Display for Walls {
     }
 }
 
+/// The fluid registry's first entry (`fluid_node::REGISTRY.first()`, the default solver),
+/// named here because this crate sits below the registries.
 fn default_fluid_solver() -> String {
     "wcsph".into()
 }
@@ -242,6 +244,8 @@ impl Default for SolidSpec {
     }
 }
 
+/// The solid registry's first entry (`solid_node::REGISTRY.first()`, the default solver),
+/// named here because this crate sits below the registries.
 fn default_solid_solver() -> String {
     "explicit".into()
 }
