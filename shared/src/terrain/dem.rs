@@ -58,6 +58,25 @@ pub fn parse(text: &str) -> Result<Grid, String> {
             "ncols = {ncols}, nrows = {nrows}: a grid needs at least 2 × 2 cells"
         ));
     }
+    // The header's claim is bounded by what the text holds (each elevation takes a character
+    // and a separator at least) before anything is reserved for it.
+    let room = text.len() / 2 + 1;
+    if ncols * nrows > room as f64 {
+        let n = |v: f64| {
+            if v < 1e15 {
+                format!("{v}")
+            } else {
+                format!("{v:e}")
+            }
+        };
+        return Err(format!(
+            "the header claims ncols × nrows = {} × {} = {} cells, but the file's {} bytes hold at most {room} elevations; fix: correct ncols and nrows, or give the whole grid",
+            n(ncols),
+            n(nrows),
+            n(ncols * nrows),
+            text.len()
+        ));
+    }
     let (ncols, nrows) = (ncols as usize, nrows as usize);
     let cell = need("cellsize")?;
     if !(cell.is_finite() && cell > 0.0) {
@@ -82,7 +101,7 @@ pub fn parse(text: &str) -> Result<Grid, String> {
     }
     if z.len() != ncols * nrows {
         return Err(format!(
-            "holds {} elevations, but ncols × nrows = {ncols} × {nrows} = {}",
+            "holds {} elevations, but ncols × nrows = {ncols} × {nrows} = {}; fix: give nrows lines of ncols elevations after the header",
             z.len(),
             ncols * nrows
         ));
@@ -286,5 +305,28 @@ mod tests {
         assert!(parse(&no_size).unwrap_err().contains("cellsize"));
         let nan = GRID.replace("-9999 6", "nan 6");
         assert_eq!(parse(&nan).unwrap().z[4], None);
+    }
+
+    /// A header is not trusted past what the file holds: a claim of 10⁹ cells (or 10³⁰⁰ columns)
+    /// in a few bytes is refused before anything is reserved for it, and so is a header with no
+    /// elevations at all.
+    #[test]
+    fn a_header_that_claims_more_than_the_file_holds_is_refused() {
+        for (header, claim) in [
+            ("ncols 31623\nnrows 31623\n", "31623 × 31623"),
+            ("ncols 1e300\nnrows 3\n", "1e300 × 3"),
+            (
+                "ncols 3\nnrows 3\n",
+                "holds 0 elevations, but ncols × nrows = 3 × 3",
+            ),
+        ] {
+            let text = format!("{header}xllcorner 10\nyllcorner 20\ncellsize 2\n");
+            let e = parse(&text).unwrap_err();
+            assert!(e.contains(claim) && e.contains("fix:"), "{e}");
+        }
+        // The same header with its values passes.
+        let full =
+            "ncols 3\nnrows 3\nxllcorner 10\nyllcorner 20\ncellsize 2\n1 2 3\n4 5 6\n7 8 9\n";
+        assert_eq!(parse(full).unwrap().z.len(), 9);
     }
 }

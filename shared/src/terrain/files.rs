@@ -11,6 +11,21 @@ pub struct RawMesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
+/// Refuses a path that is not a regular file (a FIFO, a device, a directory), whose reading
+/// could block for ever or never end.
+pub fn regular(path: &Path) -> Result<(), String> {
+    let meta =
+        std::fs::metadata(path).map_err(|e| format!("cannot open '{}': {e}", path.display()))?;
+    if meta.is_file() {
+        Ok(())
+    } else {
+        Err(format!(
+            "'{}' is not a regular file (a pipe, device or directory)",
+            path.display()
+        ))
+    }
+}
+
 fn open(path: &Path) -> Result<BufReader<std::fs::File>, String> {
     std::fs::File::open(path)
         .map(BufReader::new)

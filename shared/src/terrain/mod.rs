@@ -106,6 +106,16 @@ impl Terrain {
                 "give a .stl, .obj, .ply, .asc or .tif file",
             )
         })?;
+        // A FIFO would block the read for ever and a device (/dev/zero) never end it: only a
+        // regular file has the length its contents are bounded by.
+        files::regular(&spec.file).map_err(|e| {
+            fail(
+                "file",
+                format!("{file:?}"),
+                e,
+                "name the terrain file itself (a regular file), not a pipe, device or directory",
+            )
+        })?;
         let mut filled_cells = 0;
         let raw = match format {
             TerrainFormat::Stl => files::read_stl(&spec.file).map_err(file_err)?,

@@ -234,6 +234,35 @@ fn dem_holes_are_refused_or_filled_as_asked() {
     assert!(t.summary().contains("1 no-data cells filled"));
 }
 
+/// A pipe, a device or a directory named as a terrain file is refused at once, by its field,
+/// before a read that would block for ever (a FIFO) or never end (/dev/zero).
+#[test]
+fn a_terrain_path_that_is_not_a_regular_file_is_refused() {
+    let tmp = dir("not-regular");
+    let fifo = tmp.path().join("pipe.asc");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    let dom = domain([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]);
+    // /dev/zero under a terrain's name: reading it would never end.
+    let zero = tmp.path().join("zero.stl");
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    let mut paths = vec![zero, tmp.path().join("folder.asc")];
+    std::fs::create_dir(&paths[1]).unwrap();
+    if made.is_ok_and(|s| s.success()) {
+        paths.push(fifo);
+    }
+    for p in paths {
+        let t0 = std::time::Instant::now();
+        let e = Terrain::load(&spec(&p), &dom).unwrap_err();
+        assert_eq!(e.field, "file");
+        assert!(
+            e.problem.contains("not a regular file") && e.fix.contains("regular file"),
+            "{}: {e:?}",
+            p.display()
+        );
+        assert!(t0.elapsed().as_secs() < 5);
+    }
+}
+
 #[test]
 fn a_terrain_outside_the_domain_or_above_an_open_top_is_refused() {
     let tmp = dir("outside");
