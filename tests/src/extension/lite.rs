@@ -13,7 +13,7 @@
 //! (`Boundary::update`); a moving block takes the reverse of their pressure force
 //! (`Boundary::react`), and paper Eq. 22 is the system's backstop, as for every method.
 
-use fluid_node::core::particles::Carried;
+use fluid_node::core::particles::{Carried, Particles};
 use fluid_node::kernels::{Kernel, WendlandC2, lattice_density};
 use fluid_node::methods::SphMethod;
 use fluid_node::system::{FluidSystem, Initial, Layout};
@@ -130,11 +130,22 @@ impl SphMethod for Lite {
         );
         // Forces, then symplectic Euler.
         let c = self.c2.sqrt();
-        let p = &sys.particles;
-        let mut acceleration = vec![Vector::zeros(); n];
+        // All accelerations from the positions and velocities at the start of the step, into
+        // the particles' own array (no allocation per step), then the update.
+        let Particles {
+            position,
+            velocity,
+            density,
+            pressure,
+            penalty,
+            acceleration,
+            ..
+        } = &mut sys.particles;
+        let (position, velocity, density, pressure) =
+            (&*position, &*velocity, &*density, &*pressure);
         for (i, a) in acceleration.iter_mut().enumerate() {
-            let (xi, vi) = (p.position[i], p.velocity[i]);
-            let term_i = p.pressure[i] / (p.density[i] * p.density[i]);
+            let (xi, vi) = (position[i], velocity[i]);
+            let term_i = pressure[i] / (density[i] * density[i]);
             let mut sum = Vector::zeros();
             let mut pair = |xj: Vector, vj: Vector, pj: Real, rhoj: Real| {
                 let r = xi - xj;
@@ -145,7 +156,7 @@ impl SphMethod for Lite {
                 let vr = (vi - vj).dot(&r);
                 let viscous = if vr < 0.0 {
                     -self.alpha * c * h * vr
-                        / (0.5 * (p.density[i] + rhoj) * (len * len + 0.01 * h * h))
+                        / (0.5 * (density[i] + rhoj) * (len * len + 0.01 * h * h))
                 } else {
                     0.0
                 };
@@ -154,20 +165,19 @@ impl SphMethod for Lite {
             };
             for &j in sys.fluid_lists.of(i) {
                 let j = j as usize;
-                pair(p.position[j], p.velocity[j], p.pressure[j], p.density[j]);
+                pair(position[j], velocity[j], pressure[j], density[j]);
             }
             sys.boundary.for_each_neighbor(i, |b| {
                 pair(b.position(), b.velocity(), b.pressure(), b.density())
             });
-            *a = sum + sys.gravity + p.penalty[i] / m;
+            *a = sum + sys.gravity + penalty[i] / m;
         }
         let p = &mut sys.particles;
-        p.acceleration.copy_from_slice(&acceleration);
         for ((x, v), a) in p
             .position
             .iter_mut()
             .zip(&mut p.velocity)
-            .zip(&acceleration)
+            .zip(&p.acceleration)
         {
             *v += a * dt;
             *x += *v * dt;
