@@ -155,10 +155,14 @@ pub struct RunArgs {
     #[arg(long, value_name = "SECONDS")]
     pub checkpoint_interval: Option<f64>,
     /// Checkpoint every this many wall-clock minutes (overrides the scene's
-    /// `output.checkpoint_wall_minutes`; 10 when --retries is given and no checkpoint is asked
-    /// for).
+    /// `output.checkpoint_wall_minutes`). When no checkpoint is asked for: 10 with --retries,
+    /// else 15 when the run is estimated to take longer than that (see --no-checkpoints).
     #[arg(long, value_name = "MINUTES")]
     pub checkpoint_wall_minutes: Option<f64>,
+    /// No checkpoints at all: not the scene's, not those a long run (or --retries) writes by
+    /// default. A run killed then starts again from t = 0.
+    #[arg(long, conflicts_with_all = ["checkpoint_interval", "checkpoint_wall_minutes"])]
+    pub no_checkpoints: bool,
     /// Continue the run in RUN_DIR from its last complete checkpoint, with the scene, solvers
     /// and scheme it was started with; its CSV files are cut back and its later frames removed
     /// first, so the finished run is identical to an uninterrupted one.

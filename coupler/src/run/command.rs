@@ -3,6 +3,7 @@
 //! commands, the run directory, the session's steps ([`crate::run::session`]), the summary.
 
 use crate::cli::RunArgs;
+use crate::run::checkpoint::CouplerCheckpoint;
 use crate::run::launch::NodeCommand;
 use crate::run::output::RunDir;
 use crate::run::resume::Resumed;
@@ -31,10 +32,10 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     let resume = crate::run::resume::resume(&args)?;
     let (scene, origin) = crate::run::settings::scene(&args, resume.as_ref())?;
     crate::run::settings::describe(&scene, &args, resume.as_ref());
-    let checked = crate::run::settings::check_flags(&args, &scene)?;
+    let checked = crate::run::settings::check_flags(&args, &scene, resume.as_ref())?;
     let (run_id, _lock) = claim_run_id(&args)?;
     let nodes = node_commands(&args, &scene)?;
-    let (out, mut dir) = run_dir(&args, &scene, &run_id, resume.as_ref())?;
+    let (out, mut dir, fresh_lock) = run_dir(&args, &scene, &run_id, resume.as_ref())?;
     // Cheap housekeeping: files of runs whose processes were all killed long ago.
     let stale = shared::transport::remove_stale_runs(Duration::from_secs(60));
     if !stale.is_empty() {
@@ -57,7 +58,12 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     );
     warn(&scene, solvers.fluid.as_deref(), solvers.scheme);
     let scheme = solvers.scheme;
-    let opts = options(&args, &scene, solvers, nodes, &run_id, checked, resume);
+    // The run directory's lock (the resumed run's, or the new one's) is held until the end.
+    let (checkpoint, _dir_lock) = match resume {
+        Some(r) => (Some(r.checkpoint), Some(r.lock)),
+        None => (None, fresh_lock),
+    };
+    let opts = options(&args, &scene, solvers, nodes, &run_id, checked, checkpoint);
     let (stats, outcome) = Session::execute(opts, &mut dir);
     Ok(finish(&dir, &scene, &run_id, &stats, outcome, scheme, &out))
 }
@@ -107,19 +113,20 @@ fn node_commands(args: &RunArgs, scene: &Scene) -> Result<(NodeCommand, NodeComm
     Ok((fluid_cmd, solid_cmd))
 }
 
-/// The run directory: a new one, or the resumed run's cut back to its checkpoint.
+/// The run directory: a new one (with its lock), or the resumed run's cut back to its
+/// checkpoint (its lock is the resume's).
 fn run_dir(
     args: &RunArgs,
     scene: &Scene,
     run_id: &RunId,
     resume: Option<&Resumed>,
-) -> Result<(PathBuf, RunDir), String> {
+) -> Result<(PathBuf, RunDir, Option<RunLock>), String> {
     let out = match (&args.resume, &args.out) {
         (Some(dir), _) => dir.clone(),
         (None, Some(out)) => out.clone(),
         (None, None) => PathBuf::from("runs").join(format!("{}-{}", scene.name, run_id)),
     };
-    let dir = match resume {
+    let (dir, lock) = match resume {
         Some(r) => {
             let mut dir = RunDir::open_existing(&out, scene);
             let ck = &r.checkpoint;
@@ -128,11 +135,15 @@ fn run_dir(
                 .map_err(|e| {
                     format!("cannot rewrite the .pvd series in '{}': {e}", out.display())
                 })?;
-            dir
+            (dir, None)
         }
-        None => RunDir::create(&out, scene)?,
+        None => {
+            let dir = RunDir::create(&out, scene)?;
+            // A `--resume` of this directory while it runs is refused.
+            (dir, Some(RunLock::directory(&out)?))
+        }
     };
-    Ok((out, dir))
+    Ok((out, dir, lock))
 }
 
 /// The scheme and solvers the run uses: a resumed run keeps those it was started with.
@@ -205,7 +216,7 @@ fn options(
     (fluid_cmd, solid_cmd): (NodeCommand, NodeCommand),
     run_id: &RunId,
     checked: Checked,
-    resume: Option<Resumed>,
+    resume: Option<CouplerCheckpoint>,
 ) -> RunOptions {
     RunOptions {
         scene: scene.clone(),
@@ -228,7 +239,7 @@ fn options(
         checkpoint_wall: checked
             .checkpoint_wall_minutes
             .map(|m| Duration::from_secs_f64(m * 60.0)),
-        resume: resume.map(|r| r.checkpoint),
+        resume,
         retries: args.retries,
     }
 }

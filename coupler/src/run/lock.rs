@@ -1,16 +1,24 @@
-//! One coupler per run id: a lock file held for the whole run.
+//! One coupler per run id and per run directory: lock files held for the whole run.
 //!
-//! The lock is `flock(2)` on `/dev/shm/rockwave.<run id>.lock` (beside the run's iceoryx2
-//! files, outside their `<run id>_` prefix so that cleaning a run never removes it). The kernel
-//! releases a `flock` when its holder dies, even by SIGKILL, so a dead coupler's id is free
-//! again at once; the pid written into the file only names the holder in the message.
+//! The run id's lock is `flock(2)` on `/dev/shm/rockwave.<run id>.lock` (beside the run's
+//! iceoryx2 files, outside their `<run id>_` prefix so that cleaning a run never removes it).
+//! The run directory's is `flock(2)` on `<run dir>/coupler.lock` ([`DIR_LOCK`]), taken by a new
+//! run once its directory exists and by `--resume` before it reads anything there: two
+//! couplers writing one directory (two resumes of it, or a resume of a run still going) would
+//! cut each other's files back. The kernel releases a `flock` when its holder dies, even by
+//! SIGKILL, so a dead coupler's id or directory is free again at once; the pid written into the
+//! file only names the holder in the message.
 
 use shared::transport::{RunId, SHM_ROOT};
 use std::fs::File;
 use std::io::{Read, Seek, Write};
 use std::os::fd::AsRawFd;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+
+/// The lock file's name in a run directory (removed when its run ends; one left by a killed
+/// coupler is free and taken again by the next).
+pub const DIR_LOCK: &str = "coupler.lock";
 
 /// How long a lock held by no live, named process is waited for before the id is refused.
 const BUSY_GRACE: Duration = Duration::from_secs(1);
@@ -29,7 +37,30 @@ impl RunLock {
 
     /// Takes run `id` for this process, or says which live coupler has it.
     pub fn acquire(id: &RunId) -> Result<RunLock, String> {
-        let path = Self::path(id);
+        Self::take(Self::path(id), |holder| {
+            format!(
+                "run id {id} is in use by a live coupler{holder}; a second run with the same id would \
+                 stop it and remove its files. Fix: choose another --run-id (or none, for a fresh \
+                 one), or wait for that run to end"
+            )
+        })
+    }
+
+    /// Takes run directory `run_dir` (which must exist) for this process, or says which live
+    /// coupler has it.
+    pub fn directory(run_dir: &Path) -> Result<RunLock, String> {
+        Self::take(run_dir.join(DIR_LOCK), |holder| {
+            format!(
+                "the run directory '{}' is in use by a live coupler{holder}: two runs writing one \
+                 directory would cut each other's files. Fix: wait for that run to end (or stop it), \
+                 then resume it once",
+                run_dir.display()
+            )
+        })
+    }
+
+    /// Takes the lock at `path`; `busy` says who holds it (" (pid N)" or nothing) in the error.
+    fn take(path: PathBuf, busy: impl Fn(&str) -> String) -> Result<RunLock, String> {
         let mut busy_since = None;
         loop {
             let mut file = std::fs::OpenOptions::new()
@@ -54,16 +85,11 @@ impl RunLock {
                     std::thread::sleep(Duration::from_millis(5));
                     continue;
                 }
-                return Err(format!(
-                    "run id {id} is in use by a live coupler{}; a second run with the same id would \
-                     stop it and remove its files. Fix: choose another --run-id (or none, for a fresh \
-                     one), or wait for that run to end",
-                    if holder.is_empty() {
-                        String::new()
-                    } else {
-                        format!(" (pid {holder})")
-                    }
-                ));
+                return Err(busy(&if holder.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (pid {holder})")
+                }));
             }
             // The previous holder may have removed the file between our open and our lock:
             // then we hold a lock on a file nobody else can find. Take the one at the path.
@@ -173,6 +199,32 @@ mod tests {
         remove_stale_locks();
         assert!(RunLock::path(&id).exists(), "a lock being made was swept");
         std::fs::remove_file(RunLock::path(&id)).unwrap();
+    }
+
+    /// Two couplers on one run directory (two `--resume` of it at once): the second is refused
+    /// at once, naming the directory and the holder's pid; the directory is free again once the
+    /// first ends.
+    #[test]
+    fn a_run_directory_is_taken_by_one_coupler_at_a_time() {
+        let dir = tempfile::tempdir().unwrap();
+        let first = RunLock::directory(dir.path()).unwrap();
+        let started = Instant::now();
+        let err = RunLock::directory(dir.path())
+            .err()
+            .expect("a second coupler on the directory is refused");
+        assert!(started.elapsed() < BUSY_GRACE, "refused at once");
+        assert!(
+            err.contains(&format!("'{}'", dir.path().display()))
+                && err.contains(&format!("pid {}", std::process::id()))
+                && err.contains("Fix:"),
+            "{err}"
+        );
+        drop(first);
+        assert!(!dir.path().join(DIR_LOCK).exists(), "its file goes with it");
+        drop(RunLock::directory(dir.path()).expect("free again"));
+        let gone = dir.path().join("none");
+        let err = RunLock::directory(&gone).err().unwrap();
+        assert!(err.contains("none"), "{err}");
     }
 
     #[test]

@@ -3,6 +3,7 @@
 
 use crate::cli::RunArgs;
 use crate::run::checkpoint::CouplerCheckpoint;
+use crate::run::lock::RunLock;
 
 /// The run to resume (`--resume RUN_DIR`), announced; none without `--resume`.
 pub fn resume(args: &RunArgs) -> Result<Option<Resumed>, String> {
@@ -22,10 +23,12 @@ pub fn resume(args: &RunArgs) -> Result<Option<Resumed>, String> {
     Ok(resume)
 }
 
-/// The scene, last checkpoint and settings of a run to resume (`--resume RUN_DIR`).
+/// The scene, last checkpoint and settings of a run to resume (`--resume RUN_DIR`), and the
+/// run directory's lock, held until the run ends.
 pub struct Resumed {
     pub scene: shared::scene::Scene,
     pub checkpoint: CouplerCheckpoint,
+    pub lock: RunLock,
 }
 
 fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
@@ -36,8 +39,12 @@ fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
             dir.display()
         ));
     }
+    // Before anything there is read: another coupler may be writing (or pruning) it.
+    let lock = RunLock::directory(dir)?;
     let scene = crate::run::scenes::load(Some(&path)).map_err(|e| e.to_string())?;
-    let Some(ck) = crate::run::checkpoint::latest(dir)? else {
+    let Some(ck) = crate::run::checkpoint::latest(dir, &scene)
+        .map_err(|e| format!("--resume {}: {e}", dir.display()))?
+    else {
         return Err(format!(
             "--resume {}: the run wrote no complete checkpoint (checkpoints/coupler-*.ckpt). Fix: start it again with --checkpoint-interval or --checkpoint-wall-minutes",
             dir.display()
@@ -65,9 +72,9 @@ fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
             )
         };
         return Err(format!(
-            "--resume {}: {what} not what the checkpoint at step {} was written for (hash {hash:016x}, checkpoint {:016x}). Fix: {fix}",
+            "--resume {}: {what} not what the checkpoint '{}' was written for (hash {hash:016x}, checkpoint {:016x}): a checkpoint of another run, or the run's files changed. Fix: {fix}",
             dir.display(),
-            ck.step,
+            shared::checkpoint::coupler_file(dir, ck.step).display(),
             ck.scene_hash
         ));
     }
@@ -100,5 +107,6 @@ fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
     Ok(Resumed {
         scene,
         checkpoint: ck,
+        lock,
     })
 }

@@ -84,7 +84,11 @@ pub struct Checked {
 }
 
 /// Checks the timeouts, the transport's endpoints, retries, checkpoints and the dt factor.
-pub fn check_flags(args: &RunArgs, scene: &Scene) -> Result<Checked, String> {
+pub fn check_flags(
+    args: &RunArgs,
+    scene: &Scene,
+    resume: Option<&Resumed>,
+) -> Result<Checked, String> {
     for (flag, v) in [
         ("--connect-timeout", args.connect_timeout),
         ("--step-timeout", args.step_timeout),
@@ -113,13 +117,28 @@ pub fn check_flags(args: &RunArgs, scene: &Scene) -> Result<Checked, String> {
             ));
         }
     }
-    let checkpoint_interval = args
-        .checkpoint_interval
-        .or(scene.output.checkpoint_interval);
-    let checkpoint_wall_minutes = args
-        .checkpoint_wall_minutes
-        .or(scene.output.checkpoint_wall_minutes)
-        .or((args.retries > 0 && checkpoint_interval.is_none()).then_some(10.0));
+    let (checkpoint_interval, checkpoint_wall_minutes) = if args.no_checkpoints {
+        eprintln!(
+            "coupler: no checkpoints (--no-checkpoints): a run killed starts again from t = 0"
+        );
+        (None, None)
+    } else {
+        let interval = args
+            .checkpoint_interval
+            .or(scene.output.checkpoint_interval);
+        let wall = args
+            .checkpoint_wall_minutes
+            .or(scene.output.checkpoint_wall_minutes);
+        let asked = interval.is_some() || wall.is_some();
+        let wall = wall
+            .or((args.retries > 0 && interval.is_none()).then_some(10.0))
+            .or_else(|| {
+                (!asked)
+                    .then(|| default_checkpoints(args, scene, resume))
+                    .flatten()
+            });
+        (interval, wall)
+    };
     if !(args.dt_factor.is_finite() && args.dt_factor > 0.0) {
         return Err(format!(
             "--dt-factor {}: must be a positive number",
@@ -132,6 +151,52 @@ pub fn check_flags(args: &RunArgs, scene: &Scene) -> Result<Checked, String> {
         checkpoint_interval,
         checkpoint_wall_minutes,
     })
+}
+
+/// Wall-clock minutes between the checkpoints of a run estimated to take longer than that when
+/// none is asked for: a run killed by the machine loses at most this much, and a run shorter
+/// than it writes none.
+pub const DEFAULT_CHECKPOINT_MINUTES: f64 = 15.0;
+
+/// Particle-steps per second of one fluid-node thread, measured (docs/PERFORMANCE.md, "Fluid:
+/// cost per particle-step": 31 250 particles, one thread, Zen 5): what a run's wall time is
+/// estimated with. One thread, so that a node given two errs towards checkpointing; a solver
+/// not measured here is taken at the slowest rate (DFSPH's) for the same reason.
+const PARTICLE_STEPS_PER_SECOND: [(&str, f64); 3] =
+    [("wcsph", 4.61e6), ("muller", 5.33e6), ("dfsph", 6.24e5)];
+
+/// The run's estimated wall time [s] from `from_time` to its end, stepped as `solver` (`None`:
+/// the scene's) steps it: estimated steps × particles ÷ the solver's measured rate. `None`
+/// without water (no estimate).
+pub fn estimated_wall_seconds(scene: &Scene, solver: Option<&str>, from_time: f64) -> Option<f64> {
+    let e = crate::run::sizes::estimate(scene, solver)?;
+    let name = solver.or(scene.fluid.as_ref().map(|f| f.solver.as_str()))?;
+    let rate = PARTICLE_STEPS_PER_SECOND
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map_or(PARTICLE_STEPS_PER_SECOND[2].1, |(_, r)| *r);
+    let left = ((scene.time.end - from_time) / scene.time.end).clamp(0.0, 1.0);
+    Some(e.steps * left * (e.fluid_particles + e.boundary_particles) / rate)
+}
+
+/// The wall interval of the checkpoints a run writes when none is asked for:
+/// [`DEFAULT_CHECKPOINT_MINUTES`] when the rest of the run is estimated longer than that, or
+/// cannot be estimated (no water); announced.
+fn default_checkpoints(args: &RunArgs, scene: &Scene, resume: Option<&Resumed>) -> Option<f64> {
+    let solver = resume
+        .and_then(|r| r.checkpoint.fluid_solver.as_deref())
+        .or(args.fluid_solver.as_deref());
+    let from = resume.map_or(0.0, |r| r.checkpoint.time);
+    let minutes = DEFAULT_CHECKPOINT_MINUTES;
+    let why = match estimated_wall_seconds(scene, solver, from).filter(|s| s.is_finite()) {
+        Some(s) if s <= minutes * 60.0 => return None,
+        Some(s) => format!("the run is estimated at about {:.0} minutes", s / 60.0),
+        None => "a run without water is not estimated; a shorter one writes none".to_string(),
+    };
+    eprintln!(
+        "coupler: a checkpoint every {minutes} wall minutes ({why}). --no-checkpoints turns them off, --checkpoint-wall-minutes sets the interval"
+    );
+    Some(minutes)
 }
 
 /// Where the coupler listens and connects (zenoh), and what the nodes it starts connect to.

@@ -199,16 +199,22 @@ fn save(side: &mut dyn Side, opts: &Options, step: u64, time: f64) -> Result<(),
         solver,
     };
     let dir = checkpoint::dir(&opts.run_dir);
-    std::fs::create_dir_all(&dir)?;
+    std::fs::create_dir_all(&dir).map_err(|e| {
+        SolverError::Failed(format!(
+            "cannot create the checkpoint directory '{}': {e}",
+            dir.display()
+        ))
+    })?;
     let path = checkpoint::node_file(&opts.run_dir, opts.role.name(), step);
-    checkpoint::write_file(&path, &file).map_err(SolverError::Failed)
+    checkpoint::write_file(&path, opts.role.name(), step, &file).map_err(SolverError::Failed)
 }
 
 /// Restores this node from its checkpoint `resume`, after checking that it is this node's,
 /// for this scene and solver, at the step the coupler resumes.
 fn restore(side: &mut dyn Side, opts: &Options, resume: &Resume) -> Result<(), SolverError> {
     let path = checkpoint::node_file(&opts.run_dir, opts.role.name(), resume.step);
-    let file: NodeCheckpoint = checkpoint::read_file(&path).map_err(SolverError::Failed)?;
+    let file: NodeCheckpoint = checkpoint::read_file(&path, opts.role.name(), resume.step)
+        .map_err(|e| SolverError::Failed(e.to_string()))?;
     let expected = opts.header(side.solver().name(), resume.step, resume.time);
     file.header
         .check(&expected, &path)

@@ -52,7 +52,7 @@ impl Session {
             failures.push(failure);
             restarts += 1;
             transport::remove_run_files(&id);
-            let back = match crate::run::checkpoint::latest(dir.path()) {
+            let back = match crate::run::checkpoint::latest(dir.path(), &opts.scene) {
                 Ok(Some(ck)) => crate::run::checkpoint::rollback(dir.path(), &ck)
                     .and_then(|_| {
                         dir.restore_series(ck.particles.clone(), ck.blocks.clone())
