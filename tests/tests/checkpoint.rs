@@ -217,6 +217,64 @@ fn parallel_checkpoints_change_nothing_and_a_killed_coupler_resumes_exactly() {
     cleanup(&[&a, &b, &c]);
 }
 
+/// Checkpoints every few wall-clock milliseconds change nothing (against `--no-checkpoints`);
+/// a `--resume` of a run directory while its run goes on is refused at once, naming the
+/// directory and the running coupler's pid; nine flipped bits in the last solid checkpoint are
+/// refused by name, with the checkpoint to fall back to, before anything is cut back.
+#[test]
+fn wall_clock_checkpoints_change_nothing_and_a_resume_is_refused_what_it_cannot_trust() {
+    let (id_a, a) = fresh("ckpt-none");
+    let (id_b, b) = fresh("ckpt-wall");
+    let with = |extra: &[&'static str]| -> Vec<&'static str> {
+        COARSE.iter().chain(extra).copied().collect()
+    };
+    let ra = spawn(&id_a, &a, &with(&["--no-checkpoints"]));
+    let rb = spawn(&id_b, &b, &with(&["--checkpoint-wall-minutes", "0.0005"]));
+    await_checkpoint(&b);
+    let started = std::time::Instant::now();
+    let out = run(resume(&b));
+    let e = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains(&format!(
+            "'{}' is in use by a live coupler (pid {})",
+            b.display(),
+            rb.id()
+        )),
+        "{e}"
+    );
+    assert!(
+        started.elapsed() < Duration::from_secs(5),
+        "refused at once"
+    );
+    let log = finish(ra, "the run without checkpoints");
+    assert!(log.contains("no checkpoints (--no-checkpoints)"), "{log}");
+    finish(rb, "the run with wall-clock checkpoints");
+    assert_identical(&a, &b, "wall-clock checkpoints against none");
+    assert!(summary(&b)["stats"]["checkpoints"].as_u64().unwrap() >= 2);
+    assert!(!a.join("checkpoints").exists());
+
+    // Nine bits flipped in the last solid checkpoint: refused by name, nothing cut back.
+    let step = newest_checkpoint(&b).unwrap();
+    let solid = shared::checkpoint::node_file(&b, "solid", step);
+    let mut bytes = std::fs::read(&solid).unwrap();
+    for k in 0..9 {
+        let at = bytes.len() / 2 + 7 * k;
+        bytes[at] ^= 0x04;
+    }
+    std::fs::write(&solid, bytes).unwrap();
+    let out = run(resume(&b));
+    let e = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains(&format!("'{}' is damaged", solid.display()))
+            && e.contains("to continue from the checkpoint before it"),
+        "{e}"
+    );
+    assert_identical(&a, &b, "a refused resume cuts nothing back");
+    cleanup(&[&a, &b]);
+}
+
 /// DFSPH moving the wedge inside its solve, multi-rate: the solid's look-ahead (the wedge's
 /// response over the coming step, sent with its geometry) is in the solid's checkpoint, so a
 /// killed coupler resumes to the byte of the uninterrupted run (sent again as the block on its

@@ -255,3 +255,67 @@ fn free_port() -> Result<u16, String> {
         .map(|a| a.port())
         .map_err(|e| format!("cannot find a free TCP port on 127.0.0.1: {e}"))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    fn run_args(words: &[&str]) -> RunArgs {
+        let cli = crate::cli::Cli::try_parse_from(["coupler", "run"].iter().chain(words))
+            .map_err(|e| e.to_string())
+            .unwrap();
+        match cli.command {
+            crate::cli::Cmd::Run(args) => *args,
+            _ => unreachable!(),
+        }
+    }
+
+    fn wall_minutes(words: &[&str], scene: &Scene) -> Option<f64> {
+        check_flags(&run_args(words), scene, None)
+            .unwrap()
+            .checkpoint_wall_minutes
+    }
+
+    /// A run estimated past 15 minutes checkpoints every 15 wall minutes unless told otherwise;
+    /// a short one, or one that asks for its own checkpoints, does not get them.
+    #[test]
+    fn long_runs_checkpoint_by_default() {
+        let mut short = Scene::default_scene();
+        short.set_dx(0.08);
+        short.time.end = 0.1;
+        assert!(estimated_wall_seconds(&short, None, 0.0).unwrap() < 60.0);
+        assert_eq!(wall_minutes(&[], &short), None);
+        let mut long = Scene::default_scene();
+        long.set_dx(0.01);
+        let s = estimated_wall_seconds(&long, None, 0.0).unwrap();
+        assert!(s > DEFAULT_CHECKPOINT_MINUTES * 60.0, "{s}");
+        assert!(
+            estimated_wall_seconds(&long, None, long.time.end * 0.5).unwrap() < 0.51 * s,
+            "a resumed run is estimated over what is left"
+        );
+        assert_eq!(wall_minutes(&[], &long), Some(DEFAULT_CHECKPOINT_MINUTES));
+        assert_eq!(wall_minutes(&["--no-checkpoints"], &long), None);
+        assert_eq!(
+            wall_minutes(&["--checkpoint-interval", "0.5"], &long),
+            None,
+            "checkpoints asked for"
+        );
+        assert_eq!(
+            wall_minutes(&["--checkpoint-wall-minutes", "3"], &long),
+            Some(3.0)
+        );
+        let both = crate::cli::Cli::try_parse_from([
+            "coupler",
+            "run",
+            "--no-checkpoints",
+            "--checkpoint-interval",
+            "1",
+        ]);
+        assert!(both.is_err(), "--no-checkpoints with a checkpoint flag");
+        let mut scene_asks = long.clone();
+        scene_asks.output.checkpoint_interval = Some(1.0);
+        let checked = check_flags(&run_args(&["--no-checkpoints"]), &scene_asks, None).unwrap();
+        assert_eq!(checked.checkpoint_interval, None, "not even the scene's");
+    }
+}
