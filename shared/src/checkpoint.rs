@@ -112,6 +112,9 @@ pub fn decode<T: DeserializeOwned>(bytes: &[u8], what: &str) -> Result<T, String
 pub struct Refused {
     pub problem: String,
     pub fix: String,
+    /// Whether the file is lost (damaged, cut, unreadable), so that falling back to an earlier
+    /// checkpoint is the fix, rather than a file to put right (renamed, of another version).
+    pub lost: bool,
 }
 
 impl std::fmt::Display for Refused {
@@ -172,6 +175,7 @@ pub fn read_file<T: DeserializeOwned>(path: &Path, owner: &str, step: u64) -> Re
     .map_err(|problem| Refused {
         problem,
         fix: "resume it with the build that wrote it, or start the run again".into(),
+        lost: false,
     })
 }
 
@@ -183,11 +187,18 @@ pub fn verify_file(path: &Path, owner: &str, step: u64) -> Result<(), Refused> {
 
 /// The whole file, once its envelope is checked.
 fn read_checked(path: &Path, owner: &str, step: u64) -> Result<Vec<u8>, Refused> {
-    let name = path.display();
     let bytes = read_regular(path)?;
+    check(&bytes, path, owner, step)?;
+    Ok(bytes)
+}
+
+/// Checks the envelope of the bytes of file `path`, as `owner`'s checkpoint after `step` steps.
+fn check(bytes: &[u8], path: &Path, owner: &str, step: u64) -> Result<(), Refused> {
+    let name = path.display();
     let refuse = |problem: String| Refused {
         problem: format!("checkpoint '{name}' {problem}"),
         fix: DAMAGED_FIX.into(),
+        lost: true,
     };
     if bytes.len() < 12 && MAGIC.starts_with(&bytes[..bytes.len().min(8)]) {
         return Err(refuse(format!(
@@ -213,6 +224,7 @@ fn read_checked(path: &Path, owner: &str, step: u64) -> Result<Vec<u8>, Refused>
                 }
             ),
             fix: "resume it with the build that wrote it, or start the run again".into(),
+            lost: false,
         });
     }
     if bytes.len() < HEADER_LEN + CHECKSUM_LEN {
@@ -254,6 +266,7 @@ fn read_checked(path: &Path, owner: &str, step: u64) -> Result<Vec<u8>, Refused>
                 "checkpoint '{name}' is the {held_owner} checkpoint of step {held_step}, not the {owner} one its name says: it was renamed or copied over"
             ),
             fix: RENAMED_FIX.into(),
+            lost: false,
         });
     }
     if held_step != step {
@@ -261,7 +274,8 @@ fn read_checked(path: &Path, owner: &str, step: u64) -> Result<Vec<u8>, Refused>
             problem: format!(
                 "checkpoint '{name}' holds step {held_step}, its name says step {step}: it was renamed or copied over"
             ),
-            fix: format!("{RENAMED_FIX} ({owner}-{held_step:010}.ckpt)"),
+            fix: format!("give it back its own name ({owner}-{held_step:010}.ckpt), or remove it"),
+            lost: false,
         });
     }
     if announced.checked_add(whole) != Some(bytes.len() as u64) {
@@ -270,7 +284,7 @@ fn read_checked(path: &Path, owner: &str, step: u64) -> Result<Vec<u8>, Refused>
             bytes.len()
         )));
     }
-    Ok(bytes)
+    Ok(())
 }
 
 /// The bytes of a regular file (a pipe or device named as a checkpoint could block or never
@@ -279,6 +293,7 @@ fn read_regular(path: &Path) -> Result<Vec<u8>, Refused> {
     let cannot = |e: std::io::Error| Refused {
         problem: format!("cannot read the checkpoint '{}': {e}", path.display()),
         fix: DAMAGED_FIX.into(),
+        lost: true,
     };
     let mut f = std::fs::File::open(path).map_err(cannot)?;
     let meta = f.metadata().map_err(cannot)?;
@@ -289,6 +304,7 @@ fn read_regular(path: &Path) -> Result<Vec<u8>, Refused> {
                 path.display()
             ),
             fix: "remove it".into(),
+            lost: false,
         });
     }
     let mut bytes = Vec::with_capacity(meta.len() as usize);
@@ -427,8 +443,7 @@ mod tests {
                 }
                 let mut bad = good.clone();
                 bad[byte] ^= 1 << bit;
-                std::fs::write(&path, &bad).unwrap();
-                let e = read_file::<Value>(&path, "solid", 42)
+                let e = check(&bad, &path, "solid", 42)
                     .err()
                     .unwrap_or_else(|| panic!("bit {bit} of byte {byte} flipped was read"))
                     .to_string();
@@ -453,8 +468,7 @@ mod tests {
         let (_dir, path, _) = written();
         let good = std::fs::read(&path).unwrap();
         for len in 0..good.len() {
-            std::fs::write(&path, &good[..len]).unwrap();
-            let e = read_file::<Value>(&path, "solid", 42)
+            let e = check(&good[..len], &path, "solid", 42)
                 .unwrap_err()
                 .to_string();
             assert!(e.contains("is truncated"), "cut to {len} bytes: {e}");

@@ -154,7 +154,12 @@ pub fn latest(run_dir: &Path, scene: &Scene) -> Result<Option<CouplerCheckpoint>
     checked(run_dir, step, &roles).map(Some).map_err(|e| {
         let fix = match steps.get(1) {
             Some(before) => format!(
-                "to continue from the checkpoint before it (step {before}), delete this step's files: rm {}",
+                "{}to continue from the checkpoint before it (step {before}), delete this step's files: rm {}",
+                if e.lost {
+                    String::new()
+                } else {
+                    format!("{}; or, ", e.fix)
+                },
                 step_files(run_dir, step).join(" ")
             ),
             None => format!(

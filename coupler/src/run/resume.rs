@@ -63,12 +63,12 @@ fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
         let (what, fix) = if terrain.is_empty() {
             (
                 "scene.toml is".to_string(),
-                "restore the run's own scene.toml",
+                "restore the run's own scene.toml (and its own checkpoints/, if these were copied from another run)",
             )
         } else {
             (
                 format!("scene.toml or its terrain file ({}) is", terrain.join(", ")),
-                "restore the run's own scene.toml and terrain files (a terrain file changed under the same path is another run)",
+                "restore the run's own scene.toml, terrain files (a terrain file changed under the same path is another run) and checkpoints/",
             )
         };
         return Err(format!(
