@@ -165,7 +165,9 @@ pub struct RunArgs {
     pub no_checkpoints: bool,
     /// Continue the run in RUN_DIR from its last complete checkpoint, with the scene, solvers
     /// and scheme it was started with; its CSV files are cut back and its later frames removed
-    /// first, so the finished run is identical to an uninterrupted one.
+    /// first, so the finished run is identical to an uninterrupted one. A damaged, cut, renamed
+    /// or foreign checkpoint file is refused by name first; a directory another coupler is
+    /// running in is refused with its pid.
     #[arg(long, value_name = "RUN_DIR", conflicts_with_all = ["scene", "out", "dx", "target_error", "end", "dt_max", "solid_substeps", "added_mass"])]
     pub resume: Option<PathBuf>,
     /// Restart a node that dies or hangs up to N times: every node goes back to the last
