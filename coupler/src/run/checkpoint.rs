@@ -174,12 +174,14 @@ pub fn latest(run_dir: &Path, scene: &Scene) -> Result<Option<CouplerCheckpoint>
     })
 }
 
-/// Checkpoint `step`'s coupler file, read, once every node file `roles` needs is checked.
+/// Checkpoint `step`'s coupler file, read (first: the file that makes the checkpoint), once
+/// every node file `roles` needs is checked too.
 fn checked(run_dir: &Path, step: u64, roles: &[&str]) -> Result<CouplerCheckpoint, files::Refused> {
+    let ck = files::read_file(&files::coupler_file(run_dir, step), COUPLER, step)?;
     for role in roles {
         files::verify_file(&files::node_file(run_dir, role, step), role, step)?;
     }
-    files::read_file(&files::coupler_file(run_dir, step), COUPLER, step)
+    Ok(ck)
 }
 
 /// The files of checkpoint `step` in a run directory, for a message.
@@ -365,13 +367,12 @@ mod tests {
             files::coupler_file(run.path(), 50),
         )
         .unwrap();
-        std::fs::copy(
-            files::node_file(run.path(), "fluid", 10),
-            files::node_file(run.path(), "fluid", 50),
-        )
-        .unwrap();
         let e = latest(run.path(), &scene).unwrap_err();
-        assert!(e.contains("holds step 10, its name says step 50"), "{e}");
+        assert!(
+            e.contains("coupler-0000000050.ckpt' holds step 10, its name says step 50")
+                && e.contains("give it back its own name (coupler-0000000010.ckpt)"),
+            "{e}"
+        );
         std::fs::rename(
             files::coupler_file(run.path(), 50),
             files::coupler_file(run.path(), 10),
