@@ -150,12 +150,14 @@ pub struct PlaneFamily {
 impl PlaneFamily {
     /// The planes of the family strictly inside (lo, hi) (by more than `tol`), in increasing
     /// order of offset.
+    /// The plane indices are counted in floating point ([`Self::count_within`]), so a base
+    /// far from the cell (an offset of 1e300) yields no plane instead of an index range that
+    /// saturates (and wraps) in integers.
     pub fn planes_within(&self, lo: Real, hi: Real, tol: Real) -> impl Iterator<Item = Plane> {
-        let k0 = ((lo + tol - self.base) / self.spacing).floor() as i64 + 1;
-        let k1 = ((hi - tol - self.base) / self.spacing).ceil() as i64 - 1;
+        let k0 = ((lo + tol - self.base) / self.spacing).floor() + 1.0;
         let fam = *self;
-        (k0..=k1.max(k0 - 1)).filter_map(move |k| {
-            let offset = fam.base + k as Real * fam.spacing;
+        (0..self.count_within(lo, hi, tol)).filter_map(move |i| {
+            let offset = fam.base + (k0 + i as Real) * fam.spacing;
             (offset > lo + tol && offset < hi - tol).then_some(Plane {
                 normal: fam.normal,
                 offset,
@@ -313,6 +315,14 @@ mod tests {
         assert_eq!(offs, vec![0.25, 0.5, 0.75]);
         assert_eq!(fam.count_within(0.0, 1.0, 1e-9), 3);
         assert_eq!(fam.count_within(0.1, 0.2, 1e-9), 0);
+        // A base far away gives no plane, at once (the index range used to wrap).
+        let far = PlaneFamily { base: 1e300, ..fam };
+        assert_eq!(far.planes_within(0.0, 1.0, 1e-9).count(), 0);
+        let far = PlaneFamily {
+            base: -1e300,
+            ..fam
+        };
+        assert_eq!(far.planes_within(0.0, 1.0, 1e-9).count(), 0);
     }
 
     #[test]

@@ -150,6 +150,7 @@ impl Scene {
     pub fn validate(&self) -> Vec<FieldError> {
         let mut errors = validate::validate(self);
         slide::attribute(self, &mut errors);
+        errors.extend(slide::spacing_errors(self));
         errors
     }
 
