@@ -17,8 +17,21 @@ pub fn describe(scene: &Scene) -> Vec<String> {
 }
 
 /// Writes every block cut from a slide to `path` (VTK PolyData, `.vtp`) with, per block, the
-/// slide's index, the block's index within it and its volume [m³] as cell data.
+/// slide's index, the block's index within it and its volume [m³] as cell data. The file is
+/// written beside `path` and renamed over it, so a `path` that is not a regular file (a device
+/// such as /dev/full, a pipe, a directory) is refused before anything is written: the rename
+/// would replace it, and report success.
 pub fn write_vtk(scene: &Scene, path: &Path) -> Result<usize, String> {
+    if let Ok(meta) = std::fs::metadata(path)
+        && !meta.is_file()
+    {
+        return Err(format!(
+            "cannot write {}: not a regular file (a device, a pipe or a directory); the blocks \
+             are written beside it and renamed over it, which would replace it. Fix: name a \
+             .vtp file, e.g. --slides-vtk blocks.vtp",
+            path.display()
+        ));
+    }
     let mut corners: Vec<Vec<[f64; 3]>> = Vec::new();
     let mut faces: Vec<Vec<Vec<u32>>> = Vec::new();
     let (mut slide, mut index, mut volume) = (Vec::new(), Vec::new(), Vec::new());
@@ -77,5 +90,29 @@ mod tests {
         assert_eq!(vol.len(), 24);
         assert!(vol.iter().all(|v| (v - 1.0).abs() < 1e-12), "{vol:?}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_device_or_a_directory_is_refused_and_write_errors_are_named() {
+        let text = "name = \"s\"\n[time]\nend = 0.1\n[domain]\nmin = [-5, -5, -5]\nmax = [5, 5, 5]\n\
+            [[slide]]\nname = \"r\"\nregion = { type = \"box\", min = [0, 0, 0], max = [2, 2, 1] }\n\
+            [[slide.joint_set]]\ndip = 90\ndip_direction = 90\nspacing = 1\n";
+        let scene = Scene::parse(text, "t").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        for path in [Path::new("/dev/full"), dir.path()] {
+            let msg = write_vtk(&scene, path).unwrap_err();
+            assert!(
+                msg.contains(&path.display().to_string())
+                    && msg.contains("not a regular file")
+                    && msg.contains("Fix:"),
+                "{msg}"
+            );
+        }
+        let missing = dir.path().join("no/such/dir/blocks.vtp");
+        let msg = write_vtk(&scene, &missing).unwrap_err();
+        assert!(
+            msg.contains("blocks.vtp") && msg.contains("os error"),
+            "{msg}"
+        );
     }
 }
