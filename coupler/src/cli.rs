@@ -28,6 +28,10 @@ pub enum Cmd {
         /// inspect them before the run.
         #[arg(long, value_name = "FILE")]
         slides_vtk: Option<std::path::PathBuf>,
+        /// Pass a scene whose run is estimated to take more than 48 h of wall time or 10⁸
+        /// steps (otherwise an error naming the field that makes it crawl).
+        #[arg(long)]
+        allow_long: bool,
     },
     /// Remove shared memory left behind by runs whose processes were all killed: every dead
     /// run with a generated id (rw…), and the runs named here (ids given with --run-id).
@@ -174,6 +178,11 @@ pub struct RunArgs {
         default_value_t = 0
     )]
     pub retries: u32,
+    /// Start a run estimated to take more than 48 h of wall time or 10⁸ steps (`coupler
+    /// check` prints the estimate); without it such a run is refused, naming the field that
+    /// makes it crawl (time.dt_max, fluid.kinematic_viscosity, fluid.dx).
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 #[cfg(test)]
