@@ -59,9 +59,9 @@ pub enum Cmd {
         /// Render each frame to PNG with `povray` (must be installed).
         #[arg(long)]
         render: bool,
-        #[arg(long, allow_negative_numbers = true, default_value_t = 960)]
+        #[arg(long, allow_hyphen_values = true, default_value_t = 960)]
         width: u32,
-        #[arg(long, allow_negative_numbers = true, default_value_t = 540)]
+        #[arg(long, allow_hyphen_values = true, default_value_t = 540)]
         height: u32,
     },
 }
@@ -85,28 +85,28 @@ pub struct RunArgs {
     /// Multi-rate coupling: the solid takes up to N steps of its own per coupling step, with
     /// the water's loads held (overrides the scene's `[coupling] solid_substeps`; 1 is
     /// single-rate).
-    #[arg(long, allow_negative_numbers = true, value_name = "N")]
+    #[arg(long, allow_hyphen_values = true, value_name = "N")]
     pub solid_substeps: Option<u32>,
     /// Added-mass stabilisation: under-relax the water's loads on each block as if it carried
     /// C × ρ_water × its volume of artificial added mass (overrides the scene's `[coupling]
     /// added_mass`; 0 is off).
-    #[arg(long, allow_negative_numbers = true, value_name = "C")]
+    #[arg(long, allow_hyphen_values = true, value_name = "C")]
     pub added_mass: Option<f64>,
     /// Particle spacing [m] (overrides the scene's fluid.dx), for quick coarse runs.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub dx: Option<f64>,
     /// Pick the particle spacing for this relative error of the dam-break surge front, from
     /// the convergence curve `coupler chart` measured (docs/charts/fluid_convergence.csv,
     /// compiled in); prints the spacing chosen and why. Exclusive with --dx.
-    #[arg(long, allow_negative_numbers = true, conflicts_with = "dx")]
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "dx")]
     pub target_error: Option<f64>,
     /// Simulated end time [s] (overrides the scene's time.end).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub end: Option<f64>,
     /// Largest coupling step [s] (overrides the scene's time.dt_max): lets an incompressible
     /// fluid (dfsph) take its own longer step, e.g. `--fluid-solver dfsph --solid-substeps 8
     /// --dt-max 0.002`.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub dt_max: Option<f64>,
     /// Run directory (default: runs/<scene>-<run id>). Must not exist or be empty.
     #[arg(long)]
@@ -139,29 +139,29 @@ pub struct RunArgs {
     #[arg(long, value_name = "ENDPOINT")]
     pub connect: Vec<String>,
     /// Seconds to wait for the nodes to start and say hello.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 30.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 30.0)]
     pub connect_timeout: f64,
     /// Seconds a node may stay silent within one step before it is declared hung.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 60.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 60.0)]
     pub step_timeout: f64,
     /// Seconds the nodes may take to set up (build the solvers, fill the water) before a node
     /// that has not reported ready is declared hung.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 600.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 600.0)]
     pub setup_timeout: f64,
     /// Multiply every granted step by this factor (stability experiments).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1.0)]
     pub dt_factor: f64,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
     /// Checkpoint every this many simulated seconds (overrides the scene's
     /// `output.checkpoint_interval`). Checkpoints never change the steps taken.
-    #[arg(long, allow_negative_numbers = true, value_name = "SECONDS")]
+    #[arg(long, allow_hyphen_values = true, value_name = "SECONDS")]
     pub checkpoint_interval: Option<f64>,
     /// Checkpoint every this many wall-clock minutes (overrides the scene's
     /// `output.checkpoint_wall_minutes`; 10 when --retries is given and no checkpoint is asked
     /// for).
-    #[arg(long, allow_negative_numbers = true, value_name = "MINUTES")]
+    #[arg(long, allow_hyphen_values = true, value_name = "MINUTES")]
     pub checkpoint_wall_minutes: Option<f64>,
     /// Continue the run in RUN_DIR from its last complete checkpoint, with the scene, solvers
     /// and scheme it was started with; its CSV files are cut back and its later frames removed
@@ -173,7 +173,7 @@ pub struct RunArgs {
     /// same step stops the run.
     #[arg(
         long,
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         value_name = "N",
         default_value_t = 0
     )]
@@ -198,8 +198,8 @@ mod tests {
         }
     }
 
-    /// Every numeric flag takes a negative number, so that our own checks name the field and
-    /// the fix (clap alone said "unexpected argument '-1'").
+    /// Every numeric flag takes a negative number (also in exponent form), so that our own
+    /// checks name the field and the fix (clap alone said "unexpected argument '-1'").
     #[test]
     fn negative_numbers_after_flags_reach_our_checks() {
         for flag in [
@@ -216,6 +216,7 @@ mod tests {
             "--checkpoint-wall-minutes",
         ] {
             run_args(&[flag, "-1"]);
+            run_args(&[flag, "-1e-3"]);
         }
         // An unsigned flag's negative value is named by clap with the flag.
         let err = Cli::try_parse_from(["coupler", "run", "--retries", "-1"]).unwrap_err();

@@ -23,19 +23,19 @@ pub struct TerrainBenchArgs {
     /// Terrain sizes to time, in triangles (about: the DEM is a whole number of cells).
     #[arg(
         long,
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         value_delimiter = ',',
         default_value = "100000,1000000"
     )]
     pub triangles: Vec<usize>,
     /// Timed fluid steps per variant and round.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 20)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 20)]
     pub fluid_steps: usize,
     /// Timed solid steps per variant and round.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 2000)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 2000)]
     pub solid_steps: usize,
     /// Rounds: each variant is timed once per round, in turn.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 5)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 5)]
     pub rounds: usize,
 }
 
