@@ -6,6 +6,7 @@ use coupler::{run, studies};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    run::slides::show_cutting_progress();
     let code = match Cli::parse().command {
         Cmd::Run(args) => run::command::run(*args),
         Cmd::Check {

@@ -6,6 +6,39 @@ use shared::geometry::Polyhedron;
 use shared::scene::Scene;
 use std::path::Path;
 
+/// Draws a progress bar on stderr (a terminal only) while a slide's cutting takes more than a
+/// second ([`shared::scene::slide::report_cutting_progress`]); set once when the coupler starts.
+pub fn show_cutting_progress() {
+    use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+    static BAR: std::sync::Mutex<Option<ProgressBar>> = std::sync::Mutex::new(None);
+    shared::scene::slide::report_cutting_progress(Box::new(|p| {
+        let Ok(mut bar) = BAR.lock() else { return };
+        if p.done {
+            if let Some(b) = bar.take() {
+                b.finish_and_clear();
+            }
+            return;
+        }
+        let b = bar.get_or_insert_with(|| {
+            let b = ProgressBar::with_draw_target(
+                Some(p.expected as u64),
+                ProgressDrawTarget::stderr(),
+            );
+            b.set_style(
+                ProgressStyle::with_template("{bar:30} {pos}/{len} blocks, {msg} ({elapsed})")
+                    .expect("valid template")
+                    .progress_chars("=> "),
+            );
+            b
+        });
+        b.set_message(format!(
+            "cutting slide '{}', joint set {}/{}",
+            p.slide, p.set, p.sets
+        ));
+        b.set_position(p.pieces as u64);
+    }));
+}
+
 /// One line per slide.
 pub fn describe(scene: &Scene) -> Vec<String> {
     scene

@@ -192,16 +192,18 @@ pub struct Cut {
 
 /// Cuts `region` by every plane of every family, in order. Stops (without allocating more) as
 /// soon as the cell count exceeds `max_cells`: the count only grows as the cutting proceeds.
+/// `progress(k, n)` is told after each cell is cut by family `k` that the pass holds `n` cells.
 pub fn cut(
     region: Cell,
     families: &[PlaneFamily],
     tol: Real,
     max_cells: usize,
+    progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Cut, TooMany> {
     let mut cells = vec![region];
     let mut degenerate = 0;
     let mut planes_used = Vec::with_capacity(families.len());
-    for fam in families {
+    for (k, fam) in families.iter().enumerate() {
         let mut used = std::collections::BTreeSet::new();
         let mut next = Vec::with_capacity(cells.len());
         for cell in cells {
@@ -234,6 +236,7 @@ pub fn cut(
             if let Some(c) = rest {
                 next.push(c);
             }
+            progress(k, next.len());
             if next.len() > max_cells {
                 return Err(TooMany {
                     reached: next.len(),
@@ -337,7 +340,28 @@ mod tests {
             &[fam(Vector::x()), fam(Vector::y()), fam(Vector::z())],
             1e-12,
             50,
+            &mut |_, _| {},
         );
         assert_eq!(r.unwrap_err().reached, 51);
+    }
+
+    #[test]
+    fn progress_is_told_each_pass_up_to_the_cells_made() {
+        let fam = |n: Vector| PlaneFamily {
+            normal: n,
+            base: 0.0,
+            spacing: 0.5,
+        };
+        let mut seen = Vec::new();
+        let c = cut(
+            cube(1.0),
+            &[fam(Vector::x()), fam(Vector::y())],
+            1e-12,
+            100,
+            &mut |k, n| seen.push((k, n)),
+        )
+        .unwrap();
+        assert_eq!(seen, vec![(0, 2), (1, 2), (1, 4)]);
+        assert_eq!(c.cells.len(), 4);
     }
 }

@@ -282,8 +282,30 @@ pub fn cut_slide(i: usize, s: &SlideSpec) -> Result<(Vec<BlockSpec>, SlideCut), 
     if bound > 100.0 * s.max_blocks as f64 {
         return Err(too_many(format!("about {bound:.3e}")));
     }
-    let cut = cutting::cut(cell, &families, tol, s.max_blocks)
-        .map_err(|e| too_many(format!("more than {}", e.reached - 1)))?;
+    let started = std::time::Instant::now();
+    let expected = bound.min(s.max_blocks as f64) as usize;
+    let progress = |set: usize, pieces: usize, done: bool| CuttingProgress {
+        slide: &s.name,
+        set,
+        sets: families.len(),
+        pieces,
+        expected,
+        done,
+    };
+    let mut shown = false;
+    let mut report = |k: usize, pieces: usize| {
+        if let Some(p) = PROGRESS.get()
+            && started.elapsed() > PROGRESS_AFTER
+        {
+            shown = true;
+            p(&progress(k + 1, pieces, false));
+        }
+    };
+    let cut = cutting::cut(cell, &families, tol, s.max_blocks, &mut report);
+    if let Some(p) = PROGRESS.get().filter(|_| shown) {
+        p(&progress(families.len(), expected, true));
+    }
+    let cut = cut.map_err(|e| too_many(format!("more than {}", e.reached - 1)))?;
     let region_volume = poly.volume;
     let min_block_volume = s
         .min_block_volume
@@ -387,6 +409,36 @@ pub(super) fn spacing_errors(scene: &Scene) -> Vec<FieldError> {
             )
         })
         .collect()
+}
+
+/// How far a slide's cutting is, for a progress bar ([`report_cutting_progress`]).
+#[derive(Debug, Clone)]
+pub struct CuttingProgress<'a> {
+    /// The slide's name.
+    pub slide: &'a str,
+    /// The joint set cutting now (1-based) and how many there are.
+    pub set: usize,
+    pub sets: usize,
+    /// Pieces after this set so far, and the most expected at the end (the smaller of the
+    /// sets' bound and `max_blocks`).
+    pub pieces: usize,
+    pub expected: usize,
+    /// The cutting of this slide is over.
+    pub done: bool,
+}
+
+/// Where the cutting's progress goes.
+pub type CuttingReport = dyn Fn(&CuttingProgress<'_>) + Send + Sync;
+
+static PROGRESS: std::sync::OnceLock<Box<CuttingReport>> = std::sync::OnceLock::new();
+
+/// Cutting shorter than this reports no progress.
+const PROGRESS_AFTER: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// Sets, once per process, where the cutting of a slide that takes more than a second reports
+/// its progress (the coupler draws a bar; the nodes set nothing and cut silently).
+pub fn report_cutting_progress(report: Box<CuttingReport>) {
+    let _ = PROGRESS.set(report);
 }
 
 /// Joint sets whose triples [`fewest_pieces`] tries (the first ones; a slide has a handful).
