@@ -161,7 +161,11 @@ fn check_fields(i: usize, s: &SlideSpec) -> Vec<FieldError> {
                 "give the distance between joints in metres",
             ));
         }
-        if js.offset.iter().any(|x| !x.is_finite() || x.abs() > MAX_OFFSET) {
+        if js
+            .offset
+            .iter()
+            .any(|x| !x.is_finite() || x.abs() > MAX_OFFSET)
+        {
             errors.push(fail(
                 i,
                 &f("offset"),
