@@ -28,6 +28,10 @@ pub enum Cmd {
         /// inspect them before the run.
         #[arg(long, value_name = "FILE")]
         slides_vtk: Option<std::path::PathBuf>,
+        /// Pass a scene whose run is estimated to take more than 48 h of wall time or 10⁸
+        /// steps (otherwise an error naming the field that makes it crawl).
+        #[arg(long)]
+        allow_long: bool,
     },
     /// Remove shared memory left behind by runs whose processes were all killed: every dead
     /// run with a generated id (rw…), and the runs named here (ids given with --run-id).
@@ -55,9 +59,9 @@ pub enum Cmd {
         /// Render each frame to PNG with `povray` (must be installed).
         #[arg(long)]
         render: bool,
-        #[arg(long, default_value_t = 960)]
+        #[arg(long, allow_hyphen_values = true, default_value_t = 960)]
         width: u32,
-        #[arg(long, default_value_t = 540)]
+        #[arg(long, allow_hyphen_values = true, default_value_t = 540)]
         height: u32,
     },
 }
@@ -81,28 +85,28 @@ pub struct RunArgs {
     /// Multi-rate coupling: the solid takes up to N steps of its own per coupling step, with
     /// the water's loads held (overrides the scene's `[coupling] solid_substeps`; 1 is
     /// single-rate).
-    #[arg(long, value_name = "N")]
+    #[arg(long, allow_hyphen_values = true, value_name = "N")]
     pub solid_substeps: Option<u32>,
     /// Added-mass stabilisation: under-relax the water's loads on each block as if it carried
     /// C × ρ_water × its volume of artificial added mass (overrides the scene's `[coupling]
     /// added_mass`; 0 is off).
-    #[arg(long, value_name = "C")]
+    #[arg(long, allow_hyphen_values = true, value_name = "C")]
     pub added_mass: Option<f64>,
     /// Particle spacing [m] (overrides the scene's fluid.dx), for quick coarse runs.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub dx: Option<f64>,
     /// Pick the particle spacing for this relative error of the dam-break surge front, from
     /// the convergence curve `coupler chart` measured (docs/charts/fluid_convergence.csv,
     /// compiled in); prints the spacing chosen and why. Exclusive with --dx.
-    #[arg(long, conflicts_with = "dx")]
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "dx")]
     pub target_error: Option<f64>,
     /// Simulated end time [s] (overrides the scene's time.end).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub end: Option<f64>,
     /// Largest coupling step [s] (overrides the scene's time.dt_max): lets an incompressible
     /// fluid (dfsph) take its own longer step, e.g. `--fluid-solver dfsph --solid-substeps 8
     /// --dt-max 0.002`.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub dt_max: Option<f64>,
     /// Run directory (default: runs/<scene>-<run id>). Must not exist or be empty.
     #[arg(long)]
@@ -135,29 +139,29 @@ pub struct RunArgs {
     #[arg(long, value_name = "ENDPOINT")]
     pub connect: Vec<String>,
     /// Seconds to wait for the nodes to start and say hello.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 30.0)]
     pub connect_timeout: f64,
     /// Seconds a node may stay silent within one step before it is declared hung.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 60.0)]
     pub step_timeout: f64,
     /// Seconds the nodes may take to set up (build the solvers, fill the water) before a node
     /// that has not reported ready is declared hung.
-    #[arg(long, default_value_t = 600.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 600.0)]
     pub setup_timeout: f64,
     /// Multiply every granted step by this factor (stability experiments).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1.0)]
     pub dt_factor: f64,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
     /// Checkpoint every this many simulated seconds (overrides the scene's
     /// `output.checkpoint_interval`). Checkpoints never change the steps taken.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, allow_hyphen_values = true, value_name = "SECONDS")]
     pub checkpoint_interval: Option<f64>,
     /// Checkpoint every this many wall-clock minutes (overrides the scene's
     /// `output.checkpoint_wall_minutes`). When no checkpoint is asked for: 10 with --retries,
     /// else 15 when the run is estimated to take longer than that (see --no-checkpoints).
-    #[arg(long, value_name = "MINUTES")]
+    #[arg(long, allow_hyphen_values = true, value_name = "MINUTES")]
     pub checkpoint_wall_minutes: Option<f64>,
     /// No checkpoints at all: not the scene's, not those a long run (or --retries) writes by
     /// default. A run killed then starts again from t = 0.
@@ -173,6 +177,62 @@ pub struct RunArgs {
     /// Restart a node that dies or hangs up to N times: every node goes back to the last
     /// checkpoint (t = 0 without one) and the run continues; a node that fails again at the
     /// same step stops the run.
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        value_name = "N",
+        default_value_t = 0
+    )]
     pub retries: u32,
+    /// Start a run estimated to take more than 48 h of wall time or 10⁸ steps (`coupler
+    /// check` prints the estimate); without it such a run is refused, naming the field that
+    /// makes it crawl (time.dt_max, fluid.kinematic_viscosity, fluid.dx).
+    #[arg(long)]
+    pub allow_long: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    fn run_args(extra: &[&str]) -> RunArgs {
+        let argv = ["coupler", "run"].iter().chain(extra);
+        match Cli::try_parse_from(argv).unwrap().command {
+            Cmd::Run(args) => *args,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// Every numeric flag takes a negative number (also in exponent form), so that our own
+    /// checks name the field and the fix (clap alone said "unexpected argument '-1'").
+    #[test]
+    fn negative_numbers_after_flags_reach_our_checks() {
+        for flag in [
+            "--added-mass",
+            "--dx",
+            "--target-error",
+            "--end",
+            "--dt-max",
+            "--connect-timeout",
+            "--step-timeout",
+            "--setup-timeout",
+            "--dt-factor",
+            "--checkpoint-interval",
+            "--checkpoint-wall-minutes",
+        ] {
+            run_args(&[flag, "-1"]);
+            run_args(&[flag, "-1e-3"]);
+        }
+        // An unsigned flag's negative value is named by clap with the flag.
+        let err = Cli::try_parse_from(["coupler", "run", "--retries", "-1"]).unwrap_err();
+        assert!(err.to_string().contains("--retries"), "{err}");
+        let msg = crate::run::settings::scene(&run_args(&["--end", "-1"]), None).unwrap_err();
+        assert!(
+            msg.contains("time.end = -1.0") && msg.contains("fix:"),
+            "{msg}"
+        );
+        let msg = crate::run::settings::scene(&run_args(&["--dx", "-0.5"]), None).unwrap_err();
+        assert!(msg.contains("--dx -0.5"), "{msg}");
+    }
 }

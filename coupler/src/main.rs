@@ -6,11 +6,14 @@ use coupler::{run, studies};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    run::slides::show_cutting_progress();
     let code = match Cli::parse().command {
         Cmd::Run(args) => run::command::run(*args),
-        Cmd::Check { scene, slides_vtk } => {
-            run::check::run(scene.as_deref(), slides_vtk.as_deref())
-        }
+        Cmd::Check {
+            scene,
+            slides_vtk,
+            allow_long,
+        } => run::check::run(scene.as_deref(), slides_vtk.as_deref(), allow_long),
         Cmd::Clean { run_ids } => run::clean::run(&run_ids),
         Cmd::Povray {
             run_dir,

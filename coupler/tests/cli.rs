@@ -444,6 +444,45 @@ fn runs_too_big_for_the_machine_are_refused_before_anything_is_allocated() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A run estimated to crawl fails `check` and is refused by `run`, naming the field and
+/// `--allow-long`; with `--allow-long` the check passes. Bad scene paths and slide files are
+/// named by both commands.
+#[test]
+fn crawling_runs_and_paths_that_are_no_scene_are_refused() {
+    let dir = temp("crawl");
+    let scene = dir.join("crawl.toml");
+    let text =
+        shared::scene::DEFAULT_SCENE.replacen("dt_max = 1e-3", "dt_max = 1e-9\ndt_min = 1e-12", 1);
+    std::fs::write(&scene, text).unwrap();
+    let o = coupler().arg("check").arg(&scene).output_within(LIMIT);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("time.dt_max = 1e-9") && err.contains("--allow-long"),
+        "{err}"
+    );
+    let o = coupler()
+        .args(["check", "--allow-long"])
+        .arg(&scene)
+        .output_within(LIMIT);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = refused_run(&scene, &dir);
+    assert!(err.contains("time.dt_max = 1e-9"), "{err}");
+    for cmd in ["check", "run"] {
+        let o = coupler().args([cmd, "/dev/zero"]).output_within(LIMIT);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains("'/dev/zero' is not a regular file"), "{err}");
+    }
+    let o = coupler()
+        .args(["check", "--slides-vtk"])
+        .arg(dir.as_ref() as &std::path::Path)
+        .output_within(LIMIT);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("not a regular file"), "{err}");
+}
+
 #[test]
 fn out_pointing_at_a_file_says_it_is_a_file() {
     let dir = temp("outfile");

@@ -625,6 +625,27 @@ fn cases() -> Vec<Case> {
             "[4.95, 0.4]",
         ),
         case(
+            "probe window of 1e-300 s",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nwindow = 1e-300",
+            ),
+            "probe[0].window",
+            "window = 1e-300",
+        ),
+        case(
+            "runup box reaching infinity",
+            plus("[[runup]]\nname = \"beach\"\nmin = [0.0, 0.0]\nmax = [inf, 0.8]"),
+            "runup[0].max",
+            "max = [inf, 0.8]",
+        ),
+        case(
+            "runup box reaching 1e300",
+            plus("[[runup]]\nname = \"beach\"\nmin = [-1e300, 0.0]\nmax = [2.0, 0.8]"),
+            "runup[0].min",
+            "min = [-1e300, 0.0]",
+        ),
+        case(
             "probe window zero",
             edit(
                 "position = [4.95, 0.4, 0.05]",

@@ -2,8 +2,9 @@
 
 use std::path::Path;
 
-/// Runs `coupler check`; returns the process exit code.
-pub fn run(scene: Option<&Path>, slides_vtk: Option<&Path>) -> u8 {
+/// Runs `coupler check`; returns the process exit code. A run estimated to crawl
+/// ([`crate::run::sizes::crawl`]) fails the check unless `allow_long`.
+pub fn run(scene: Option<&Path>, slides_vtk: Option<&Path>, allow_long: bool) -> u8 {
     let loaded = crate::run::scenes::load_as_written(scene);
     match loaded {
         Ok(s) => {
@@ -42,6 +43,14 @@ pub fn run(scene: Option<&Path>, slides_vtk: Option<&Path>) -> u8 {
             }
             if let Some(e) = crate::run::sizes::estimate(&s, None) {
                 println!("estimate: {}", e.describe());
+            }
+            for e in crate::run::sizes::crawl(&s, None) {
+                if allow_long {
+                    eprintln!("coupler: warning (--allow-long): {e}");
+                } else {
+                    eprintln!("coupler: error: {e}");
+                    return 1;
+                }
             }
             println!("solvers:\n{}", crate::run::scenes::solver_list());
             0

@@ -47,8 +47,12 @@ pub fn scene(args: &RunArgs, resume: Option<&Resumed>) -> Result<(Scene, String)
     if let Some(c) = args.added_mass {
         scene.coupling.added_mass = c;
     }
-    // Overrides must leave a valid scene too.
-    let problems = crate::run::scenes::problems(&scene);
+    // Overrides must leave a valid scene too, and one that does not crawl (a resumed run was
+    // let through when it started).
+    let mut problems = crate::run::scenes::problems(&scene);
+    if problems.is_empty() && !args.allow_long && resume.is_none() {
+        problems = crate::run::sizes::crawl(&scene, args.fluid_solver.as_deref());
+    }
     if !problems.is_empty() {
         let list: Vec<String> = problems.iter().map(|e| format!("  {e}")).collect();
         return Err(format!(

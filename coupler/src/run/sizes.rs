@@ -24,6 +24,21 @@ const MEMORY_SHARE: f64 = 0.8;
 /// Layers of boundary particles: the walls are filled one kernel support deep, 2h = 2.6 dx
 /// with the default smoothing ratio 1.3, i.e. three lattice layers.
 const BOUNDARY_LAYERS: f64 = 3.0;
+/// Wall time of one water particle-step [s] in the wall-time estimate: the cheapest measured,
+/// WCSPH and Müller on two threads (9.2·10⁶–1.0·10⁷ particle-steps/s, `fluid-bench`,
+/// docs/PERFORMANCE.md), so that the estimate is a floor: DFSPH costs ~8× more per step, and
+/// the boundary particles and the solid come on top.
+pub const SECONDS_PER_PARTICLE_STEP: f64 = 1e-7;
+/// Wall time of a coupling step without particles [s]: two iceoryx2 round trips in sequence
+/// (12.8–13.2 µs each, `coupling-bench`, docs/PERFORMANCE.md).
+pub const SECONDS_PER_STEP: f64 = 2.6e-5;
+/// Longest estimated wall time `coupler check` passes and `coupler run` starts without
+/// `--allow-long` [s]: two days, past which a run is nearly always a wrong step bound or
+/// spacing rather than a plan.
+pub const MAX_WALL_SECONDS: f64 = 48.0 * 3600.0;
+/// Most estimated steps passed without `--allow-long`: 10⁸ steps take 45 min at the bare
+/// exchange's cost and days with any water; the repository's scenes take 10³–10⁵.
+pub const MAX_STEPS: f64 = 1e8;
 
 /// A scene's estimated cost.
 #[derive(Debug, Clone)]
@@ -48,20 +63,27 @@ pub struct Estimate {
     pub frames: f64,
     /// VTK particle frames on disk [bytes] (zero without VTK).
     pub disk: f64,
+    /// Wall time [s], a floor: steps × ([`SECONDS_PER_STEP`] + water particles ×
+    /// [`SECONDS_PER_PARTICLE_STEP`]).
+    pub wall: f64,
+    /// What sets the estimated step: `time.dt_max`, the viscous limit of
+    /// `fluid.kinematic_viscosity`, or the solver's own step at `fluid.dx`.
+    pub bound_by: &'static str,
 }
 
 impl Estimate {
     /// One line for `coupler check` and the start of a run.
     pub fn describe(&self) -> String {
         format!(
-            "{:.3e} water + {:.3e} boundary particles, about {:.0} MB of memory; about {:.3e} steps of {:.2e} s; {:.0} frames, about {:.0} MB of VTK",
+            "{:.3e} water + {:.3e} boundary particles, about {:.0} MB of memory; about {:.3e} steps of {:.2e} s; {:.0} frames, about {:.0} MB of VTK; {} of wall time or more",
             self.fluid_particles,
             self.boundary_particles,
             self.memory / 1e6,
             self.steps,
             self.dt,
             self.frames,
-            self.disk / 1e6
+            self.disk / 1e6,
+            duration(self.wall)
         )
     }
 }
@@ -107,12 +129,21 @@ pub fn estimate(scene: &Scene, solver: Option<&str>) -> Option<Estimate> {
     let height = (top - bottom).max(dx);
     // The solver's own step for this water (its registry entry); one without an estimate is
     // taken at the scene's largest step.
-    let dt = fluid_node::REGISTRY
-        .get(solver)
-        .ok()
-        .and_then(|e| (e.advice.estimate_dt)(scene, dx, height))
-        .unwrap_or(scene.time.dt_max)
-        .min(scene.time.dt_max);
+    let solver_dt = |scene: &Scene| {
+        fluid_node::REGISTRY
+            .get(solver)
+            .ok()
+            .and_then(|e| (e.advice.estimate_dt)(scene, dx, height))
+    };
+    let own = solver_dt(scene);
+    let dt = own.unwrap_or(scene.time.dt_max).min(scene.time.dt_max);
+    let bound_by = if own.is_none_or(|d| d >= scene.time.dt_max) {
+        "time.dt_max"
+    } else if own < solver_dt(&inviscid(scene)) {
+        "fluid.kinematic_viscosity"
+    } else {
+        "fluid.dx"
+    };
     let frames = scene.time.end / scene.output.interval;
     let disk = if scene.output.vtk {
         let per_particle = match scene.output.vtk_format {
@@ -123,15 +154,96 @@ pub fn estimate(scene: &Scene, solver: Option<&str>) -> Option<Estimate> {
     } else {
         0.0
     };
+    let steps = scene.time.end / dt;
     Some(Estimate {
         fluid_particles,
         boundary_particles,
         memory,
-        steps: scene.time.end / dt,
+        steps,
         dt,
         frames,
         disk,
+        wall: steps * (SECONDS_PER_STEP + fluid_particles * SECONDS_PER_PARTICLE_STEP),
+        bound_by,
     })
+}
+
+/// The scene with inviscid water, to tell whether the viscous limit sets the solver's step.
+fn inviscid(scene: &Scene) -> Scene {
+    let mut s = scene.clone();
+    if let Some(f) = s.fluid.as_mut() {
+        f.kinematic_viscosity = 0.0;
+    }
+    s
+}
+
+/// A wall time in words: seconds, minutes, hours, days or years.
+pub fn duration(seconds: f64) -> String {
+    match seconds {
+        s if s < 120.0 => format!("{s:.0} s"),
+        s if s < 7200.0 => format!("{:.0} min", s / 60.0),
+        s if s < 2.0 * 86400.0 => format!("{:.1} h", s / 3600.0),
+        s if s < 365.0 * 86400.0 => format!("{:.1} days", s / 86400.0),
+        s => format!("{:.2e} years", s / (365.25 * 86400.0)),
+    }
+}
+
+/// Refuses a run that would crawl: more than [`MAX_STEPS`] steps or [`MAX_WALL_SECONDS`] of
+/// wall time by the estimate (a scene without water steps at `time.dt_max`), naming the field
+/// that sets the step and the fix, `--allow-long` among them. `solver` as in [`estimate`].
+pub fn crawl(scene: &Scene, solver: Option<&str>) -> Vec<FieldError> {
+    let t = &scene.time;
+    if !(t.end > 0.0 && t.dt_max > 0.0) {
+        return Vec::new(); // the scene's own validation names them
+    }
+    let (steps, dt, wall, bound_by) = match estimate(scene, solver) {
+        Some(e) => (e.steps, e.dt, e.wall, e.bound_by),
+        None => {
+            let steps = t.end / t.dt_max;
+            (steps, t.dt_max, steps * SECONDS_PER_STEP, "time.dt_max")
+        }
+    };
+    if steps <= MAX_STEPS && wall <= MAX_WALL_SECONDS {
+        return Vec::new();
+    }
+    let fluid = scene.fluid.as_ref();
+    let (path, value, fix): (&[&str], String, String) = match bound_by {
+        "fluid.kinematic_viscosity" => (
+            &["fluid", "kinematic_viscosity"],
+            format!("{:?}", fluid.map_or(0.0, |f| f.kinematic_viscosity)),
+            "the viscous step limit 0.125 h²/ν falls as ν grows: water is kinematic_viscosity = 1e-6 m²/s".into(),
+        ),
+        "fluid.dx" => (
+            &["fluid", "dx"],
+            format!("{:?}", fluid.map_or(0.0, |f| f.dx)),
+            format!(
+                "a coarser dx (the step grows with it, the particles as dx⁻³), or a shorter \
+                 time.end (now {} s)",
+                t.end
+            ),
+        ),
+        _ => (
+            &["time", "dt_max"],
+            format!("{:?}", t.dt_max),
+            "a larger dt_max, e.g. dt_max = 1e-3 (the default): the solvers take shorter steps \
+             themselves where they need them"
+                .into(),
+        ),
+    };
+    vec![FieldError::new(
+        path,
+        value,
+        &format!(
+            "makes the run crawl: about {steps:.3e} steps of {dt:.2e} s to time.end = {} s, \
+             {} of wall time or more ({SECONDS_PER_STEP:e} s per step + \
+             {SECONDS_PER_PARTICLE_STEP:e} s per water particle-step, measured); past the \
+             limit of {MAX_STEPS:e} steps or {:.0} h",
+            t.end,
+            duration(wall),
+            MAX_WALL_SECONDS / 3600.0
+        ),
+        &format!("{fix}; or pass --allow-long to run it anyway"),
+    )]
 }
 
 /// Area [m²] of a terrain's triangles whose centroid is inside the domain (the fluid node fills
@@ -260,6 +372,48 @@ mod tests {
         assert!(errs[0].fix.contains("dx >="), "{}", errs[0]);
         s.set_dx(1e-300);
         assert_eq!(check(&s, Some(8e9)).len(), 1);
+    }
+
+    #[test]
+    fn a_run_that_crawls_names_the_field_that_makes_it() {
+        let s = Scene::default_scene();
+        let e = estimate(&s, None).unwrap();
+        assert!(e.wall > 1.0 && e.wall < 120.0, "{e:?}");
+        assert!(crawl(&s, None).is_empty());
+        let mut tiny = s.clone();
+        tiny.time.dt_max = 1e-9;
+        tiny.time.dt_min = 1e-12;
+        let errs = crawl(&tiny, None);
+        assert_eq!(errs.len(), 1);
+        let msg = errs[0].to_string();
+        assert!(
+            msg.starts_with("time.dt_max = 1e-9")
+                && msg.contains("2.500e9 steps")
+                && msg.contains("dt_max = 1e-3")
+                && msg.contains("--allow-long"),
+            "{msg}"
+        );
+        let mut thick = s.clone();
+        thick.fluid.as_mut().unwrap().kinematic_viscosity = 1e5;
+        let msg = crawl(&thick, None)[0].to_string();
+        assert!(
+            msg.starts_with("fluid.kinematic_viscosity = 100000.0") && msg.contains("1e-6"),
+            "{msg}"
+        );
+        let mut fine = s.clone();
+        fine.set_dx(2e-3);
+        let msg = crawl(&fine, None)[0].to_string();
+        assert!(
+            msg.starts_with("fluid.dx = 0.002") && msg.contains("coarser dx"),
+            "{msg}"
+        );
+        // Without water the step is dt_max's.
+        let mut dry = tiny.clone();
+        dry.fluid = None;
+        assert!(crawl(&dry, None)[0].path == "time.dt_max");
+        assert_eq!(duration(90.0), "90 s");
+        assert_eq!(duration(5400.0), "90 min");
+        assert_eq!(duration(3.0 * 86400.0), "3.0 days");
     }
 
     /// Example 1 with DFSPH steps at its 10 ms limit, the flow's step, not the sound speed's

@@ -6,6 +6,39 @@ use shared::geometry::Polyhedron;
 use shared::scene::Scene;
 use std::path::Path;
 
+/// Draws a progress bar on stderr (a terminal only) while a slide's cutting takes more than a
+/// second ([`shared::scene::slide::report_cutting_progress`]); set once when the coupler starts.
+pub fn show_cutting_progress() {
+    use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+    static BAR: std::sync::Mutex<Option<ProgressBar>> = std::sync::Mutex::new(None);
+    shared::scene::slide::report_cutting_progress(Box::new(|p| {
+        let Ok(mut bar) = BAR.lock() else { return };
+        if p.done {
+            if let Some(b) = bar.take() {
+                b.finish_and_clear();
+            }
+            return;
+        }
+        let b = bar.get_or_insert_with(|| {
+            let b = ProgressBar::with_draw_target(
+                Some(p.expected as u64),
+                ProgressDrawTarget::stderr(),
+            );
+            b.set_style(
+                ProgressStyle::with_template("{bar:30} {pos}/{len} blocks, {msg} ({elapsed})")
+                    .expect("valid template")
+                    .progress_chars("=> "),
+            );
+            b
+        });
+        b.set_message(format!(
+            "cutting slide '{}', joint set {}/{}",
+            p.slide, p.set, p.sets
+        ));
+        b.set_position(p.pieces as u64);
+    }));
+}
+
 /// One line per slide.
 pub fn describe(scene: &Scene) -> Vec<String> {
     scene
@@ -17,8 +50,21 @@ pub fn describe(scene: &Scene) -> Vec<String> {
 }
 
 /// Writes every block cut from a slide to `path` (VTK PolyData, `.vtp`) with, per block, the
-/// slide's index, the block's index within it and its volume [m³] as cell data.
+/// slide's index, the block's index within it and its volume [m³] as cell data. The file is
+/// written beside `path` and renamed over it, so a `path` that is not a regular file (a device
+/// such as /dev/full, a pipe, a directory) is refused before anything is written: the rename
+/// would replace it, and report success.
 pub fn write_vtk(scene: &Scene, path: &Path) -> Result<usize, String> {
+    if let Ok(meta) = std::fs::metadata(path)
+        && !meta.is_file()
+    {
+        return Err(format!(
+            "cannot write {}: not a regular file (a device, a pipe or a directory); the blocks \
+             are written beside it and renamed over it, which would replace it. Fix: name a \
+             .vtp file, e.g. --slides-vtk blocks.vtp",
+            path.display()
+        ));
+    }
     let mut corners: Vec<Vec<[f64; 3]>> = Vec::new();
     let mut faces: Vec<Vec<Vec<u32>>> = Vec::new();
     let (mut slide, mut index, mut volume) = (Vec::new(), Vec::new(), Vec::new());
@@ -77,5 +123,29 @@ mod tests {
         assert_eq!(vol.len(), 24);
         assert!(vol.iter().all(|v| (v - 1.0).abs() < 1e-12), "{vol:?}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_device_or_a_directory_is_refused_and_write_errors_are_named() {
+        let text = "name = \"s\"\n[time]\nend = 0.1\n[domain]\nmin = [-5, -5, -5]\nmax = [5, 5, 5]\n\
+            [[slide]]\nname = \"r\"\nregion = { type = \"box\", min = [0, 0, 0], max = [2, 2, 1] }\n\
+            [[slide.joint_set]]\ndip = 90\ndip_direction = 90\nspacing = 1\n";
+        let scene = Scene::parse(text, "t").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        for path in [Path::new("/dev/full"), dir.path()] {
+            let msg = write_vtk(&scene, path).unwrap_err();
+            assert!(
+                msg.contains(&path.display().to_string())
+                    && msg.contains("not a regular file")
+                    && msg.contains("Fix:"),
+                "{msg}"
+            );
+        }
+        let missing = dir.path().join("no/such/dir/blocks.vtp");
+        let msg = write_vtk(&scene, &missing).unwrap_err();
+        assert!(
+            msg.contains("blocks.vtp") && msg.contains("os error"),
+            "{msg}"
+        );
     }
 }

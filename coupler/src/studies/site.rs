@@ -48,7 +48,7 @@ pub struct SiteArgs {
     #[arg(long, default_value = "scenes/fjord/fjord.asc")]
     pub out: PathBuf,
     /// Grid spacing [m] (the scene's file uses 4 m).
-    #[arg(long, default_value_t = SCENE_CELL)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = SCENE_CELL)]
     pub cell: f64,
 }
 

@@ -21,16 +21,21 @@ use std::time::Instant;
 #[derive(Debug, Args)]
 pub struct TerrainBenchArgs {
     /// Terrain sizes to time, in triangles (about: the DEM is a whole number of cells).
-    #[arg(long, value_delimiter = ',', default_value = "100000,1000000")]
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        value_delimiter = ',',
+        default_value = "100000,1000000"
+    )]
     pub triangles: Vec<usize>,
     /// Timed fluid steps per variant and round.
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 20)]
     pub fluid_steps: usize,
     /// Timed solid steps per variant and round.
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 2000)]
     pub solid_steps: usize,
     /// Rounds: each variant is timed once per round, in turn.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 5)]
     pub rounds: usize,
 }
 

@@ -77,10 +77,20 @@ fn peak_rss_mb() -> Option<f64> {
 #[command(name = "fluid-bench")]
 struct Args {
     /// Approximate particle counts, comma-separated.
-    #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        value_delimiter = ',',
+        default_value = "10000,100000,1000000"
+    )]
     sizes: Vec<usize>,
     /// Thread counts, comma-separated (a rayon pool per row).
-    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        value_delimiter = ',',
+        default_value = "1,2"
+    )]
     threads: Vec<usize>,
     /// Solvers of the registry, comma-separated (default: all).
     #[arg(long, value_delimiter = ',')]
@@ -90,19 +100,19 @@ struct Args {
     param: Vec<String>,
     /// Step (untimed) until the dam break has flowed this many simulated seconds, so the timed
     /// steps see a developed flow (lists rebuilt more often than from rest).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 0.0)]
     from: f64,
     /// Timed steps (default: about 3·10⁶ particle-steps' worth, at least 3).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     steps: Option<usize>,
     /// Instead of the solvers: 2 ÷ 1 threads of three loops without a serial part, over this
     /// many alternating rounds (the machine's ceiling for the solvers' ratios).
-    #[arg(long, value_name = "ROUNDS")]
+    #[arg(long, allow_hyphen_values = true, value_name = "ROUNDS")]
     ceiling: Option<usize>,
     /// Instead of the rows per thread count: a 1-thread and a 2-thread copy of each solver
     /// stepping in alternation, this many steps at a time (`--steps` per side), and the ratio of
     /// each pair of blocks.
-    #[arg(long, value_name = "BLOCK")]
+    #[arg(long, allow_hyphen_values = true, value_name = "BLOCK")]
     paired: Option<usize>,
     /// Also time each phase of the timed steps and print, after the rows, a table per solver
     /// and size: µs per step of each phase per thread count, and their 2 ÷ 1.

@@ -72,11 +72,19 @@ pub trait SphMethod:
     /// before it is built (`coupler check`'s estimate of a run's steps; the registry's
     /// [`shared::registry::Advice::estimate_dt`]). The default is a speed-of-sound method's:
     /// CFL 0.2 over h = 1.3 dx at the default sound speed c0 = 10·sqrt(2 g H)
-    /// ([`Initial::default_sound_speed`]).
+    /// ([`Initial::default_sound_speed`]), or the viscous limit 0.125 h²/ν of the scene's
+    /// `fluid.kinematic_viscosity` when shorter (`crate::core::dt`; far longer for water).
     fn estimate_dt(scene: &Scene, dx: Real, depth: Real) -> Option<Real> {
         let g = scene.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
         let c0 = 10.0 * (2.0 * g * depth).sqrt().max(1e-6);
-        Some(0.2 * 1.3 * dx / c0)
+        let h = 1.3 * dx;
+        let nu = scene.fluid.as_ref().map_or(0.0, |f| f.kinematic_viscosity);
+        let viscous = if nu > 0.0 {
+            0.125 * h * h / nu
+        } else {
+            Real::INFINITY
+        };
+        Some((0.2 * 1.3 * dx / c0).min(viscous))
     }
 
     /// Warnings about the scene's combination of options for this method under `scheme`

@@ -150,12 +150,14 @@ pub struct PlaneFamily {
 impl PlaneFamily {
     /// The planes of the family strictly inside (lo, hi) (by more than `tol`), in increasing
     /// order of offset.
+    /// The plane indices are counted in floating point ([`Self::count_within`]), so a base
+    /// far from the cell (an offset of 1e300) yields no plane instead of an index range that
+    /// saturates (and wraps) in integers.
     pub fn planes_within(&self, lo: Real, hi: Real, tol: Real) -> impl Iterator<Item = Plane> {
-        let k0 = ((lo + tol - self.base) / self.spacing).floor() as i64 + 1;
-        let k1 = ((hi - tol - self.base) / self.spacing).ceil() as i64 - 1;
+        let k0 = ((lo + tol - self.base) / self.spacing).floor() + 1.0;
         let fam = *self;
-        (k0..=k1.max(k0 - 1)).filter_map(move |k| {
-            let offset = fam.base + k as Real * fam.spacing;
+        (0..self.count_within(lo, hi, tol)).filter_map(move |i| {
+            let offset = fam.base + (k0 + i as Real) * fam.spacing;
             (offset > lo + tol && offset < hi - tol).then_some(Plane {
                 normal: fam.normal,
                 offset,
@@ -190,16 +192,18 @@ pub struct Cut {
 
 /// Cuts `region` by every plane of every family, in order. Stops (without allocating more) as
 /// soon as the cell count exceeds `max_cells`: the count only grows as the cutting proceeds.
+/// `progress(k, n)` is told after each cell is cut by family `k` that the pass holds `n` cells.
 pub fn cut(
     region: Cell,
     families: &[PlaneFamily],
     tol: Real,
     max_cells: usize,
+    progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Cut, TooMany> {
     let mut cells = vec![region];
     let mut degenerate = 0;
     let mut planes_used = Vec::with_capacity(families.len());
-    for fam in families {
+    for (k, fam) in families.iter().enumerate() {
         let mut used = std::collections::BTreeSet::new();
         let mut next = Vec::with_capacity(cells.len());
         for cell in cells {
@@ -232,6 +236,7 @@ pub fn cut(
             if let Some(c) = rest {
                 next.push(c);
             }
+            progress(k, next.len());
             if next.len() > max_cells {
                 return Err(TooMany {
                     reached: next.len(),
@@ -313,6 +318,14 @@ mod tests {
         assert_eq!(offs, vec![0.25, 0.5, 0.75]);
         assert_eq!(fam.count_within(0.0, 1.0, 1e-9), 3);
         assert_eq!(fam.count_within(0.1, 0.2, 1e-9), 0);
+        // A base far away gives no plane, at once (the index range used to wrap).
+        let far = PlaneFamily { base: 1e300, ..fam };
+        assert_eq!(far.planes_within(0.0, 1.0, 1e-9).count(), 0);
+        let far = PlaneFamily {
+            base: -1e300,
+            ..fam
+        };
+        assert_eq!(far.planes_within(0.0, 1.0, 1e-9).count(), 0);
     }
 
     #[test]
@@ -327,7 +340,28 @@ mod tests {
             &[fam(Vector::x()), fam(Vector::y()), fam(Vector::z())],
             1e-12,
             50,
+            &mut |_, _| {},
         );
         assert_eq!(r.unwrap_err().reached, 51);
+    }
+
+    #[test]
+    fn progress_is_told_each_pass_up_to_the_cells_made() {
+        let fam = |n: Vector| PlaneFamily {
+            normal: n,
+            base: 0.0,
+            spacing: 0.5,
+        };
+        let mut seen = Vec::new();
+        let c = cut(
+            cube(1.0),
+            &[fam(Vector::x()), fam(Vector::y())],
+            1e-12,
+            100,
+            &mut |k, n| seen.push((k, n)),
+        )
+        .unwrap();
+        assert_eq!(seen, vec![(0, 2), (1, 2), (1, 4)]);
+        assert_eq!(c.cells.len(), 4);
     }
 }

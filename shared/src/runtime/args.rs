@@ -24,20 +24,20 @@ pub(super) struct NodeArgs {
     #[arg(long, value_name = "ENDPOINT")]
     pub connect: Vec<String>,
     /// Seconds to wait for a coupler to answer the hello.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 60.0)]
     pub connect_timeout: f64,
     /// Print the solvers this binary offers and exit.
     #[arg(long)]
     pub list_solvers: bool,
     /// Speak this protocol version instead of the real one (tests the coupler's check).
-    #[arg(long, hide = true)]
+    #[arg(long, allow_hyphen_values = true, hide = true)]
     pub fake_protocol_version: Option<u32>,
     /// Stop answering after this many steps (tests the coupler's hang detection).
-    #[arg(long, hide = true)]
+    #[arg(long, allow_hyphen_values = true, hide = true)]
     pub hang_after_steps: Option<u64>,
     /// Kill this node (SIGKILL) when told to take this step, every time it starts (tests the
     /// coupler's restarts: a node that fails again at the same step stops the run).
-    #[arg(long, hide = true)]
+    #[arg(long, allow_hyphen_values = true, hide = true)]
     pub die_at_step: Option<u64>,
     /// Block for ever before the hello (tests the start-up watchdog).
     #[arg(long, hide = true)]

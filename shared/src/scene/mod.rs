@@ -4,12 +4,14 @@
 
 mod error;
 mod motion;
+mod read;
 pub mod schema;
 pub mod slide;
 mod span;
 mod validate;
 
 pub use error::FieldError;
+pub use read::MAX_SCENE_BYTES;
 pub use schema::*;
 pub(crate) use validate::terrain_field_error;
 
@@ -34,6 +36,14 @@ pub enum SceneError {
         #[source]
         source: std::io::Error,
     },
+    /// The path names no scene file: not a regular file (a device, a pipe, a directory), or
+    /// longer than [`MAX_SCENE_BYTES`]. Refused before anything is read from it.
+    #[error("scene file '{path}' {problem}; fix: {fix}")]
+    NotAScene {
+        path: String,
+        problem: String,
+        fix: String,
+    },
     /// The TOML parser or the schema rejected the text; the message carries line and column.
     #[error("scene '{origin}' is not a valid scene file:\n{message}")]
     Syntax { origin: String, message: String },
@@ -46,13 +56,19 @@ pub enum SceneError {
 }
 
 /// The parser's message (line, column, the offending text), led by the field it belongs to when
-/// the parser does not name it (serde reports a bad enum value without its key).
+/// the parser does not name it (serde reports a bad enum value without its key), and followed
+/// by the type the field takes with an example when the value has the wrong type
+/// ([`read::type_fix`]).
 fn syntax_message(text: &str, e: &toml::de::Error) -> String {
     let field = e.span().and_then(|s| span::field_at(text, s.start));
-    match field {
-        Some(f) if !e.message().contains(&f) => format!("in field `{f}`: {e}"),
+    let mut message = match &field {
+        Some(f) if !e.message().contains(f.as_str()) => format!("in field `{f}`: {e}"),
         _ => e.to_string(),
+    };
+    if let Some(fix) = field.and_then(|f| read::type_fix(&f, e.message())) {
+        message.push_str(&fix);
     }
+    message
 }
 
 fn render(errors: &[FieldError]) -> String {
@@ -71,10 +87,7 @@ impl Scene {
 
     /// [`Self::load`] with [`Self::parse_checked`]'s extra checks.
     pub fn load_checked(path: &Path, checks: &[&SceneCheck]) -> Result<Scene, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = read::scene_text(path)?;
         let base = path.parent().unwrap_or(Path::new("."));
         Scene::parse_in(&text, &path.display().to_string(), Some(base), checks)
     }
@@ -137,6 +150,7 @@ impl Scene {
     pub fn validate(&self) -> Vec<FieldError> {
         let mut errors = validate::validate(self);
         slide::attribute(self, &mut errors);
+        errors.extend(slide::spacing_errors(self));
         errors
     }
 

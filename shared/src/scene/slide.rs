@@ -14,7 +14,8 @@
 
 use super::error::{FieldError, Seg, render_path};
 use super::schema::{
-    BlockKind, BlockSpec, JointSetSpec, Scene, ShapeSpec, SlideCut, SlideMember, SlideSpec,
+    BlockKind, BlockSpec, DEFAULT_MAX_BLOCKS, JointSetSpec, MAX_BLOCKS_LIMIT, Scene, ShapeSpec,
+    SlideCut, SlideMember, SlideSpec,
 };
 use crate::geometry::cutting::{self, Cell, PlaneFamily};
 use crate::geometry::{Polyhedron, shape_points};
@@ -26,6 +27,15 @@ pub const DEFAULT_MIN_BLOCK_FRACTION: Real = 1e-6;
 /// Cutting tolerance, as a fraction of the region's size: corners closer to a plane than this
 /// lie on it.
 const TOLERANCE: Real = 1e-9;
+
+/// Farthest a joint set's `offset` may lie from the origin [m], as `[domain]`'s corners: a
+/// 10 000 km box holds any landslide, and the joint planes' positions keep their precision.
+const MAX_OFFSET: Real = 1e7;
+
+/// Thinnest slab of rock between two joints of a set, as a fraction of the particle spacing
+/// `fluid.dx`: the same floor as the size of a moving `[[block]]` (a quarter of dx), below
+/// which no particle would see the block.
+const MIN_SPACING_OF_DX: Real = 0.25;
 
 /// An error at `slide[slide].<field>`, where `field` may index, e.g. `joint_set[1].dip`.
 fn fail(
@@ -89,13 +99,19 @@ fn check_fields(i: usize, s: &SlideSpec) -> Vec<FieldError> {
             "give the smallest block kept in m³, or leave it out for 1e-6 of the region",
         ));
     }
-    if s.max_blocks == 0 || s.max_blocks > 10_000_000 {
+    if s.max_blocks == 0 || s.max_blocks > MAX_BLOCKS_LIMIT {
         errors.push(fail(
             i,
             "max_blocks",
             s.max_blocks,
-            "must be in 1..=10000000",
-            "e.g. max_blocks = 10000",
+            &format!(
+                "must be in 1..={MAX_BLOCKS_LIMIT} (every process cuts the slide and checks its \
+                 blocks when it reads the scene; 64 000 blocks took 14 s and 1.1 GB)"
+            ),
+            &format!(
+                "e.g. max_blocks = {DEFAULT_MAX_BLOCKS}; for more blocks, cut the rock mass into \
+                 several [[slide]]s or use larger joint spacings"
+            ),
         ));
     }
     for (field, v) in [
@@ -145,13 +161,20 @@ fn check_fields(i: usize, s: &SlideSpec) -> Vec<FieldError> {
                 "give the distance between joints in metres",
             ));
         }
-        if js.offset.iter().any(|x| !x.is_finite()) {
+        if js
+            .offset
+            .iter()
+            .any(|x| !x.is_finite() || x.abs() > MAX_OFFSET)
+        {
             errors.push(fail(
                 i,
                 &f("offset"),
                 js.offset,
-                "must be finite",
-                "give a point one joint passes through, e.g. offset = [0, 0, 0]",
+                &format!(
+                    "must be finite and within ±{MAX_OFFSET:e} m (a plane's place is lost in \
+                     rounding beyond)"
+                ),
+                "give a point one joint passes through near the region, e.g. one of its corners",
             ));
         }
         if !(0.0..90.0).contains(&js.friction_angle) {
@@ -233,6 +256,7 @@ pub fn cut_slide(i: usize, s: &SlideSpec) -> Result<(Vec<BlockSpec>, SlideCut), 
         return Err(errors);
     }
     let bound: f64 = counts.iter().map(|&n| n as f64 + 1.0).product();
+    let least = fewest_pieces(&families, &counts, poly.volume);
     let too_many = |reached: String| {
         vec![fail(
             i,
@@ -242,16 +266,50 @@ pub fn cut_slide(i: usize, s: &SlideSpec) -> Result<(Vec<BlockSpec>, SlideCut), 
                 "cut the region into {reached} blocks (up to {bound:.3e} from the sets' plane counts), more than max_blocks = {}",
                 s.max_blocks
             ),
-            "use larger spacings, or raise max_blocks if you mean it (each block is a 6-DOF body in the solid node)",
+            &if s.max_blocks < MAX_BLOCKS_LIMIT {
+                format!(
+                    "use larger spacings, or raise max_blocks (at most {MAX_BLOCKS_LIMIT}) if you mean it (each block is a 6-DOF body in the solid node)"
+                )
+            } else {
+                format!(
+                    "use larger spacings, or cut the rock mass into several [[slide]]s ({MAX_BLOCKS_LIMIT} blocks at most each)"
+                )
+            },
         )]
     };
-    // Refused outright when even a tenth of the bound would pass the limit by far (the bound is
-    // exact for orthogonal sets in a box); otherwise cut, stopping at the limit.
+    // Estimated before anything is cut: refused outright when the fewest pieces the sets can
+    // make pass the limit, or when even a hundredth of the bound would (the bound is exact for
+    // orthogonal sets in a box); otherwise cut, stopping at the limit.
+    if least > s.max_blocks as f64 {
+        return Err(too_many(format!("at least {least:.3e}")));
+    }
     if bound > 100.0 * s.max_blocks as f64 {
         return Err(too_many(format!("about {bound:.3e}")));
     }
-    let cut = cutting::cut(cell, &families, tol, s.max_blocks)
-        .map_err(|e| too_many(format!("more than {}", e.reached - 1)))?;
+    let started = std::time::Instant::now();
+    let expected = bound.min(s.max_blocks as f64) as usize;
+    let progress = |set: usize, pieces: usize, done: bool| CuttingProgress {
+        slide: &s.name,
+        set,
+        sets: families.len(),
+        pieces,
+        expected,
+        done,
+    };
+    let mut shown = false;
+    let mut report = |k: usize, pieces: usize| {
+        if let Some(p) = PROGRESS.get()
+            && started.elapsed() > PROGRESS_AFTER
+        {
+            shown = true;
+            p(&progress(k + 1, pieces, false));
+        }
+    };
+    let cut = cutting::cut(cell, &families, tol, s.max_blocks, &mut report);
+    if let Some(p) = PROGRESS.get().filter(|_| shown) {
+        p(&progress(families.len(), expected, true));
+    }
+    let cut = cut.map_err(|e| too_many(format!("more than {}", e.reached - 1)))?;
     let region_volume = poly.volume;
     let min_block_volume = s
         .min_block_volume
@@ -307,6 +365,110 @@ pub fn cut_slide(i: usize, s: &SlideSpec) -> Result<(Vec<BlockSpec>, SlideCut), 
     Ok((blocks, summary))
 }
 
+/// The joint sets of a scene's slides spaced closer than the water can resolve (below
+/// [`MIN_SPACING_OF_DX`] of `fluid.dx`), as (slide, set) pairs; none without water.
+fn too_fine(scene: &Scene) -> Vec<(usize, usize)> {
+    let Some(dx) = scene
+        .fluid
+        .as_ref()
+        .map(|f| f.dx)
+        .filter(|_| scene.has_fluid())
+    else {
+        return Vec::new();
+    };
+    let mut found = Vec::new();
+    for (i, s) in scene.slides.iter().enumerate() {
+        for (j, js) in s.joint_sets.iter().enumerate() {
+            if js.spacing > 0.0 && js.spacing < MIN_SPACING_OF_DX * dx {
+                found.push((i, j));
+            }
+        }
+    }
+    found
+}
+
+/// The joint sets spaced closer than a quarter of `fluid.dx`, named with the spacing the water
+/// needs: the blocks between their planes would be thinner than the water can see, whatever
+/// the cube root of their volume. Checked with the rest of the scene (also after `--dx`).
+pub(super) fn spacing_errors(scene: &Scene) -> Vec<FieldError> {
+    let dx = scene.fluid.as_ref().map_or(0.0, |f| f.dx);
+    too_fine(scene)
+        .into_iter()
+        .map(|(i, j)| {
+            let spacing = scene.slides[i].joint_sets[j].spacing;
+            fail(
+                i,
+                &format!("joint_set[{j}].spacing"),
+                spacing,
+                &format!(
+                    "is below a quarter of fluid.dx = {dx} m: the slabs between these joints \
+                     would be thinner than the water can resolve ({:.3e} m)",
+                    MIN_SPACING_OF_DX * dx
+                ),
+                &format!(
+                    "use spacing >= {:.3e} m, or a fluid.dx <= {:.3e} m (4 × the spacing)",
+                    MIN_SPACING_OF_DX * dx,
+                    spacing / MIN_SPACING_OF_DX
+                ),
+            )
+        })
+        .collect()
+}
+
+/// How far a slide's cutting is, for a progress bar ([`report_cutting_progress`]).
+#[derive(Debug, Clone)]
+pub struct CuttingProgress<'a> {
+    /// The slide's name.
+    pub slide: &'a str,
+    /// The joint set cutting now (1-based) and how many there are.
+    pub set: usize,
+    pub sets: usize,
+    /// Pieces after this set so far, and the most expected at the end (the smaller of the
+    /// sets' bound and `max_blocks`).
+    pub pieces: usize,
+    pub expected: usize,
+    /// The cutting of this slide is over.
+    pub done: bool,
+}
+
+/// Where the cutting's progress goes.
+pub type CuttingReport = dyn Fn(&CuttingProgress<'_>) + Send + Sync;
+
+static PROGRESS: std::sync::OnceLock<Box<CuttingReport>> = std::sync::OnceLock::new();
+
+/// Cutting shorter than this reports no progress.
+const PROGRESS_AFTER: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// Sets, once per process, where the cutting of a slide that takes more than a second reports
+/// its progress (the coupler draws a bar; the nodes set nothing and cut silently).
+pub fn report_cutting_progress(report: Box<CuttingReport>) {
+    let _ = PROGRESS.set(report);
+}
+
+/// Joint sets whose triples [`fewest_pieces`] tries (the first ones; a slide has a handful).
+const TRIPLE_SETS: usize = 12;
+
+/// The fewest pieces `families` (crossing the region `counts` planes each) can cut a convex
+/// region of `volume` into, before cutting: a family of m planes across a convex region makes
+/// m + 1 pieces, and every piece lies inside one parallelepiped cell of any three sets whose
+/// normals span space, of volume s₁s₂s₃ / |n₁·(n₂×n₃)|, so there are at least volume / that.
+fn fewest_pieces(families: &[PlaneFamily], counts: &[u64], volume: Real) -> Real {
+    let mut least = counts.iter().map(|&n| n as Real + 1.0).fold(1.0, Real::max);
+    let f = &families[..families.len().min(TRIPLE_SETS)];
+    for a in 0..f.len() {
+        for b in a + 1..f.len() {
+            for c in b + 1..f.len() {
+                let det = f[a].normal.dot(&f[b].normal.cross(&f[c].normal)).abs();
+                if det > 1e-6 {
+                    let cell = f[a].spacing * f[b].spacing * f[c].spacing / det;
+                    least = least.max(volume / cell);
+                }
+            }
+        }
+    }
+    least
+}
+
 /// Points the problems of a cut block (`block[k]`, which the scene file does not hold) at the
 /// slide it was cut from, naming the block and what to change.
 pub(super) fn attribute(scene: &Scene, errors: &mut [FieldError]) {
@@ -338,6 +500,9 @@ pub(super) fn expand(scene: &mut Scene) -> Vec<FieldError> {
     let mut errors = Vec::new();
     let mut cuts = Vec::new();
     let mut names = std::collections::HashSet::new();
+    // Slides with joints too close for the water are not cut (their many thin blocks would
+    // only hide the one error [`spacing_errors`] names).
+    let skip: Vec<usize> = too_fine(scene).into_iter().map(|(i, _)| i).collect();
     for (i, s) in scene.slides.iter().enumerate() {
         if !names.insert(s.name.as_str()) {
             errors.push(fail(
@@ -347,6 +512,9 @@ pub(super) fn expand(scene: &mut Scene) -> Vec<FieldError> {
                 "is used by an earlier slide",
                 "give every slide a unique name",
             ));
+        }
+        if skip.contains(&i) {
+            continue;
         }
         match cut_slide(i, s) {
             Ok((blocks, mut summary)) => {
@@ -469,10 +637,15 @@ mod tests {
             msg.contains("1.000e6") && msg.contains("max_blocks = 10000"),
             "{msg}"
         );
-        // Just above the limit: cut until the limit, then refused.
+        // Below even the fewest pieces (64 cells of 0.25³ in 1 m³): refused before cutting.
         let text = scene(UNIT_BOX, 0.25, 0.0, "max_blocks = 60");
         let msg = Scene::parse(&text, "t").unwrap_err().to_string();
-        assert!(msg.contains("more than 60"), "{msg}");
+        assert!(msg.contains("at least 6.400e1"), "{msg}");
+        // Above the fewest (64) but below the 125 pieces planes off the corners make: cut
+        // until the limit, then refused.
+        let text = scene(UNIT_BOX, 0.25, 0.1, "max_blocks = 100");
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(msg.contains("more than 100"), "{msg}");
     }
 
     #[test]
@@ -488,6 +661,93 @@ mod tests {
                 && msg.contains("min_block_volume")
                 && !msg.contains("block[0]"),
             "{msg}"
+        );
+    }
+
+    #[test]
+    fn spacings_that_cut_millions_are_refused_before_cutting_even_at_the_limit() {
+        let region = "{ type = \"box\", min = [0, 0, 0], max = [10, 10, 10] }";
+        for spacing in [0.1, 0.02, 1e-3] {
+            let text = scene(
+                region,
+                spacing,
+                0.0,
+                &format!("max_blocks = {MAX_BLOCKS_LIMIT}"),
+            );
+            let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+            assert!(
+                msg.contains("slide[0].joint_set")
+                    && msg.contains("at least")
+                    && msg.contains(&format!("max_blocks = {MAX_BLOCKS_LIMIT}"))
+                    && msg.contains("several [[slide]]s"),
+                "{msg}"
+            );
+        }
+        let text = scene(UNIT_BOX, 0.25, 0.0, "max_blocks = 10000000");
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(
+            msg.contains("slide[0].max_blocks") && msg.contains(&format!("1..={MAX_BLOCKS_LIMIT}")),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn the_fewest_pieces_bound_the_count_from_below() {
+        // Oblique sets through the jointed slide of the repository: the estimate stays below
+        // what the cutting makes (blocks and slivers).
+        let text = include_str!("../../../scenes/jointed_slide.toml");
+        let s = Scene::parse(text, "t").unwrap();
+        let (slide, cut) = (&s.slides[0], &s.slide_cuts[0]);
+        let families: Vec<PlaneFamily> =
+            slide.joint_sets.iter().map(JointSetSpec::family).collect();
+        let counts: Vec<u64> = cut.planes_used.iter().map(|&n| n as u64).collect();
+        let least = fewest_pieces(&families, &counts, cut.region_volume);
+        assert!(
+            least >= 6.0 && least <= (cut.blocks + cut.slivers) as Real,
+            "{least} {cut}"
+        );
+    }
+
+    #[test]
+    fn an_offset_far_away_is_refused_at_once() {
+        let text = scene(UNIT_BOX, 0.25, 0.0, "").replacen(
+            "offset = [0, 0, 0]",
+            "offset = [1e300, 0, 0]",
+            1,
+        );
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(
+            msg.contains("slide[0].joint_set[0].offset")
+                && msg.contains("1e7 m")
+                && msg.contains("fix:"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn joints_closer_than_a_quarter_of_dx_are_named_before_cutting() {
+        // dx = 1 m: joints every 0.1 m make slabs the water cannot see.
+        let text = scene(UNIT_BOX, 0.1, 0.0, "")
+            .replace("[[slide]]", "[fluid]\ndx = 1.0\n[[fluid.water]]\nshape = { type = \"box\", min = [-9, -9, -9], max = [9, 9, -5] }\n[[slide]]");
+        let msg = Scene::parse(&text, "t").unwrap_err().to_string();
+        assert!(
+            msg.contains("slide[0].joint_set[0].spacing = 0.1")
+                && msg.contains("quarter of fluid.dx")
+                && msg.contains("spacing >= 2.500e-1")
+                && msg.contains("line ")
+                && !msg.contains("cut block"),
+            "{msg}"
+        );
+        // The same after a finer scene is given a coarser dx (`--dx`).
+        let text = text.replace("dx = 1.0", "dx = 0.2");
+        let mut s = Scene::parse(&text, "t").unwrap();
+        s.set_dx(1.0);
+        let errors = s.validate();
+        assert!(
+            errors
+                .iter()
+                .any(|e| e.path == "slide[0].joint_set[2].spacing"),
+            "{errors:?}"
         );
     }
 

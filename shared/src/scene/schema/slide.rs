@@ -8,6 +8,11 @@ use serde::{Deserialize, Serialize};
 
 /// Default most blocks one slide may be cut into.
 pub const DEFAULT_MAX_BLOCKS: usize = 10_000;
+/// Most blocks `max_blocks` may allow. Every process that reads the scene (the coupler, both
+/// nodes) cuts the slide and checks its blocks: 8 000 blocks take 0.66 s and 59 MB in
+/// `coupler check`, 64 000 took 14 s and 1.1 GB (docs/PERFORMANCE.md, "Slide cutting"); and
+/// each block is a 6-DOF body of the solid node (3.5 µs per block-step, explicit).
+pub const MAX_BLOCKS_LIMIT: usize = 20_000;
 
 /// One `[[slide]]`: a rock mass cut into free blocks by its joint sets.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

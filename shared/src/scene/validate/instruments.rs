@@ -5,6 +5,11 @@ use super::checker::Checker;
 use crate::scene::error::Seg;
 use crate::scene::schema::Scene;
 
+/// Shortest probe averaging window [s]: a pressure sensor's acquisition samples at 1 MHz at
+/// most, so a shorter window averages nothing a sensor could record; and a window below the
+/// rounding of the time (t·2⁻⁵²) holds no reading, so every row would be NaN.
+const MIN_PROBE_WINDOW: f64 = 1e-6;
+
 /// Every instrument, in this order: the names (and a run-up's box, a probe's window) of the
 /// gauges, run-ups and probes; then the gauges.csv columns; then where gauges and probes lie.
 pub(super) fn check(c: &mut Checker, s: &Scene) {
@@ -51,7 +56,18 @@ fn runups(c: &mut Checker, s: &Scene) {
                         "give every [[runup]] a unique name",
                     );
                 }
-                if !(0..2).all(|k| r.min[k] < r.max[k]) {
+                let reach = far_corner(s, &[r.min, r.max]);
+                if let Some((field, v)) = reach {
+                    c.fail(
+                        field,
+                        v,
+                        &format!(
+                            "reaches beyond ten domain sizes ({:.3e} m) outside [domain] in plan, or is not finite",
+                            10.0 * plan_diagonal(s)
+                        ),
+                        "give the shore's box in plan over the domain, in metres, e.g. min = [150, 190], max = [250, 260]",
+                    );
+                } else if !(0..2).all(|k| r.min[k] < r.max[k]) {
                     c.fail(
                         "max",
                         r.max,
@@ -87,15 +103,46 @@ fn probes(c: &mut Checker, s: &Scene) {
                     );
                 }
                 if let Some(w) = p.window {
-                    c.positive(
-                        "window",
-                        w,
-                        "give the averaging window in seconds (e.g. window = 0.001), or leave it out for the instantaneous reading",
-                    );
+                    let fix = "give the averaging window in seconds (e.g. window = 0.001), or leave it out for the instantaneous reading";
+                    if !(w.is_finite() && w > 0.0) {
+                        c.fail("window", w, "must be a positive finite number", fix);
+                    } else if w < MIN_PROBE_WINDOW {
+                        c.fail(
+                            "window",
+                            w,
+                            &format!(
+                                "is shorter than {MIN_PROBE_WINDOW:e} s: no sensor samples faster, and a window \
+                                 below the time's rounding holds no reading (every row NaN)"
+                            ),
+                            fix,
+                        );
+                    }
                 }
             })
         });
     }
+}
+
+/// The diagonal of the domain in plan [m].
+fn plan_diagonal(s: &Scene) -> f64 {
+    let d = &s.domain;
+    (0..2)
+        .map(|k| (d.max[k] - d.min[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// The first of `corners` (a run-up box's `min`, `max`) that is not finite or lies more than
+/// ten domain sizes outside the domain in plan (a typo in an exponent, an `inf`), by field.
+fn far_corner(s: &Scene, corners: &[[f64; 2]; 2]) -> Option<(&'static str, [f64; 2])> {
+    let (d, reach) = (&s.domain, 10.0 * plan_diagonal(s));
+    let far =
+        |p: &[f64; 2]| (0..2).any(|k| !(p[k] >= d.min[k] - reach && p[k] <= d.max[k] + reach));
+    ["min", "max"]
+        .into_iter()
+        .zip(corners)
+        .find(|(_, p)| far(p))
+        .map(|(f, p)| (f, *p))
 }
 
 /// gauges.csv has a column per gauge and one named `<name>_spray` per gauge: names must not
