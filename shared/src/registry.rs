@@ -147,6 +147,9 @@ pub struct Advice {
     /// water height; 0 where it has none) fails by design of the solver as published, or `None`
     /// where the solver must pass it.
     pub known_limitation: fn(&str, usize) -> Option<&'static str>,
+    /// Particle-steps per second of one thread of the solver, measured (`fluid-bench`): what a
+    /// run's wall time is estimated with (the default checkpoints); `None` if not measured.
+    pub particle_steps_per_second: Option<f64>,
 }
 
 impl Advice {
@@ -158,6 +161,7 @@ impl Advice {
         study_table: |_| None,
         study_variants: |_| &[],
         known_limitation: |_, _| None,
+        particle_steps_per_second: None,
     };
 }
 

@@ -162,25 +162,13 @@ pub fn check_flags(
 /// than it writes none.
 pub const DEFAULT_CHECKPOINT_MINUTES: f64 = 15.0;
 
-/// Particle-steps per second of one fluid-node thread, measured (docs/PERFORMANCE.md, "Fluid:
-/// cost per particle-step": 31 250 particles, one thread, Zen 5): what a run's wall time is
-/// estimated with. One thread, so that a node given two errs towards checkpointing; a solver
-/// not measured here is taken at the slowest rate (DFSPH's) for the same reason.
-const PARTICLE_STEPS_PER_SECOND: [(&str, f64); 3] =
-    [("wcsph", 4.61e6), ("muller", 5.33e6), ("dfsph", 6.24e5)];
-
 /// The run's estimated wall time [s] from `from_time` to its end, stepped as `solver` (`None`:
-/// the scene's) steps it: estimated steps × particles ÷ the solver's measured rate. `None`
-/// without water (no estimate).
+/// the scene's) steps it ([`crate::run::sizes::Estimate::wall_likely`]). `None` without water
+/// (no estimate).
 pub fn estimated_wall_seconds(scene: &Scene, solver: Option<&str>, from_time: f64) -> Option<f64> {
     let e = crate::run::sizes::estimate(scene, solver)?;
-    let name = solver.or(scene.fluid.as_ref().map(|f| f.solver.as_str()))?;
-    let rate = PARTICLE_STEPS_PER_SECOND
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map_or(PARTICLE_STEPS_PER_SECOND[2].1, |(_, r)| *r);
     let left = ((scene.time.end - from_time) / scene.time.end).clamp(0.0, 1.0);
-    Some(e.steps * left * (e.fluid_particles + e.boundary_particles) / rate)
+    Some(e.wall_likely * left)
 }
 
 /// The wall interval of the checkpoints a run writes when none is asked for:

@@ -66,6 +66,11 @@ pub struct Estimate {
     /// Wall time [s], a floor: steps × ([`SECONDS_PER_STEP`] + water particles ×
     /// [`SECONDS_PER_PARTICLE_STEP`]).
     pub wall: f64,
+    /// Wall time [s] as likely as the estimate can make it: steps × (water + boundary
+    /// particles) ÷ the solver's one-thread rate (the registry's
+    /// [`shared::registry::Advice::particle_steps_per_second`]; the slowest measured for a
+    /// solver without one), so that it errs long. What the default checkpoints go by.
+    pub wall_likely: f64,
     /// What sets the estimated step: `time.dt_max`, the viscous limit of
     /// `fluid.kinematic_viscosity`, or the solver's own step at `fluid.dx`.
     pub bound_by: &'static str,
@@ -164,8 +169,25 @@ pub fn estimate(scene: &Scene, solver: Option<&str>) -> Option<Estimate> {
         frames,
         disk,
         wall: steps * (SECONDS_PER_STEP + fluid_particles * SECONDS_PER_PARTICLE_STEP),
+        wall_likely: steps * (fluid_particles + boundary_particles) / one_thread_rate(solver),
         bound_by,
     })
+}
+
+/// The registry's one-thread particle-steps per second of `solver`, or the slowest of those
+/// measured for a solver without its own.
+fn one_thread_rate(solver: &str) -> f64 {
+    let rate = |e: &shared::registry::Entry<_>| e.advice.particle_steps_per_second;
+    let slowest = fluid_node::REGISTRY
+        .entries
+        .iter()
+        .filter_map(rate)
+        .fold(f64::INFINITY, f64::min);
+    fluid_node::REGISTRY
+        .get(solver)
+        .ok()
+        .and_then(rate)
+        .unwrap_or(slowest)
 }
 
 /// The scene with inviscid water, to tell whether the viscous limit sets the solver's step.

@@ -68,6 +68,12 @@ pub trait SphMethod:
     /// Largest stable step for the current largest speed and acceleration.
     fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real;
 
+    /// Particle-steps per second of one thread, measured by `fluid-bench` (docs/PERFORMANCE.md,
+    /// "Fluid: cost per particle-step"): the registry's
+    /// [`shared::registry::Advice::particle_steps_per_second`], what a run's wall time is
+    /// estimated with. `None`: not measured (the estimate then takes the slowest measured).
+    const PARTICLE_STEPS_PER_SECOND: Option<f64> = None;
+
     /// The step this method would take on a scene's water of depth `depth` at spacing `dx`,
     /// before it is built (`coupler check`'s estimate of a run's steps; the registry's
     /// [`shared::registry::Advice::estimate_dt`]). The default is a speed-of-sound method's:

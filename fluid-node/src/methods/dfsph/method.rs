@@ -25,6 +25,7 @@ use shared::solver::{SolverError, StepReport};
 impl SphMethod for Dfsph {
     const NAME: &'static str = "dfsph";
     const DESCRIPTION: &'static str = "divergence-free SPH (Bender & Koschier 2015/2017): summed density, implicit constant-density and divergence-free solves, CFL step on the flow speed";
+    const PARTICLE_STEPS_PER_SECOND: Option<f64> = Some(6.24e5);
     type Params = DfsphParams;
     type Kernel = WendlandC2;
 

@@ -203,6 +203,7 @@ impl Muller {
 impl SphMethod for Muller {
     const NAME: &'static str = "muller";
     const DESCRIPTION: &'static str = "the paper's SPH (Müller et al. 2003): summed density, linear EOS, spiky pressure, symplectic Euler";
+    const PARTICLE_STEPS_PER_SECOND: Option<f64> = Some(5.33e6);
     type Params = MullerParams;
     type Kernel = Poly6;
 

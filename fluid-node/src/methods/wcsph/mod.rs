@@ -373,6 +373,7 @@ pub fn tait(p: &WcsphConstants, rho0: Real, rho: Real) -> Real {
 impl SphMethod for Wcsph {
     const NAME: &'static str = "wcsph";
     const DESCRIPTION: &'static str = "weakly compressible SPH (DualSPHysics standard): Tait EOS, Wendland C2, δ-SPH, artificial viscosity";
+    const PARTICLE_STEPS_PER_SECOND: Option<f64> = Some(4.61e6);
     type Params = WcsphParams;
     type Kernel = WendlandC2;
 
