@@ -122,12 +122,7 @@ impl Terrain {
             TerrainFormat::Obj => files::read_obj(&spec.file).map_err(file_err)?,
             TerrainFormat::Ply => files::read_ply(&spec.file).map_err(file_err)?,
             TerrainFormat::EsriAscii | TerrainFormat::GeoTiff => {
-                let mut grid = if format == TerrainFormat::GeoTiff {
-                    geotiff::read(&spec.file)
-                } else {
-                    dem::read(&spec.file)
-                }
-                .map_err(file_err)?;
+                let mut grid = read_dem(spec, format)?;
                 filled_cells = grid
                     .resolve(spec.nodata)
                     .map_err(|e| {
@@ -313,6 +308,111 @@ pub fn check_scene(scene: &Scene) -> Vec<FieldError> {
         .collect()
 }
 
+/// A DEM's header, then the cells its crop and decimation keep, read so: nothing else is held.
+fn read_dem(spec: &TerrainSpec, format: TerrainFormat) -> Result<dem::Grid, TerrainError> {
+    let file = spec.file.display().to_string();
+    let file_err = |e: String| {
+        fail(
+            "file",
+            format!("{file:?}"),
+            e,
+            "give a readable file of the format its extension names",
+        )
+    };
+    enum Source {
+        Asc(dem::AscReader<std::io::BufReader<std::fs::File>>),
+        Tif(geotiff::TifReader),
+    }
+    let source = if format == TerrainFormat::GeoTiff {
+        Source::Tif(geotiff::open(&spec.file).map_err(file_err)?)
+    } else {
+        Source::Asc(dem::open(&spec.file).map_err(file_err)?)
+    };
+    let header = match &source {
+        Source::Asc(r) => r.header(),
+        Source::Tif(r) => r.header(),
+    }
+    .clone();
+    let w = window(spec, &header);
+    let (rows, cols) = w.size();
+    if let Some(c) = &spec.crop
+        && (rows < 2 || cols < 2)
+    {
+        return Err(crop_keeps_nothing(c));
+    }
+    header.check_kept(&w).map_err(|e| {
+        let step = w.step as f64 * (w.cells() as f64 / dem::MAX_DEM_CELLS as f64).sqrt();
+        let fix = format!(
+            "crop the DEM to the part the water reaches (crop = {{ min = [x, y, z], max = [x, y, z] }}, scene coordinates), or keep every n-th cell with decimate = {} or more",
+            step.ceil() as usize
+        );
+        let (field, value) = match (&spec.crop, spec.decimate) {
+            (None, _) => ("crop", "none".to_string()),
+            (Some(_), None) => ("decimate", "none (every cell)".to_string()),
+            (Some(c), Some(n)) => ("decimate", format!("{n}, crop {c:?}")),
+        };
+        fail(field, value, format!("{file}: {e}"), &fix)
+    })?;
+    match source {
+        Source::Asc(r) => r.read(&w),
+        Source::Tif(r) => r.read(&w),
+    }
+    .map_err(|e| file_err(format!("'{file}': {e}")))
+}
+
+/// The rows and columns of a DEM that `crop` and `decimate` keep: the cells within a cell (of
+/// the decimated grid) of the crop box carried back into the file's frame, on the lattice of
+/// every `decimate`-th row and column from the north-west corner. Every triangle whose centroid
+/// is in the crop box has its corners there, so the crop of the triangles that follows keeps
+/// exactly what it would keep of the whole grid.
+fn window(spec: &TerrainSpec, h: &dem::Header) -> dem::Window {
+    let step = spec.decimate.unwrap_or(1).max(1);
+    let Some(c) = &spec.crop else {
+        return dem::Window::all(h, step);
+    };
+    let r = spec.rotation.map(Real::to_radians);
+    let back = Rotation::from_euler_angles(r[0], r[1], r[2]).inverse();
+    let (s, o) = (Vector::from(spec.scale), Vector::from(spec.offset));
+    let (mut lo, mut hi) = ([Real::INFINITY; 2], [Real::NEG_INFINITY; 2]);
+    for k in 0..8 {
+        let corner = Vector::from(std::array::from_fn::<Real, 3, _>(|a| {
+            if k >> a & 1 == 0 { c.min[a] } else { c.max[a] }
+        }));
+        let p = (back * (corner - o)).component_div(&s);
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let margin = 2.0 * step as Real * h.cell;
+    // Cells (from the west, from the south) whose centres lie in [lo − margin, hi + margin].
+    let span = |lo: Real, hi: Real, origin: Real, n: usize| {
+        let first = ((lo - margin - origin) / h.cell)
+            .ceil()
+            .clamp(0.0, n as Real) as usize;
+        let end = (((hi + margin - origin) / h.cell).floor() + 1.0).clamp(0.0, n as Real) as usize;
+        (first, end.max(first))
+    };
+    let cols = span(lo[0], hi[0], h.x0, h.ncols);
+    let south = span(lo[1], hi[1], h.y0, h.nrows);
+    let rows = (h.nrows - south.1, h.nrows - south.0);
+    let align = |(a, b): (usize, usize)| (a / step * step, b);
+    dem::Window {
+        rows: align(rows),
+        cols: align(cols),
+        step,
+    }
+}
+
+fn crop_keeps_nothing(c: &crate::scene::CropSpec) -> TerrainError {
+    fail(
+        "crop",
+        format!("{c:?}"),
+        "keeps no triangle of the placed terrain",
+        "give a crop box (scene coordinates, after offset/scale/rotation) that holds part of the terrain",
+    )
+}
+
 /// x_scene = R·(scale ∘ x_file) + offset, the winding reversed for `flip_normals`, degenerate
 /// triangles (a repeated corner or zero area) dropped, exact duplicate corners merged.
 fn place(spec: &TerrainSpec, raw: RawMesh) -> (Vec<[Real; 3]>, Vec<[u32; 3]>, usize) {
@@ -390,12 +490,7 @@ fn crop(
         })
         .collect();
     if kept.is_empty() {
-        return Err(fail(
-            "crop",
-            format!("{c:?}"),
-            "keeps no triangle of the placed terrain",
-            "give a crop box (scene coordinates, after offset/scale/rotation) that holds part of the terrain",
-        ));
+        return Err(crop_keeps_nothing(c));
     }
     Ok(kept)
 }

@@ -112,6 +112,29 @@ pub(super) fn check(
                 );
             }
         }
+        if let Some(n) = t.decimate {
+            let dem = matches!(
+                TerrainFormat::of(&t.file),
+                Some(TerrainFormat::EsriAscii | TerrainFormat::GeoTiff)
+            );
+            if n == 0 {
+                fail(
+                    i,
+                    "decimate",
+                    format!("{n}"),
+                    "must be at least 1 (every n-th row and column is kept)",
+                    "give decimate = 1 to keep every cell, or e.g. decimate = 4",
+                );
+            } else if !dem {
+                fail(
+                    i,
+                    "decimate",
+                    format!("{n}"),
+                    "applies to DEMs (.asc, .tif) only",
+                    "remove decimate, and simplify the mesh in its own tool (e.g. a quadric decimation)",
+                );
+            }
+        }
         for (field, v, fix) in [
             (
                 "friction_angle",
