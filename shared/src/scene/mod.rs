@@ -11,7 +11,7 @@ mod validate;
 
 pub use error::FieldError;
 pub use schema::*;
-pub(crate) use validate::terrain_field_error;
+pub(crate) use validate::{indexed_field_error, terrain_field_error};
 
 use std::path::Path;
 

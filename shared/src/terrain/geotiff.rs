@@ -56,7 +56,7 @@ fn open_with(path: &Path, chunk_bytes: usize) -> Result<TifReader, String> {
         std::fs::File::open(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
     let mut limits = Limits::default();
     limits.decoding_buffer_size = chunk_bytes;
-    limits.intermediate_buffer_size = chunk_bytes;
+    limits.intermediate_buffer_size = MAX_CHUNK_BYTES;
     let decoder = Decoder::new(BufReader::new(file))
         .map_err(|e| format!("'{}': not a TIFF file: {e}", path.display()))?
         .with_limits(limits);
@@ -230,6 +230,60 @@ impl TifReader {
     }
 }
 
+/// Writes a one-band f32 GeoTIFF DEM of `ncols` × `nrows` cells of side `cell`, its north-west
+/// corner at `corner`, elevations `z` row-major from the north, in strips of `rows_per_strip`
+/// rows (deflate-compressed if asked): what tests and benchmarks generate. (The `tiff`
+/// encoder compresses only a whole image written at once, so `z` is whole.)
+pub fn write(
+    path: &Path,
+    (ncols, nrows): (u32, u32),
+    corner: [f64; 2],
+    cell: f64,
+    rows_per_strip: u32,
+    deflate: bool,
+    z: &[f32],
+) -> Result<(), String> {
+    use tiff::encoder::TiffEncoder;
+    use tiff::encoder::compression::{Compression, Deflate, DeflateLevel, Uncompressed};
+    fn write<C: Compression>(
+        enc: &mut TiffEncoder<std::io::BufWriter<std::fs::File>>,
+        (ncols, nrows): (u32, u32),
+        tags: ([f64; 3], [f64; 6]),
+        rows_per_strip: u32,
+        compression: C,
+        z: &[f32],
+    ) -> tiff::TiffResult<()> {
+        use tiff::encoder::colortype::Gray32Float;
+        let mut image =
+            enc.new_image_with_compression::<Gray32Float, C>(ncols, nrows, compression)?;
+        image.rows_per_strip(rows_per_strip)?;
+        let dir = image.encoder();
+        dir.write_tag(Tag::ModelPixelScaleTag, &tags.0[..])?;
+        dir.write_tag(Tag::ModelTiepointTag, &tags.1[..])?;
+        // GeoKeyDirectory: version 1.1.0, one key, GTRasterTypeGeoKey = RasterPixelIsArea.
+        dir.write_tag(
+            Tag::GeoKeyDirectoryTag,
+            &[1u16, 1, 0, 1, RASTER_TYPE_KEY, 0, 1, 1][..],
+        )?;
+        image.write_data(z)
+    }
+    let file = std::fs::File::create(path)
+        .map_err(|e| format!("cannot create '{}': {e}", path.display()))?;
+    let mut enc = TiffEncoder::new(std::io::BufWriter::new(file)).map_err(|e| e.to_string())?;
+    let tags = (
+        [cell, cell, 0.0],
+        [0.0, 0.0, 0.0, corner[0], corner[1], 0.0],
+    );
+    let size = (ncols, nrows);
+    if deflate {
+        let d = Deflate::with_level(DeflateLevel::Fast);
+        write(&mut enc, size, tags, rows_per_strip, d, z)
+    } else {
+        write(&mut enc, size, tags, rows_per_strip, Uncompressed, z)
+    }
+    .map_err(|e| format!("cannot write '{}': {e}", path.display()))
+}
+
 fn len(d: &DecodingResult) -> usize {
     match d {
         DecodingResult::U8(v) => v.len(),
@@ -355,6 +409,19 @@ pub(super) mod tests {
             .unwrap();
         let e = read(&path).unwrap_err();
         assert!(e.contains("no georeferencing"), "{e}");
+        // A strip that decodes past the chunk limit (here 1 KiB) is refused, naming it.
+        let one_strip = vec![1.0f32; 40 * 30];
+        super::write(&path, (40, 30), [0.0, 30.0], 1.0, 30, true, &one_strip).unwrap();
+        let e = open_with(&path, 1024)
+            .and_then(|r| {
+                let w = Window::all(r.header(), 1);
+                r.read(&w)
+            })
+            .unwrap_err();
+        assert!(
+            e.contains("MAX_CHUNK_BYTES") && e.contains("fix: save the grid in strips or tiles"),
+            "{e}"
+        );
         std::fs::write(&path, "not a tiff").unwrap();
         let e = read(&path).unwrap_err();
         assert!(e.contains("not a TIFF"), "{e}");

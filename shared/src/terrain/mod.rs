@@ -19,8 +19,8 @@ pub mod geotiff;
 pub mod topology;
 
 use crate::math::{Point, Real, Rotation, Vector};
-use crate::scene::terrain_field_error;
 use crate::scene::{DomainSpec, FieldError, NoData, Scene, TerrainFormat, TerrainSpec};
+use crate::scene::{indexed_field_error, terrain_field_error};
 use files::RawMesh;
 use parry3d_f64::query::{PointQueryWithLocation, Ray, RayCast};
 use parry3d_f64::shape::{TriMesh, TriMeshFlags};
@@ -150,7 +150,16 @@ impl Terrain {
             return Err(file_err("holds no triangle".into()));
         }
         let (vertices, triangles, dropped_degenerate) = place(spec, raw);
+        // A closed mesh is a solid: a crop that cuts it leaves a shell whose inside is no
+        // longer defined. (A DEM is open from the start.)
+        let solid = spec.crop.is_some()
+            && !matches!(format, TerrainFormat::EsriAscii | TerrainFormat::GeoTiff)
+            && topology::analyse(&triangles).closed();
+        let whole = triangles.len();
         let triangles = crop(spec, &vertices, triangles)?;
+        if solid && triangles.len() < whole {
+            return Err(crop_opens_a_solid(spec, &vertices, triangles.len(), whole));
+        }
         let (vertices, triangles) = compact(vertices, triangles);
         check_bounds(&vertices, domain)?;
         let topo = topology::analyse(&triangles);
@@ -294,18 +303,67 @@ pub fn to_field_error(index: usize, e: TerrainError) -> FieldError {
 }
 
 /// Loads every terrain of the scene and reports what is wrong with each (the coupler's check
-/// before any node starts).
+/// before any node starts), and every moving block buried in one.
 pub fn check_scene(scene: &Scene) -> Vec<FieldError> {
-    scene
-        .terrain
-        .iter()
-        .enumerate()
-        .filter_map(|(i, t)| {
-            Terrain::load(t, &scene.domain)
-                .err()
-                .map(|e| to_field_error(i, e))
-        })
-        .collect()
+    let mut out = Vec::new();
+    for (i, t) in scene.terrain.iter().enumerate() {
+        match Terrain::load(t, &scene.domain) {
+            Err(e) => out.push(to_field_error(i, e)),
+            Ok(terrain) => out.extend(buried_blocks(scene, i, &terrain)),
+        }
+    }
+    out
+}
+
+/// The free and kinematic blocks whose centre lies inside the ground of `terrain` (enclosed by a
+/// closed mesh, or under an open surface): such a block starts deep in the rock, where contact
+/// would throw it out at the first step or hold it for ever. A block resting on the ground has
+/// its centre above it.
+fn buried_blocks(scene: &Scene, index: usize, terrain: &Terrain) -> Vec<FieldError> {
+    let mut out = Vec::new();
+    let mut written = 0;
+    for b in &scene.blocks {
+        let at = match b.slide {
+            Some(m) => ("slide", m.slide, ""),
+            None => {
+                written += 1;
+                ("block", written - 1, "shape")
+            }
+        };
+        if b.kind == crate::scene::BlockKind::Fixed {
+            continue;
+        }
+        let Ok(points) = crate::geometry::shape_points(&b.shape) else {
+            continue;
+        };
+        let c = Point::from(
+            points.iter().map(|p| p.coords).sum::<Vector>() / points.len().max(1) as Real,
+        );
+        let Some(s) = terrain.nearest(&c, Real::MAX).filter(|s| s.distance < 0.0) else {
+            continue;
+        };
+        out.push(indexed_field_error(
+            at.0,
+            at.1,
+            at.2,
+            format!("block '{}' centred at [{:.4}, {:.4}, {:.4}]", b.name, c.x, c.y, c.z),
+            &format!(
+                "lies {:.4} m inside the ground of terrain[{index}] '{}' ({}): the block would start in the rock",
+                -s.distance,
+                terrain.name,
+                if terrain.closed {
+                    "enclosed by its closed mesh"
+                } else {
+                    "under its surface"
+                }
+            ),
+            &format!(
+                "move the block out of the ground (the surface nearest its centre is at [{:.4}, {:.4}, {:.4}]), or check the terrain's offset, scale and flip_normals",
+                s.point.x, s.point.y, s.point.z
+            ),
+        ));
+    }
+    out
 }
 
 /// A DEM's header, then the cells its crop and decimation keep, read so: nothing else is held.
@@ -402,6 +460,25 @@ fn window(spec: &TerrainSpec, h: &dem::Header) -> dem::Window {
         cols: align(cols),
         step,
     }
+}
+
+fn crop_opens_a_solid(
+    spec: &TerrainSpec,
+    vertices: &[[Real; 3]],
+    kept: usize,
+    whole: usize,
+) -> TerrainError {
+    let (lo, hi) = bounds_of(vertices);
+    fail(
+        "crop",
+        format!("{:?}", spec.crop.expect("cropped")),
+        format!(
+            "cuts the closed mesh open (keeps {kept} of its {whole} triangles): a cut solid is a shell with holes, with no inside"
+        ),
+        &format!(
+            "give a crop box that holds the whole mesh (its placed bounds are {lo:?} to {hi:?}), or remove crop; to keep part of a solid, cut it closed in a mesh tool"
+        ),
+    )
 }
 
 fn crop_keeps_nothing(c: &crate::scene::CropSpec) -> TerrainError {

@@ -12,7 +12,20 @@ pub(crate) fn terrain_field_error(
     problem: &str,
     fix: &str,
 ) -> FieldError {
-    let mut segments = vec![Seg::Key("terrain".into()), Seg::Index(index)];
+    indexed_field_error("terrain", index, field, value, problem, fix)
+}
+
+/// An error at `table[index].field` (`field` empty: the table itself), e.g. a block that a
+/// terrain buries.
+pub(crate) fn indexed_field_error(
+    table: &str,
+    index: usize,
+    field: &str,
+    value: String,
+    problem: &str,
+    fix: &str,
+) -> FieldError {
+    let mut segments = vec![Seg::Key(table.into()), Seg::Index(index)];
     if !field.is_empty() {
         segments.push(Seg::Key(field.into()));
     }
