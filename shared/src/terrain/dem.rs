@@ -74,7 +74,7 @@ impl Window {
     #[inline]
     pub fn keep(&self, row: usize, col: usize) -> Option<(usize, usize)> {
         let inside = |i: usize, (a, b): (usize, usize)| {
-            (i >= a && i < b && (i - a) % self.step == 0).then(|| (i - a) / self.step)
+            (i >= a && i < b && (i - a).is_multiple_of(self.step)).then(|| (i - a) / self.step)
         };
         Some((inside(row, self.rows)?, inside(col, self.cols)?))
     }

@@ -379,10 +379,10 @@ fn read_dem(spec: &TerrainSpec, format: TerrainFormat) -> Result<dem::Grid, Terr
     };
     enum Source {
         Asc(dem::AscReader<std::io::BufReader<std::fs::File>>),
-        Tif(geotiff::TifReader),
+        Tif(Box<geotiff::TifReader>),
     }
     let source = if format == TerrainFormat::GeoTiff {
-        Source::Tif(geotiff::open(&spec.file).map_err(file_err)?)
+        Source::Tif(Box::new(geotiff::open(&spec.file).map_err(file_err)?))
     } else {
         Source::Asc(dem::open(&spec.file).map_err(file_err)?)
     };
