@@ -90,14 +90,7 @@ impl Terrain {
     /// Reads, places and checks one `[[terrain]]` table.
     pub fn load(spec: &TerrainSpec, domain: &DomainSpec) -> Result<Terrain, TerrainError> {
         let file = spec.file.display().to_string();
-        let file_err = |e: String| {
-            fail(
-                "file",
-                format!("{file:?}"),
-                e,
-                "give a readable file of the format its extension names",
-            )
-        };
+        let file_err = |e: String| file_error(&file, e);
         let format = TerrainFormat::of(&spec.file).ok_or_else(|| {
             fail(
                 "file",
@@ -366,17 +359,23 @@ fn buried_blocks(scene: &Scene, index: usize, terrain: &Terrain) -> Vec<FieldErr
     out
 }
 
+/// An error of the file `file` itself: a reader's message, whose own fix (after "; fix: ")
+/// becomes the error's, or the general one.
+fn file_error(file: &str, e: String) -> TerrainError {
+    let (problem, fix) = match e.split_once("; fix: ") {
+        Some((p, f)) => (p.to_string(), f.to_string()),
+        None => (
+            e,
+            "give a readable file of the format its extension names".into(),
+        ),
+    };
+    fail("file", format!("{file:?}"), problem, &fix)
+}
+
 /// A DEM's header, then the cells its crop and decimation keep, read so: nothing else is held.
 fn read_dem(spec: &TerrainSpec, format: TerrainFormat) -> Result<dem::Grid, TerrainError> {
     let file = spec.file.display().to_string();
-    let file_err = |e: String| {
-        fail(
-            "file",
-            format!("{file:?}"),
-            e,
-            "give a readable file of the format its extension names",
-        )
-    };
+    let file_err = |e: String| file_error(&file, e);
     enum Source {
         Asc(dem::AscReader<std::io::BufReader<std::fs::File>>),
         Tif(Box<geotiff::TifReader>),
