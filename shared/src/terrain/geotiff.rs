@@ -387,6 +387,30 @@ pub(super) mod tests {
         std::fs::remove_file(&path).unwrap();
     }
 
+    /// A grid stored south-up and east-to-west (a transformation with a positive row step and
+    /// a negative column step) reads as the same north-up grid as its plain twin.
+    #[test]
+    fn a_grid_stored_flipped_reads_as_its_north_up_twin() {
+        let z: Vec<f32> = (0..12).map(|i| i as f32 * 0.5 - 1.0).collect();
+        let flipped: Vec<f32> = (0..12).map(|i| z[(2 - i / 4) * 4 + (3 - i % 4)]).collect();
+        let (plain, other) = (temp("plain"), temp("flipped"));
+        write(&plain, &z, None, false);
+        let file = std::fs::File::create(&other).unwrap();
+        let mut enc = TiffEncoder::new(file).unwrap();
+        let mut image = enc.new_image::<Gray32Float>(4, 3).unwrap();
+        let t = [
+            -10.0, 0.0, 0.0, 1040.0, 0.0, 10.0, 0.0, 2000.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+        ];
+        let dir = image.encoder();
+        dir.write_tag(Tag::ModelTransformationTag, &t[..]).unwrap();
+        image.write_data(&flipped).unwrap();
+        let (a, b) = (read(&plain).unwrap(), read(&other).unwrap());
+        assert_eq!((a.x0, a.y0, a.cell), (b.x0, b.y0, b.cell));
+        assert_eq!(a.z, b.z);
+        std::fs::remove_file(&plain).unwrap();
+        std::fs::remove_file(&other).unwrap();
+    }
+
     #[test]
     fn no_data_cells_and_bad_grids_are_named() {
         let mut z = vec![1.0f32; 12];

@@ -323,6 +323,18 @@ fn scene_paths_are_relative_to_the_scene_file() {
     );
     let e = Scene::parse(&clash, "t").unwrap_err();
     assert!(e.to_string().contains("terrain[0].name"), "{e}");
+    // decimate: at least 1, and for DEMs only.
+    for (line, problem) in [
+        ("decimate = 0", "at least 1"),
+        ("decimate = 2", "DEMs (.asc, .tif) only"),
+    ] {
+        let e = Scene::parse(&text.replace("rotation = [0, 0, 0]", line), "t").unwrap_err();
+        let e = e.to_string();
+        assert!(
+            e.contains("terrain[0].decimate") && e.contains(problem) && e.contains("fix:"),
+            "{e}"
+        );
+    }
     let e = Scene::parse(&text.replace("site/box.obj", "site/box.dxf"), "t").unwrap_err();
     assert!(e.to_string().contains("terrain[0].file"), "{e}");
     let e = Scene::parse(
