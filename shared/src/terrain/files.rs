@@ -20,6 +20,61 @@ pub const MAX_MESH_TRIANGLES: usize = 8_000_000;
 /// garbage) is refused before its first byte is parsed.
 pub const MAX_MESH_FILE_BYTES: u64 = 2 << 30;
 
+/// The longest line of a text mesh file (ASCII STL, OBJ, ASCII PLY) [bytes]: their lines are a
+/// few dozen bytes (a long polygon a few kilobytes); a longer run without a newline (zeros,
+/// binary garbage under a text format's name) is refused instead of being gathered into one
+/// string.
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+
+fn long_line() -> String {
+    format!(
+        "a line longer than {MAX_LINE_BYTES} bytes (MAX_LINE_BYTES): not a text mesh file; fix: give the mesh as text lines, or as a binary STL or PLY"
+    )
+}
+
+/// A reader that fails when a line grows past [`MAX_LINE_BYTES`], so the text parsers, which
+/// gather a line at a time, hold at most that.
+struct Lines<R> {
+    inner: R,
+    since_newline: usize,
+}
+
+impl<R> Lines<R> {
+    fn new(inner: R) -> Self {
+        Lines {
+            inner,
+            since_newline: 0,
+        }
+    }
+}
+
+impl<R: Read> Read for Lines<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        for &b in &buf[..n] {
+            self.since_newline = if b == b'\n' {
+                0
+            } else {
+                self.since_newline + 1
+            };
+            if self.since_newline > MAX_LINE_BYTES {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    long_line(),
+                ));
+            }
+        }
+        Ok(n)
+    }
+}
+
+impl<R: std::io::Seek> std::io::Seek for Lines<R> {
+    fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
+        self.since_newline = 0;
+        self.inner.seek(pos)
+    }
+}
+
 /// Size of a binary STL's header (80 bytes) and triangle count (4), and of each triangle
 /// record (normal, three corners as f32, a 2-byte attribute).
 const STL_HEADER: u64 = 84;
@@ -79,8 +134,8 @@ fn bounded_triangles(path: &Path, n: u64) -> Result<(), String> {
 }
 
 /// A binary STL (one that does not start with `solid`, or whose count fits its length exactly)
-/// must be as long as its triangle count says: 84 + 50·n bytes.
-fn check_stl_length(path: &Path, len: u64) -> Result<(), String> {
+/// must be as long as its triangle count says: 84 + 50·n bytes. True for an ASCII STL.
+fn check_stl_length(path: &Path, len: u64) -> Result<bool, String> {
     let mut head = [0u8; STL_HEADER as usize];
     let mut f =
         std::fs::File::open(path).map_err(|e| format!("cannot open '{}': {e}", path.display()))?;
@@ -95,7 +150,7 @@ fn check_stl_length(path: &Path, len: u64) -> Result<(), String> {
     let ascii = head.starts_with(b"solid");
     if len < STL_HEADER {
         return if ascii {
-            Ok(())
+            Ok(true)
         } else {
             Err(format!(
                 "'{}' is {len} bytes: too short for a binary STL (84 bytes of header and count) and does not start with `solid` (ASCII); fix: give a complete STL file",
@@ -106,7 +161,7 @@ fn check_stl_length(path: &Path, len: u64) -> Result<(), String> {
     let n = u32::from_le_bytes([head[80], head[81], head[82], head[83]]) as u64;
     let expected = STL_HEADER + STL_TRIANGLE * n;
     if ascii && expected != len {
-        return Ok(());
+        return Ok(true);
     }
     if expected != len {
         return Err(format!(
@@ -114,16 +169,20 @@ fn check_stl_length(path: &Path, len: u64) -> Result<(), String> {
             path.display()
         ));
     }
-    bounded_triangles(path, n)
+    bounded_triangles(path, n).map(|()| false)
 }
 
 /// An STL file, binary or ASCII (`stl_io` tells them apart and merges equal corners).
 pub fn read_stl(path: &Path) -> Result<RawMesh, String> {
     let len = bounded_length(path)?;
-    check_stl_length(path, len)?;
-    let mut r = open(path)?;
-    let mesh = stl_io::read_stl(&mut r)
-        .map_err(|e| format!("'{}' is not a readable STL file: {e}", path.display()))?;
+    let ascii = check_stl_length(path, len)?;
+    let r = open(path)?;
+    let mesh = if ascii {
+        stl_io::read_stl(&mut Lines::new(r))
+    } else {
+        stl_io::read_stl(&mut { r })
+    }
+    .map_err(|e| format!("'{}' is not a readable STL file: {e}", path.display()))?;
     bounded_triangles(path, mesh.faces.len() as u64)?;
     Ok(RawMesh {
         vertices: mesh
@@ -148,8 +207,21 @@ pub fn read_obj(path: &Path) -> Result<RawMesh, String> {
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _materials) = tobj::load_obj(path, &options)
-        .map_err(|e| format!("'{}' is not a readable OBJ file: {e}", path.display()))?;
+    let file =
+        std::fs::File::open(path).map_err(|e| format!("cannot open '{}': {e}", path.display()))?;
+    let mut r = BufReader::new(Lines::new(file));
+    // Materials are not read: a terrain is a surface, whatever its colours.
+    let (models, _materials) =
+        tobj::load_obj_buf(&mut r, &options, |_| Err(tobj::LoadError::OpenFileFailed)).map_err(
+            |e| {
+                let e = if r.get_ref().since_newline > MAX_LINE_BYTES {
+                    long_line()
+                } else {
+                    e.to_string()
+                };
+                format!("'{}' is not a readable OBJ file: {e}", path.display())
+            },
+        )?;
     let mut out = RawMesh::default();
     for m in &models {
         let first = out.vertices.len() as u32;
@@ -172,7 +244,8 @@ const MAX_PLY_HEADER: u64 = 64 << 10;
 /// A PLY header's element counts are bounded by the bytes after it: an ASCII element takes
 /// at least two bytes per property (a digit and a separator), a binary one at least one; so a
 /// header that claims 10¹² vertices in a small file is refused before anything is parsed.
-fn check_ply_counts(path: &Path, len: u64) -> Result<(), String> {
+/// True for an ASCII PLY.
+fn check_ply_counts(path: &Path, len: u64) -> Result<bool, String> {
     let mut r = open(path)?;
     let (mut header, mut claimed, mut ascii) = (0u64, 0u64, false);
     let mut line = Vec::new();
@@ -214,7 +287,7 @@ fn check_ply_counts(path: &Path, len: u64) -> Result<(), String> {
             len - header
         ));
     }
-    Ok(())
+    Ok(ascii)
 }
 
 /// A PLY file's `vertex` (x, y, z) and `face` (`vertex_indices` or `vertex_index`) elements;
@@ -222,12 +295,16 @@ fn check_ply_counts(path: &Path, len: u64) -> Result<(), String> {
 pub fn read_ply(path: &Path) -> Result<RawMesh, String> {
     use ply_rs_bw::ply::Property;
     let len = bounded_length(path)?;
-    check_ply_counts(path, len)?;
-    let mut r = open(path)?;
+    let ascii = check_ply_counts(path, len)?;
+    let file =
+        std::fs::File::open(path).map_err(|e| format!("cannot open '{}': {e}", path.display()))?;
     let parser = ply_rs_bw::parser::Parser::<ply_rs_bw::ply::DefaultElement>::new();
-    let ply = parser
-        .read_ply(&mut r)
-        .map_err(|e| format!("'{}' is not a readable PLY file: {e}", path.display()))?;
+    let ply = if ascii {
+        parser.read_ply(&mut BufReader::new(Lines::new(file)))
+    } else {
+        parser.read_ply(&mut BufReader::new(file))
+    }
+    .map_err(|e| format!("'{}' is not a readable PLY file: {e}", path.display()))?;
     let scalar = |p: &Property| -> Option<f64> {
         Some(match *p {
             Property::Char(v) => v as f64,

@@ -375,8 +375,8 @@ fn a_geotiff_terrain_is_the_same_surface_as_its_ascii_twin() {
 
 /// Mesh files that lie about their size are refused from their length, before they are parsed:
 /// a binary STL cut short, 10 GB of zeros (sparse: nothing is written) as a binary or ASCII
-/// STL, a binary STL whose count is past MAX_MESH_TRIANGLES, a PLY header claiming 10¹²
-/// vertices in a few bytes.
+/// STL, 100 MB of zeros after a text mesh's first line (one line that never ends), a binary STL
+/// whose count is past MAX_MESH_TRIANGLES, a PLY header claiming 10¹² vertices in a few bytes.
 #[test]
 fn mesh_files_that_lie_about_their_size_are_refused_from_their_length() {
     let tmp = dir("lying-meshes");
@@ -408,6 +408,12 @@ fn mesh_files_that_lie_about_their_size_are_refused_from_their_length() {
         (
             sized("zeros_ascii.stl", b"solid x\n", 10 << 30),
             "MAX_MESH_FILE_BYTES",
+        ),
+        (sized("endless.stl", b"solid x\n", 100 << 20), "MAX_LINE_BYTES"),
+        (sized("zeros.obj", b"v 0 0 0\n", 100 << 20), "MAX_LINE_BYTES"),
+        (
+            sized("zeros.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n", 100 << 20),
+            "MAX_LINE_BYTES",
         ),
         (
             sized("many.stl", &count, 84 + 50 * (MAX_MESH_TRIANGLES as u64 + 1)),
