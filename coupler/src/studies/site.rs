@@ -36,10 +36,47 @@ pub fn elevation(x: f64, y: f64) -> f64 {
     FLOOR + across.max(end)
 }
 
+/// The most cells `make-site` writes: what a terrain keeps whole
+/// ([`shared::terrain::dem::MAX_DEM_CELLS`]); a finer site could only be loaded cropped or
+/// decimated, and would be built in memory first (about 40 bytes a cell with its text).
+pub const MAX_SITE_CELLS: u64 = shared::terrain::dem::MAX_DEM_CELLS;
+
+/// Bytes a cell takes while the site is built and written: its elevation (16) and its text
+/// (up to about 24).
+const BYTES_PER_CELL: f64 = 40.0;
+
+/// Columns and rows of the site on a grid of spacing `cell`.
+fn size(cell: f64) -> (f64, f64) {
+    let n = |extent: f64| (extent / cell).round() + 1.0;
+    (n(LENGTH), n(WIDTH))
+}
+
 /// The site on a grid of spacing `cell`, its cell centres from (0, 0) to (LENGTH, WIDTH).
 pub fn grid(cell: f64) -> Grid {
-    let n = |extent: f64| (extent / cell).round() as usize + 1;
-    Grid::from_fn(n(LENGTH), n(WIDTH), 0.0, 0.0, cell, elevation)
+    let (nx, ny) = size(cell);
+    Grid::from_fn(nx as usize, ny as usize, 0.0, 0.0, cell, elevation)
+}
+
+/// Refuses a spacing whose grid is past [`MAX_SITE_CELLS`], before anything is built: the
+/// estimate of cells, triangles and bytes, and the finest spacing that fits.
+fn check_size(cell: f64) -> Result<(), String> {
+    let (nx, ny) = size(cell);
+    let cells = nx * ny;
+    if cells <= MAX_SITE_CELLS as f64 {
+        return Ok(());
+    }
+    // (L/c + 1)(W/c + 1) ≤ N: the finest spacing that fits, rounded up to 2 digits.
+    let mut finest = (LENGTH * WIDTH / MAX_SITE_CELLS as f64).sqrt();
+    while size(finest).0 * size(finest).1 > MAX_SITE_CELLS as f64 {
+        finest *= 1.01;
+    }
+    let digits = 10f64.powf(finest.log10().floor() - 1.0);
+    let finest = (finest / digits).ceil() * digits;
+    Err(format!(
+        "--cell {cell}: the site would be {nx} × {ny} = {cells:.3e} cells ({:.3e} triangles, about {:.1e} bytes to build and write), past the limit of {MAX_SITE_CELLS} cells (MAX_SITE_CELLS: what a terrain keeps whole); fix: give --cell {finest} or coarser",
+        2.0 * (nx - 1.0) * (ny - 1.0),
+        cells * BYTES_PER_CELL
+    ))
 }
 
 #[derive(Debug, Args)]
@@ -60,6 +97,10 @@ pub fn run(args: SiteArgs) -> u8 {
             args.cell,
             0.5 * WIDTH
         );
+        return 1;
+    }
+    if let Err(e) = check_size(args.cell) {
+        eprintln!("coupler: error: {e}");
         return 1;
     }
     let g = grid(args.cell);
@@ -102,6 +143,29 @@ mod tests {
             committed == grid(SCENE_CELL).to_asc(),
             "scenes/fjord/fjord.asc is stale: run `coupler make-site`"
         );
+    }
+
+    /// `--cell 1e-3` would ask for 10¹¹ cells (terabytes): refused before anything is built,
+    /// with the estimate and the finest spacing that fits, which itself passes.
+    #[test]
+    fn a_site_past_the_cell_limit_is_refused_with_the_finest_spacing() {
+        let e = check_size(1e-3).unwrap_err();
+        assert!(
+            e.contains("--cell 0.001")
+                && e.contains("MAX_SITE_CELLS")
+                && e.contains("1.040e11 cells")
+                && e.contains("fix: give --cell"),
+            "{e}"
+        );
+        let finest: f64 = e
+            .split("fix: give --cell ")
+            .nth(1)
+            .and_then(|s| s.split_whitespace().next())
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(check_size(finest).is_ok(), "{finest}");
+        assert!(check_size(SCENE_CELL).is_ok());
     }
 
     #[test]

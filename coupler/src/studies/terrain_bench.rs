@@ -37,6 +37,15 @@ pub struct TerrainBenchArgs {
     /// Rounds: each variant is timed once per round, in turn.
     #[arg(long, allow_hyphen_values = true, default_value_t = 5)]
     pub rounds: usize,
+    /// Instead of timing steps: write a survey-scale DEM of N × N cells of 1 m (a GeoTIFF in
+    /// strips of 16 rows, deflate; and an ESRI grid when N ≤ 2000) into --survey-dir, with the
+    /// scenes that load it (`whole.toml`: the ESRI grid uncropped; `cropped.toml`: the GeoTIFF
+    /// cropped to its central 1000 × 1000 cells), for `coupler check` to be timed on.
+    #[arg(long)]
+    pub survey: Option<u32>,
+    /// Where --survey writes.
+    #[arg(long, default_value = "survey")]
+    pub survey_dir: std::path::PathBuf,
 }
 
 const TANK: (f64, f64) = (2.0, 1.0);
@@ -147,6 +156,15 @@ fn row<S>(node: &str, v: &Timed<S>, count: usize) -> String {
 
 /// Runs the bench and prints a markdown table; the exit code.
 pub fn run(args: TerrainBenchArgs) -> u8 {
+    if let Some(n) = args.survey {
+        return match survey(n, &args.survey_dir) {
+            Ok(()) => 0,
+            Err(e) => {
+                eprintln!("coupler: error: {e}");
+                1
+            }
+        };
+    }
     match bench(&args) {
         Ok(rows) => {
             println!("{}", rows.join("\n"));
@@ -157,6 +175,52 @@ pub fn run(args: TerrainBenchArgs) -> u8 {
             1
         }
     }
+}
+
+/// Rolling ground: a few metres of relief over the survey, 1 m cells.
+fn survey_z(x: f64, y: f64) -> f64 {
+    2.0 * (x * 0.013).sin() * (y * 0.011).cos() + 0.5 * (x * 0.07 + y * 0.05).sin()
+}
+
+/// The files of `--survey`.
+fn survey(n: u32, dir: &Path) -> Result<(), String> {
+    const STRIP_ROWS: u32 = 16;
+    const KEPT: f64 = 1000.0;
+    if n < 2 {
+        return Err(format!("--survey {n}: give at least 2 cells"));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let side = n as f64;
+    let grid = (n <= 2000).then(|| Grid::from_fn(n as usize, n as usize, 0.5, 0.5, 1.0, survey_z));
+    let mut z = Vec::with_capacity(n as usize * n as usize);
+    for r in 0..n {
+        let y = side - 0.5 - r as f64;
+        z.extend((0..n).map(|c| survey_z(c as f64 + 0.5, y) as f32));
+    }
+    let tif = dir.join("survey.tif");
+    shared::terrain::geotiff::write(&tif, (n, n), [0.0, side], 1.0, STRIP_ROWS, true, &z)?;
+    drop(z);
+    let scene = |terrain: &str, lo: f64, hi: f64, crop: bool| {
+        let crop = if crop {
+            format!("crop = {{ min = [{lo}, {lo}, -10], max = [{hi}, {hi}, 10] }}\n")
+        } else {
+            String::new()
+        };
+        format!(
+            "name = \"survey\"\n[time]\nend = 0.1\n[domain]\nmin = [{lo}, {lo}, -10]\nmax = [{hi}, {hi}, 10]\n\n[[terrain]]\nname = \"ground\"\nfile = \"{terrain}\"\n{crop}"
+        )
+    };
+    let write = |name: &str, text: String| {
+        std::fs::write(dir.join(name), text).map_err(|e| format!("cannot write {name}: {e}"))
+    };
+    let (lo, hi) = (0.5 * (side - KEPT.min(side)), 0.5 * (side + KEPT.min(side)));
+    write("cropped.toml", scene("survey.tif", lo, hi, true))?;
+    if let Some(g) = grid {
+        write("survey.asc", g.to_asc())?;
+        write("whole.toml", scene("survey.asc", 0.5, side - 0.5, false))?;
+    }
+    println!("wrote {n} × {n} cells into {}", dir.display());
+    Ok(())
 }
 
 fn bench(args: &TerrainBenchArgs) -> Result<Vec<String>, String> {

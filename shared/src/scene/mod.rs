@@ -13,7 +13,7 @@ mod validate;
 pub use error::FieldError;
 pub use read::MAX_SCENE_BYTES;
 pub use schema::*;
-pub(crate) use validate::terrain_field_error;
+pub(crate) use validate::{indexed_field_error, terrain_field_error};
 
 use std::path::Path;
 

@@ -7,113 +7,348 @@
 
 use super::files::RawMesh;
 use crate::scene::NoData;
+use std::io::BufRead;
 use std::path::Path;
 
-/// A grid read from a file, before its no-data cells are dealt with.
-#[derive(Debug, Clone)]
-pub struct Grid {
+/// The most cells a DEM keeps (after `crop` and `decimate`, which act while it is read). A
+/// kept cell becomes a vertex and two triangles, about 800 bytes once placed, checked and held
+/// with its bounding-volume tree, so 4 M cells (2 000 × 2 000, 8 M triangles: the mesh limit
+/// [`super::files::MAX_MESH_TRIANGLES`]) take some 3 GB; survey grids larger than that are
+/// cropped to the part the water reaches or decimated.
+pub const MAX_DEM_CELLS: u64 = 4_000_000;
+
+/// The longest token of an ESRI grid [bytes]: a number or a header key. A longer run of
+/// non-blank bytes (a binary or runaway file) is refused instead of being gathered.
+const MAX_TOKEN: usize = 256;
+
+/// What a grid's header says: its size, where it lies and its no-data value.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Header {
     pub ncols: usize,
     pub nrows: usize,
     /// Centre of the south-west cell [file units].
     pub x0: f64,
     pub y0: f64,
     pub cell: f64,
+    pub nodata: Option<f64>,
+}
+
+/// The part of a grid kept while it is read: rows `rows.0..rows.1` (from the north) and columns
+/// `cols.0..cols.1` (from the west), every `step`-th of each from the first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Window {
+    pub rows: (usize, usize),
+    pub cols: (usize, usize),
+    pub step: usize,
+}
+
+impl Window {
+    /// The whole grid, every `step`-th row and column.
+    pub fn all(header: &Header, step: usize) -> Window {
+        Window {
+            rows: (0, header.nrows),
+            cols: (0, header.ncols),
+            step,
+        }
+    }
+
+    fn count(range: (usize, usize), step: usize) -> usize {
+        range.1.saturating_sub(range.0).div_ceil(step)
+    }
+
+    /// Kept rows and columns.
+    pub fn size(&self) -> (usize, usize) {
+        (
+            Self::count(self.rows, self.step),
+            Self::count(self.cols, self.step),
+        )
+    }
+
+    /// Kept cells.
+    pub fn cells(&self) -> u64 {
+        let (r, c) = self.size();
+        r as u64 * c as u64
+    }
+
+    /// The kept index (row, column) of the grid's cell (row, col), if kept.
+    #[inline]
+    pub fn keep(&self, row: usize, col: usize) -> Option<(usize, usize)> {
+        let inside = |i: usize, (a, b): (usize, usize)| {
+            (i >= a && i < b && (i - a).is_multiple_of(self.step)).then(|| (i - a) / self.step)
+        };
+        Some((inside(row, self.rows)?, inside(col, self.cols)?))
+    }
+}
+
+impl Header {
+    /// Refuses a window of more than [`MAX_DEM_CELLS`]; the caller names the field to change.
+    pub fn check_kept(&self, w: &Window) -> Result<(), String> {
+        if w.cells() > MAX_DEM_CELLS {
+            let (r, c) = w.size();
+            return Err(format!(
+                "the grid of {} × {} cells keeps {c} × {r} = {} cells, past the limit of {MAX_DEM_CELLS} (MAX_DEM_CELLS)",
+                self.ncols,
+                self.nrows,
+                w.cells()
+            ));
+        }
+        Ok(())
+    }
+
+    /// An empty grid of `w`'s cells, placed where they lie in the whole grid.
+    pub(super) fn grid_of(&self, w: &Window) -> Grid {
+        let (nrows, ncols) = w.size();
+        let last_row = w.rows.0 + (nrows.max(1) - 1) * w.step;
+        Grid {
+            ncols,
+            nrows,
+            x0: self.x0,
+            y0: self.y0,
+            cell: self.cell,
+            z: vec![None; nrows * ncols],
+            origin: [w.cols.0, self.nrows - 1 - last_row],
+            step: w.step,
+        }
+    }
+}
+
+/// A grid read from a file, before its no-data cells are dealt with.
+#[derive(Debug, Clone)]
+pub struct Grid {
+    pub ncols: usize,
+    pub nrows: usize,
+    /// Centre of the south-west cell of the whole grid in the file [file units].
+    pub x0: f64,
+    pub y0: f64,
+    pub cell: f64,
     /// Row-major from the north row; `None` for no-data (or NaN) cells.
     pub z: Vec<Option<f64>>,
+    /// Where the kept cells lie in the file's grid: the column of the first and the row (from
+    /// the south) of the southmost, every `step`-th cell of the file kept. A cell's position is
+    /// computed from the file's own origin, so a cropped grid's vertices are the very numbers
+    /// of the whole grid's.
+    pub origin: [usize; 2],
+    pub step: usize,
 }
 
-/// Reads an ESRI ASCII grid.
-pub fn read(path: &Path) -> Result<Grid, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
-    parse(&text).map_err(|e| format!("'{}': {e}", path.display()))
+/// Splits a byte stream at ASCII whitespace, one token at a time, without gathering more than
+/// [`MAX_TOKEN`] bytes.
+struct Tokens<R> {
+    r: R,
+    buf: Vec<u8>,
+    /// Tokens read so far.
+    count: u64,
 }
 
-/// Parses the text of an ESRI ASCII grid.
-pub fn parse(text: &str) -> Result<Grid, String> {
-    let mut tokens = text.split_ascii_whitespace().peekable();
-    let mut header = std::collections::BTreeMap::new();
-    while let Some(t) = tokens.peek() {
-        if t.parse::<f64>().is_ok() {
-            break;
-        }
-        let key = tokens.next().expect("peeked").to_ascii_lowercase();
-        let value = tokens
-            .next()
-            .ok_or_else(|| format!("header key `{key}` has no value"))?;
-        let v: f64 = value
-            .parse()
-            .map_err(|_| format!("header `{key}` = `{value}` is not a number"))?;
-        header.insert(key, v);
-    }
-    let get = |k: &str| header.get(k).copied();
-    let need = |k: &str| {
-        get(k).ok_or_else(|| {
-            format!("not an ESRI ASCII grid: the header has no `{k}` (expected ncols, nrows, xllcorner, yllcorner, cellsize)")
-        })
-    };
-    let (ncols, nrows) = (need("ncols")?, need("nrows")?);
-    if !(ncols >= 2.0 && nrows >= 2.0 && ncols.fract() == 0.0 && nrows.fract() == 0.0) {
-        return Err(format!(
-            "ncols = {ncols}, nrows = {nrows}: a grid needs at least 2 × 2 cells"
-        ));
-    }
-    // The header's claim is bounded by what the text holds (each elevation takes a character
-    // and a separator at least) before anything is reserved for it.
-    let room = text.len() / 2 + 1;
-    if ncols * nrows > room as f64 {
-        let n = |v: f64| {
-            if v < 1e15 {
-                format!("{v}")
-            } else {
-                format!("{v:e}")
+impl<R: BufRead> Tokens<R> {
+    fn next(&mut self) -> Result<Option<&str>, String> {
+        self.buf.clear();
+        loop {
+            let chunk = self.r.fill_buf().map_err(|e| format!("cannot read: {e}"))?;
+            if chunk.is_empty() {
+                break;
             }
+            let mut i = 0;
+            if self.buf.is_empty() {
+                while i < chunk.len() && chunk[i].is_ascii_whitespace() {
+                    i += 1;
+                }
+            }
+            let start = i;
+            while i < chunk.len() && !chunk[i].is_ascii_whitespace() {
+                i += 1;
+            }
+            self.buf.extend_from_slice(&chunk[start..i]);
+            let ended = i < chunk.len() && !self.buf.is_empty();
+            self.r.consume(i);
+            if self.buf.len() > MAX_TOKEN {
+                return Err(format!(
+                    "after {} values, a run of more than {MAX_TOKEN} bytes without a blank (MAX_TOKEN): not an ESRI ASCII grid; fix: give the grid as text",
+                    self.count
+                ));
+            }
+            if ended {
+                break;
+            }
+        }
+        if self.buf.is_empty() {
+            return Ok(None);
+        }
+        self.count += 1;
+        std::str::from_utf8(&self.buf)
+            .map(Some)
+            .map_err(|_| format!("value {} is not text: not an ESRI ASCII grid", self.count))
+    }
+}
+
+/// An ESRI ASCII grid whose header has been read: [`Self::read`] then reads the cells a
+/// [`Window`] keeps, row by row, holding nothing else.
+pub struct AscReader<R> {
+    tokens: Tokens<R>,
+    header: Header,
+    /// The first elevation, read while looking for the header's end.
+    first: String,
+}
+
+/// Opens an ESRI ASCII grid and reads its header.
+pub fn open(path: &Path) -> Result<AscReader<std::io::BufReader<std::fs::File>>, String> {
+    let file =
+        std::fs::File::open(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
+    let len = file
+        .metadata()
+        .map_err(|e| format!("cannot read '{}': {e}", path.display()))?
+        .len();
+    AscReader::new(std::io::BufReader::new(file), len)
+        .map_err(|e| format!("'{}': {e}", path.display()))
+}
+
+/// Reads a whole ESRI ASCII grid.
+pub fn read(path: &Path) -> Result<Grid, String> {
+    let r = open(path)?;
+    let w = Window::all(r.header(), 1);
+    r.read(&w).map_err(|e| format!("'{}': {e}", path.display()))
+}
+
+/// Parses the text of a whole ESRI ASCII grid.
+pub fn parse(text: &str) -> Result<Grid, String> {
+    let r = AscReader::new(text.as_bytes(), text.len() as u64)?;
+    let w = Window::all(r.header(), 1);
+    r.read(&w)
+}
+
+impl<R: BufRead> AscReader<R> {
+    /// Reads the header of a grid of `len` bytes; the claim of its size is bounded by them.
+    pub fn new(r: R, len: u64) -> Result<Self, String> {
+        let mut tokens = Tokens {
+            r,
+            buf: Vec::new(),
+            count: 0,
         };
-        return Err(format!(
-            "the header claims ncols × nrows = {} × {} = {} cells, but the file's {} bytes hold at most {room} elevations; fix: correct ncols and nrows, or give the whole grid",
-            n(ncols),
-            n(nrows),
-            n(ncols * nrows),
-            text.len()
-        ));
+        let mut header = std::collections::BTreeMap::new();
+        let first = loop {
+            let Some(t) = tokens.next()? else {
+                break String::new();
+            };
+            if t.parse::<f64>().is_ok() {
+                break t.to_string();
+            }
+            let key = t.to_ascii_lowercase();
+            let value = tokens
+                .next()?
+                .ok_or_else(|| format!("header key `{key}` has no value"))?;
+            let v: f64 = value
+                .parse()
+                .map_err(|_| format!("header `{key}` = `{value}` is not a number"))?;
+            header.insert(key, v);
+        };
+        tokens.count = 0;
+        let get = |k: &str| header.get(k).copied();
+        let need = |k: &str| {
+            get(k).ok_or_else(|| {
+                format!("not an ESRI ASCII grid: the header has no `{k}` (expected ncols, nrows, xllcorner, yllcorner, cellsize)")
+            })
+        };
+        let (ncols, nrows) = (need("ncols")?, need("nrows")?);
+        if !(ncols >= 2.0 && nrows >= 2.0 && ncols.fract() == 0.0 && nrows.fract() == 0.0) {
+            return Err(format!(
+                "ncols = {ncols}, nrows = {nrows}: a grid needs at least 2 × 2 cells"
+            ));
+        }
+        // The header's claim is bounded by what the file holds (each elevation takes a
+        // character and a separator at least) before anything is reserved for it.
+        let room = len / 2 + 1;
+        if ncols * nrows > room as f64 {
+            let n = |v: f64| {
+                if v < 1e15 {
+                    format!("{v}")
+                } else {
+                    format!("{v:e}")
+                }
+            };
+            return Err(format!(
+                "the header claims ncols × nrows = {} × {} = {} cells, but the file's {len} bytes hold at most {room} elevations; fix: correct ncols and nrows, or give the whole grid",
+                n(ncols),
+                n(nrows),
+                n(ncols * nrows),
+            ));
+        }
+        let cell = need("cellsize")?;
+        if !(cell.is_finite() && cell > 0.0) {
+            return Err(format!("cellsize = {cell}: must be a positive length"));
+        }
+        let centre = |corner: &str, center: &str| match (get(corner), get(center)) {
+            (Some(c), _) => Ok(c + 0.5 * cell),
+            (None, Some(c)) => Ok(c),
+            (None, None) => Err(format!("the header has neither `{corner}` nor `{center}`")),
+        };
+        let (x0, y0) = (
+            centre("xllcorner", "xllcenter")?,
+            centre("yllcorner", "yllcenter")?,
+        );
+        Ok(AscReader {
+            tokens,
+            header: Header {
+                ncols: ncols as usize,
+                nrows: nrows as usize,
+                x0,
+                y0,
+                cell,
+                nodata: get("nodata_value"),
+            },
+            first,
+        })
     }
-    let (ncols, nrows) = (ncols as usize, nrows as usize);
-    let cell = need("cellsize")?;
-    if !(cell.is_finite() && cell > 0.0) {
-        return Err(format!("cellsize = {cell}: must be a positive length"));
+
+    pub fn header(&self) -> &Header {
+        &self.header
     }
-    let centre = |corner: &str, center: &str| match (get(corner), get(center)) {
-        (Some(c), _) => Ok(c + 0.5 * cell),
-        (None, Some(c)) => Ok(c),
-        (None, None) => Err(format!("the header has neither `{corner}` nor `{center}`")),
-    };
-    let (x0, y0) = (
-        centre("xllcorner", "xllcenter")?,
-        centre("yllcorner", "yllcenter")?,
-    );
-    let nodata = get("nodata_value");
-    let mut z = Vec::with_capacity(ncols * nrows);
-    for t in tokens {
-        let v: f64 = t
-            .parse()
-            .map_err(|_| format!("elevation `{t}` (value {}) is not a number", z.len() + 1))?;
-        z.push((v.is_finite() && Some(v) != nodata).then_some(v));
+
+    /// Reads the cells `w` keeps, row by row; the values of other cells are passed over
+    /// unparsed, and the reading stops after the last kept row unless it is the grid's last
+    /// (then the count of the whole grid is checked).
+    pub fn read(mut self, w: &Window) -> Result<Grid, String> {
+        let h = self.header.clone();
+        let mut g = h.grid_of(w);
+        let total = h.ncols * h.nrows;
+        let end = if w.rows.1 >= h.nrows {
+            usize::MAX
+        } else {
+            w.rows.1 * h.ncols
+        };
+        let mut n = 0;
+        let mut parse = |t: &str, n: usize| -> Result<(), String> {
+            let (row, col) = (n / h.ncols, n % h.ncols);
+            if let Some((r, c)) = w.keep(row, col) {
+                let v: f64 = t
+                    .parse()
+                    .map_err(|_| format!("elevation `{t}` (value {}) is not a number", n + 1))?;
+                g.z[r * g.ncols + c] = (v.is_finite() && Some(v) != h.nodata).then_some(v);
+            }
+            Ok(())
+        };
+        if !self.first.is_empty() {
+            if n < total {
+                parse(&self.first, n)?;
+            }
+            n += 1;
+        }
+        while n < end {
+            let Some(t) = self.tokens.next()? else {
+                break;
+            };
+            if n < total {
+                parse(t, n)?;
+            }
+            n += 1;
+        }
+        if n < end.min(total) || (end == usize::MAX && n != total) {
+            return Err(format!(
+                "holds {n} elevations, but ncols × nrows = {} × {} = {total}; fix: give nrows lines of ncols elevations after the header",
+                h.ncols, h.nrows
+            ));
+        }
+        Ok(g)
     }
-    if z.len() != ncols * nrows {
-        return Err(format!(
-            "holds {} elevations, but ncols × nrows = {ncols} × {nrows} = {}; fix: give nrows lines of ncols elevations after the header",
-            z.len(),
-            ncols * nrows
-        ));
-    }
-    Ok(Grid {
-        ncols,
-        nrows,
-        x0,
-        y0,
-        cell,
-        z,
-    })
 }
 
 /// How a grid's missing cells were dealt with.
@@ -188,9 +423,12 @@ impl Grid {
     /// The grid as ESRI ASCII grid text (`xllcenter`/`yllcenter`, no-data as -9999): what
     /// scripts that make synthetic sites write.
     pub fn to_asc(&self) -> String {
+        let (x0, y0) = self.centre(self.nrows - 1, 0);
         let mut s = format!(
-            "ncols {}\nnrows {}\nxllcenter {}\nyllcenter {}\ncellsize {}\nNODATA_value -9999\n",
-            self.ncols, self.nrows, self.x0, self.y0, self.cell
+            "ncols {}\nnrows {}\nxllcenter {x0}\nyllcenter {y0}\ncellsize {}\nNODATA_value -9999\n",
+            self.ncols,
+            self.nrows,
+            self.cell * self.step as f64
         );
         for row in self.z.chunks(self.ncols) {
             let line: Vec<String> = row
@@ -219,6 +457,8 @@ impl Grid {
             y0,
             cell,
             z: Vec::with_capacity(ncols * nrows),
+            origin: [0, 0],
+            step: 1,
         };
         for r in 0..nrows {
             for c in 0..ncols {
@@ -229,11 +469,13 @@ impl Grid {
         g
     }
 
-    /// Centre of cell (row from the north, column from the west).
+    /// Centre of kept cell (row from the north, column from the west).
     pub fn centre(&self, row: usize, col: usize) -> (f64, f64) {
+        let file_col = self.origin[0] + col * self.step;
+        let file_row_from_south = self.origin[1] + (self.nrows - 1 - row) * self.step;
         (
-            self.x0 + col as f64 * self.cell,
-            self.y0 + (self.nrows - 1 - row) as f64 * self.cell,
+            self.x0 + file_col as f64 * self.cell,
+            self.y0 + file_row_from_south as f64 * self.cell,
         )
     }
 

@@ -19,8 +19,8 @@ pub mod geotiff;
 pub mod topology;
 
 use crate::math::{Point, Real, Rotation, Vector};
-use crate::scene::terrain_field_error;
 use crate::scene::{DomainSpec, FieldError, NoData, Scene, TerrainFormat, TerrainSpec};
+use crate::scene::{indexed_field_error, terrain_field_error};
 use files::RawMesh;
 use parry3d_f64::query::{PointQueryWithLocation, Ray, RayCast};
 use parry3d_f64::shape::{TriMesh, TriMeshFlags};
@@ -90,14 +90,7 @@ impl Terrain {
     /// Reads, places and checks one `[[terrain]]` table.
     pub fn load(spec: &TerrainSpec, domain: &DomainSpec) -> Result<Terrain, TerrainError> {
         let file = spec.file.display().to_string();
-        let file_err = |e: String| {
-            fail(
-                "file",
-                format!("{file:?}"),
-                e,
-                "give a readable file of the format its extension names",
-            )
-        };
+        let file_err = |e: String| file_error(&file, e);
         let format = TerrainFormat::of(&spec.file).ok_or_else(|| {
             fail(
                 "file",
@@ -122,12 +115,7 @@ impl Terrain {
             TerrainFormat::Obj => files::read_obj(&spec.file).map_err(file_err)?,
             TerrainFormat::Ply => files::read_ply(&spec.file).map_err(file_err)?,
             TerrainFormat::EsriAscii | TerrainFormat::GeoTiff => {
-                let mut grid = if format == TerrainFormat::GeoTiff {
-                    geotiff::read(&spec.file)
-                } else {
-                    dem::read(&spec.file)
-                }
-                .map_err(file_err)?;
+                let mut grid = read_dem(spec, format)?;
                 filled_cells = grid
                     .resolve(spec.nodata)
                     .map_err(|e| {
@@ -155,7 +143,16 @@ impl Terrain {
             return Err(file_err("holds no triangle".into()));
         }
         let (vertices, triangles, dropped_degenerate) = place(spec, raw);
+        // A closed mesh is a solid: a crop that cuts it leaves a shell whose inside is no
+        // longer defined. (A DEM is open from the start.)
+        let solid = spec.crop.is_some()
+            && !matches!(format, TerrainFormat::EsriAscii | TerrainFormat::GeoTiff)
+            && topology::analyse(&triangles).closed();
+        let whole = triangles.len();
         let triangles = crop(spec, &vertices, triangles)?;
+        if solid && triangles.len() < whole {
+            return Err(crop_opens_a_solid(spec, &vertices, triangles.len(), whole));
+        }
         let (vertices, triangles) = compact(vertices, triangles);
         check_bounds(&vertices, domain)?;
         let topo = topology::analyse(&triangles);
@@ -299,18 +296,197 @@ pub fn to_field_error(index: usize, e: TerrainError) -> FieldError {
 }
 
 /// Loads every terrain of the scene and reports what is wrong with each (the coupler's check
-/// before any node starts).
+/// before any node starts), and every moving block buried in one.
 pub fn check_scene(scene: &Scene) -> Vec<FieldError> {
-    scene
-        .terrain
-        .iter()
-        .enumerate()
-        .filter_map(|(i, t)| {
-            Terrain::load(t, &scene.domain)
-                .err()
-                .map(|e| to_field_error(i, e))
-        })
-        .collect()
+    let mut out = Vec::new();
+    for (i, t) in scene.terrain.iter().enumerate() {
+        match Terrain::load(t, &scene.domain) {
+            Err(e) => out.push(to_field_error(i, e)),
+            Ok(terrain) => out.extend(buried_blocks(scene, i, &terrain)),
+        }
+    }
+    out
+}
+
+/// The free and kinematic blocks whose centre lies inside the ground of `terrain` (enclosed by a
+/// closed mesh, or under an open surface): such a block starts deep in the rock, where contact
+/// would throw it out at the first step or hold it for ever. A block resting on the ground has
+/// its centre above it.
+fn buried_blocks(scene: &Scene, index: usize, terrain: &Terrain) -> Vec<FieldError> {
+    let mut out = Vec::new();
+    let mut written = 0;
+    for b in &scene.blocks {
+        let at = match b.slide {
+            Some(m) => ("slide", m.slide, ""),
+            None => {
+                written += 1;
+                ("block", written - 1, "shape")
+            }
+        };
+        if b.kind == crate::scene::BlockKind::Fixed {
+            continue;
+        }
+        let Ok(points) = crate::geometry::shape_points(&b.shape) else {
+            continue;
+        };
+        let c = Point::from(
+            points.iter().map(|p| p.coords).sum::<Vector>() / points.len().max(1) as Real,
+        );
+        let Some(s) = terrain.nearest(&c, Real::MAX).filter(|s| s.distance < 0.0) else {
+            continue;
+        };
+        out.push(indexed_field_error(
+            at.0,
+            at.1,
+            at.2,
+            format!("block '{}' centred at [{:.4}, {:.4}, {:.4}]", b.name, c.x, c.y, c.z),
+            &format!(
+                "lies {:.4} m inside the ground of terrain[{index}] '{}' ({}): the block would start in the rock",
+                -s.distance,
+                terrain.name,
+                if terrain.closed {
+                    "enclosed by its closed mesh"
+                } else {
+                    "under its surface"
+                }
+            ),
+            &format!(
+                "move the block out of the ground (the surface nearest its centre is at [{:.4}, {:.4}, {:.4}]), or check the terrain's offset, scale and flip_normals",
+                s.point.x, s.point.y, s.point.z
+            ),
+        ));
+    }
+    out
+}
+
+/// An error of the file `file` itself: a reader's message, whose own fix (after "; fix: ")
+/// becomes the error's, or the general one.
+fn file_error(file: &str, e: String) -> TerrainError {
+    let (problem, fix) = match e.split_once("; fix: ") {
+        Some((p, f)) => (p.to_string(), f.to_string()),
+        None => (
+            e,
+            "give a readable file of the format its extension names".into(),
+        ),
+    };
+    fail("file", format!("{file:?}"), problem, &fix)
+}
+
+/// A DEM's header, then the cells its crop and decimation keep, read so: nothing else is held.
+fn read_dem(spec: &TerrainSpec, format: TerrainFormat) -> Result<dem::Grid, TerrainError> {
+    let file = spec.file.display().to_string();
+    let file_err = |e: String| file_error(&file, e);
+    enum Source {
+        Asc(dem::AscReader<std::io::BufReader<std::fs::File>>),
+        Tif(Box<geotiff::TifReader>),
+    }
+    let source = if format == TerrainFormat::GeoTiff {
+        Source::Tif(Box::new(geotiff::open(&spec.file).map_err(file_err)?))
+    } else {
+        Source::Asc(dem::open(&spec.file).map_err(file_err)?)
+    };
+    let header = match &source {
+        Source::Asc(r) => r.header(),
+        Source::Tif(r) => r.header(),
+    }
+    .clone();
+    let w = window(spec, &header);
+    let (rows, cols) = w.size();
+    if let Some(c) = &spec.crop
+        && (rows < 2 || cols < 2)
+    {
+        return Err(crop_keeps_nothing(c));
+    }
+    header.check_kept(&w).map_err(|e| {
+        let step = w.step as f64 * (w.cells() as f64 / dem::MAX_DEM_CELLS as f64).sqrt();
+        let fix = format!(
+            "crop the DEM to the part the water reaches (crop = {{ min = [x, y, z], max = [x, y, z] }}, scene coordinates), or keep every n-th cell with decimate = {} or more",
+            step.ceil() as usize
+        );
+        let (field, value) = match (&spec.crop, spec.decimate) {
+            (None, _) => ("crop", "none".to_string()),
+            (Some(_), None) => ("decimate", "none (every cell)".to_string()),
+            (Some(c), Some(n)) => ("decimate", format!("{n}, crop {c:?}")),
+        };
+        fail(field, value, format!("{file}: {e}"), &fix)
+    })?;
+    match source {
+        Source::Asc(r) => r.read(&w),
+        Source::Tif(r) => r.read(&w),
+    }
+    .map_err(|e| file_err(format!("'{file}': {e}")))
+}
+
+/// The rows and columns of a DEM that `crop` and `decimate` keep: the cells within a cell (of
+/// the decimated grid) of the crop box carried back into the file's frame, on the lattice of
+/// every `decimate`-th row and column from the north-west corner. Every triangle whose centroid
+/// is in the crop box has its corners there, so the crop of the triangles that follows keeps
+/// exactly what it would keep of the whole grid.
+fn window(spec: &TerrainSpec, h: &dem::Header) -> dem::Window {
+    let step = spec.decimate.unwrap_or(1).max(1);
+    let Some(c) = &spec.crop else {
+        return dem::Window::all(h, step);
+    };
+    let r = spec.rotation.map(Real::to_radians);
+    let back = Rotation::from_euler_angles(r[0], r[1], r[2]).inverse();
+    let (s, o) = (Vector::from(spec.scale), Vector::from(spec.offset));
+    let (mut lo, mut hi) = ([Real::INFINITY; 2], [Real::NEG_INFINITY; 2]);
+    for k in 0..8 {
+        let corner = Vector::from(std::array::from_fn::<Real, 3, _>(|a| {
+            if k >> a & 1 == 0 { c.min[a] } else { c.max[a] }
+        }));
+        let p = (back * (corner - o)).component_div(&s);
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let margin = 2.0 * step as Real * h.cell;
+    // Cells (from the west, from the south) whose centres lie in [lo − margin, hi + margin].
+    let span = |lo: Real, hi: Real, origin: Real, n: usize| {
+        let first = ((lo - margin - origin) / h.cell)
+            .ceil()
+            .clamp(0.0, n as Real) as usize;
+        let end = (((hi + margin - origin) / h.cell).floor() + 1.0).clamp(0.0, n as Real) as usize;
+        (first, end.max(first))
+    };
+    let cols = span(lo[0], hi[0], h.x0, h.ncols);
+    let south = span(lo[1], hi[1], h.y0, h.nrows);
+    let rows = (h.nrows - south.1, h.nrows - south.0);
+    let align = |(a, b): (usize, usize)| (a / step * step, b);
+    dem::Window {
+        rows: align(rows),
+        cols: align(cols),
+        step,
+    }
+}
+
+fn crop_opens_a_solid(
+    spec: &TerrainSpec,
+    vertices: &[[Real; 3]],
+    kept: usize,
+    whole: usize,
+) -> TerrainError {
+    let (lo, hi) = bounds_of(vertices);
+    fail(
+        "crop",
+        format!("{:?}", spec.crop.expect("cropped")),
+        format!(
+            "cuts the closed mesh open (keeps {kept} of its {whole} triangles): a cut solid is a shell with holes, with no inside"
+        ),
+        &format!(
+            "give a crop box that holds the whole mesh (its placed bounds are {lo:?} to {hi:?}), or remove crop; to keep part of a solid, cut it closed in a mesh tool"
+        ),
+    )
+}
+
+fn crop_keeps_nothing(c: &crate::scene::CropSpec) -> TerrainError {
+    fail(
+        "crop",
+        format!("{c:?}"),
+        "keeps no triangle of the placed terrain",
+        "give a crop box (scene coordinates, after offset/scale/rotation) that holds part of the terrain",
+    )
 }
 
 /// x_scene = R·(scale ∘ x_file) + offset, the winding reversed for `flip_normals`, degenerate
@@ -390,12 +566,7 @@ fn crop(
         })
         .collect();
     if kept.is_empty() {
-        return Err(fail(
-            "crop",
-            format!("{c:?}"),
-            "keeps no triangle of the placed terrain",
-            "give a crop box (scene coordinates, after offset/scale/rotation) that holds part of the terrain",
-        ));
+        return Err(crop_keeps_nothing(c));
     }
     Ok(kept)
 }

@@ -1,5 +1,6 @@
 use super::*;
 use crate::scene::CropSpec;
+use files::MAX_MESH_TRIANGLES;
 use std::path::Path;
 
 /// A scratch folder for a test's files, removed when the returned guard drops.
@@ -322,6 +323,18 @@ fn scene_paths_are_relative_to_the_scene_file() {
     );
     let e = Scene::parse(&clash, "t").unwrap_err();
     assert!(e.to_string().contains("terrain[0].name"), "{e}");
+    // decimate: at least 1, and for DEMs only.
+    for (line, problem) in [
+        ("decimate = 0", "at least 1"),
+        ("decimate = 2", "DEMs (.asc, .tif) only"),
+    ] {
+        let e = Scene::parse(&text.replace("rotation = [0, 0, 0]", line), "t").unwrap_err();
+        let e = e.to_string();
+        assert!(
+            e.contains("terrain[0].decimate") && e.contains(problem) && e.contains("fix:"),
+            "{e}"
+        );
+    }
     let e = Scene::parse(&text.replace("site/box.obj", "site/box.dxf"), "t").unwrap_err();
     assert!(e.to_string().contains("terrain[0].file"), "{e}");
     let e = Scene::parse(
@@ -358,4 +371,252 @@ fn a_geotiff_terrain_is_the_same_surface_as_its_ascii_twin() {
     }
     std::fs::remove_file(&path).unwrap();
     std::fs::remove_file(&asc_path).unwrap();
+}
+
+/// Mesh files that lie about their size are refused from their length, before they are parsed:
+/// a binary STL cut short, 10 GB of zeros (sparse: nothing is written) as a binary or ASCII
+/// STL, 100 MB of zeros after a text mesh's first line (one line that never ends), a binary STL
+/// whose count is past MAX_MESH_TRIANGLES, a PLY header claiming 10¹² vertices in a few bytes.
+#[test]
+fn mesh_files_that_lie_about_their_size_are_refused_from_their_length() {
+    let tmp = dir("lying-meshes");
+    let d = tmp.path();
+    let dom = domain([0.0; 3], [1.0; 3]);
+    let sized = |name: &str, head: &[u8], len: u64| {
+        let p = d.join(name);
+        std::fs::write(&p, head).unwrap();
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open(&p)
+            .unwrap()
+            .set_len(len)
+            .unwrap();
+        p
+    };
+    let short = d.join("short.stl");
+    write_stl(&short, &box_mesh([0.2, 0.2, 0.0], [0.8, 0.6, 0.5]), false);
+    let len = std::fs::metadata(&short).unwrap().len();
+    let short = sized("short.stl", &std::fs::read(&short).unwrap(), len - 10);
+    let mut count = [0u8; 84];
+    count[80..].copy_from_slice(&(MAX_MESH_TRIANGLES as u32 + 1).to_le_bytes());
+    let cases = [
+        (short, "claims 12 triangles (684 bytes), but the file is 674 bytes"),
+        (
+            sized("zeros.stl", b"", 10 << 30),
+            "past the 2147483648-byte limit of a terrain mesh (MAX_MESH_FILE_BYTES",
+        ),
+        (
+            sized("zeros_ascii.stl", b"solid x\n", 10 << 30),
+            "MAX_MESH_FILE_BYTES",
+        ),
+        (sized("endless.stl", b"solid x\n", 100 << 20), "MAX_LINE_BYTES"),
+        (sized("zeros.obj", b"v 0 0 0\n", 100 << 20), "MAX_LINE_BYTES"),
+        (
+            sized("zeros.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n", 100 << 20),
+            "MAX_LINE_BYTES",
+        ),
+        (
+            sized("many.stl", &count, 84 + 50 * (MAX_MESH_TRIANGLES as u64 + 1)),
+            "holds 8000001 triangles, past the limit of 8000000 (MAX_MESH_TRIANGLES)",
+        ),
+        (
+            sized(
+                "huge.ply",
+                b"ply\nformat ascii 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n3 0 0 0\n",
+                184,
+            ),
+            "claims elements of 3000000000001 values in all",
+        ),
+    ];
+    for (p, claim) in cases {
+        let t0 = std::time::Instant::now();
+        let e = Terrain::load(&spec(&p), &dom).unwrap_err();
+        assert_eq!(e.field, "file");
+        assert!(
+            e.problem.contains(claim) && !e.problem.contains("fix:") && e.fix.len() > 20,
+            "{}: {e:?}",
+            p.display()
+        );
+        assert!(t0.elapsed().as_millis() < 500, "{}", p.display());
+    }
+}
+
+/// A DEM of `ncols` × `nrows` cells of 2 m with a hill on it, as an ESRI grid and as its
+/// GeoTIFF twin (strips of 7 rows), south-west centre at (1001, 2001).
+fn hill(d: &Path, ncols: usize, nrows: usize) -> (dem::Grid, [std::path::PathBuf; 2]) {
+    let f = |x: f64, y: f64| 3.0 + ((x - 1030.0) * 0.1).sin() * ((y - 2020.0) * 0.07).cos();
+    let g = dem::Grid::from_fn(ncols, nrows, 1001.0, 2001.0, 2.0, f);
+    let asc = d.join("hill.asc");
+    std::fs::write(&asc, g.to_asc()).unwrap();
+    let tif = d.join("hill.tif");
+    let north = 2000.0 + 2.0 * nrows as f64;
+    let z: Vec<f32> = g.z.iter().map(|v| v.unwrap() as f32).collect();
+    geotiff::write(
+        &tif,
+        (ncols as u32, nrows as u32),
+        [1000.0, north],
+        2.0,
+        7,
+        true,
+        &z,
+    )
+    .unwrap();
+    (g, [asc, tif])
+}
+
+/// What the load keeps of a DEM (placed, cropped, compacted) given its grid.
+fn kept(spec: &TerrainSpec, mut grid: dem::Grid) -> (Vec<[Real; 3]>, Vec<[u32; 3]>) {
+    grid.resolve(NoData::Refuse).unwrap();
+    let (v, t, _) = place(spec, grid.triangulate());
+    let t = crop(spec, &v, t).unwrap();
+    compact(v, t)
+}
+
+/// A DEM cropped while it is read (rotated, scaled and moved) keeps exactly the triangles and
+/// vertices the whole grid cropped keeps, from far fewer cells, for both formats; decimated,
+/// it is the grid of every n-th cell.
+#[test]
+fn a_dem_cropped_while_read_keeps_what_the_whole_grid_cropped_keeps() {
+    let tmp = dir("crop-window");
+    let (_, files) = hill(tmp.path(), 60, 45);
+    for file in &files {
+        let mut s = spec(file);
+        // The grid's centre (1060, 2045), rotated 20° about z, to (32, 40).
+        s.offset = [-264.64, -2244.21, 0.0];
+        s.rotation = [0.0, 0.0, 20.0];
+        s.scale = [1.0, 1.0, 2.0];
+        s.crop = Some(CropSpec {
+            min: [20.0, 30.0, -10.0],
+            max: [45.0, 50.0, 20.0],
+        });
+        let format = TerrainFormat::of(file).unwrap();
+        let window = read_dem(&s, format).unwrap();
+        assert!(window.z.len() * 4 < 60 * 45, "{}", window.z.len());
+        let whole = if format == TerrainFormat::GeoTiff {
+            geotiff::read(file)
+        } else {
+            dem::read(file)
+        }
+        .unwrap();
+        let (a, b) = (kept(&s, window), kept(&s, whole));
+        assert!(!a.1.is_empty());
+        assert_eq!(a, b, "{}", file.display());
+    }
+    // Every 3rd row and column of the 60 × 45 grid: 20 × 15 cells of 6 m.
+    let mut s = spec(&files[1]);
+    s.decimate = Some(3);
+    let g = read_dem(&s, TerrainFormat::GeoTiff).unwrap();
+    assert_eq!((g.ncols, g.nrows), (20, 15));
+    let coarse = dem::Grid::from_fn(20, 15, 0.0, 0.0, 1.0, |_, _| 0.0);
+    let (x0, y0) = g.centre(14, 0);
+    assert_eq!((x0, y0), (1001.0, 2001.0 + 2.0 * 2.0));
+    assert_eq!(g.centre(0, 19), (1001.0 + 57.0 * 2.0, 2001.0 + 44.0 * 2.0));
+    assert_eq!(g.z.len(), coarse.z.len());
+}
+
+/// A deflate bomb: a GeoTIFF of a few hundred kilobytes whose 8192 × 8192 cells (64 M) decode
+/// to 256 MB is refused from its header, before a strip is decoded, naming the fix; cropped to
+/// a small window it loads, decoding only the strips there.
+#[test]
+fn a_deflate_bomb_geotiff_is_refused_before_it_is_decoded() {
+    let tmp = dir("bomb");
+    let p = tmp.path().join("bomb.tif");
+    let n = 8192;
+    geotiff::write(
+        &p,
+        (n, n),
+        [0.0, n as f64],
+        1.0,
+        256,
+        true,
+        &vec![0.0; (n * n) as usize],
+    )
+    .unwrap();
+    assert!(std::fs::metadata(&p).unwrap().len() < 4 << 20);
+    let dom = domain([0.0, 0.0, -1.0], [50.0, 40.0, 1.0]);
+    let t0 = std::time::Instant::now();
+    let e = Terrain::load(&spec(&p), &dom).unwrap_err();
+    assert_eq!(e.field, "crop");
+    assert!(
+        e.problem.contains("keeps 8192 × 8192 = 67108864 cells")
+            && e.problem.contains("MAX_DEM_CELLS")
+            && e.fix.contains("decimate = 5"),
+        "{e:?}"
+    );
+    assert!(t0.elapsed().as_millis() < 100);
+    let mut s = spec(&p);
+    s.crop = Some(CropSpec {
+        min: [0.0, 0.0, -1.0],
+        max: [50.0, 40.0, 1.0],
+    });
+    let t0 = std::time::Instant::now();
+    let t = Terrain::load(&s, &dom).unwrap();
+    assert!(t.triangles() > 2 * 45 * 35 && t.triangles() < 2 * 55 * 45);
+    assert!(t0.elapsed().as_millis() < 500);
+}
+
+/// A crop that cuts a closed mesh leaves a shell with holes: refused, naming the bounds a crop
+/// must hold; a crop that holds the whole mesh keeps it closed.
+#[test]
+fn a_crop_that_cuts_a_closed_mesh_open_is_refused() {
+    let tmp = dir("crop-solid");
+    let p = tmp.path().join("box.obj");
+    write_obj(&p, &box_mesh([0.2, 0.2, 0.0], [0.8, 0.6, 0.5]));
+    let dom = domain([0.0; 3], [1.0; 3]);
+    let mut s = spec(&p);
+    s.crop = Some(CropSpec {
+        min: [0.0, 0.0, 0.0],
+        max: [0.5, 1.0, 1.0],
+    });
+    let e = Terrain::load(&s, &dom).unwrap_err();
+    assert_eq!(e.field, "crop");
+    assert!(
+        e.problem.contains("cuts the closed mesh open")
+            && e.fix.contains("[0.2, 0.2, 0.0] to [0.8, 0.6, 0.5]"),
+        "{e:?}"
+    );
+    s.crop = Some(CropSpec {
+        min: [0.1, 0.1, -0.1],
+        max: [0.9, 0.9, 0.9],
+    });
+    assert!(Terrain::load(&s, &dom).unwrap().closed);
+}
+
+/// A free block inside a closed terrain mesh, or under a DEM, is refused at check, named by
+/// its block; one above the ground passes.
+#[test]
+fn a_free_block_inside_the_ground_is_refused() {
+    let tmp = dir("buried");
+    let d = tmp.path();
+    write_obj(
+        &d.join("box.obj"),
+        &box_mesh([0.2, 0.2, 0.0], [0.8, 0.6, 0.5]),
+    );
+    let g = dem::Grid::from_fn(11, 11, 0.0, 0.0, 0.1, |_, _| 0.3);
+    std::fs::write(d.join("flat.asc"), g.to_asc()).unwrap();
+    for (file, rock) in [
+        ("box.obj", "min = [0.4, 0.3, 0.1], max = [0.5, 0.4, 0.2]"),
+        ("flat.asc", "min = [0.4, 0.4, 0.05], max = [0.5, 0.5, 0.15]"),
+    ] {
+        let scene = |rock: &str| {
+            let text = format!(
+                "name = \"t\"\n[time]\nend = 0.1\n[domain]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n\
+                 [[terrain]]\nfile = \"{file}\"\n\
+                 [[block]]\nname = \"rock\"\nkind = \"free\"\nshape = {{ type = \"box\", {rock} }}\n"
+            );
+            std::fs::write(d.join("scene.toml"), text).unwrap();
+            Scene::load(&d.join("scene.toml")).unwrap()
+        };
+        let errs = check_scene(&scene(rock));
+        assert_eq!(errs.len(), 1, "{file}: {errs:?}");
+        assert_eq!(errs[0].path, "block[0].shape");
+        assert!(
+            errs[0].problem.contains("inside the ground of terrain[0]")
+                && errs[0].fix.contains("move the block out of the ground"),
+            "{file}: {:?}",
+            errs[0]
+        );
+        let above = "min = [0.4, 0.3, 0.7], max = [0.5, 0.4, 0.8]";
+        assert!(check_scene(&scene(above)).is_empty(), "{file}");
+    }
 }

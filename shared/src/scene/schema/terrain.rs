@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 ///
 /// The file's coordinates are carried into the scene by x_scene = R·(scale ∘ x_file) + offset,
 /// with R the rotation of `rotation` (degrees about x, then y, then z); `crop` then keeps the
-/// triangles whose centroid is inside the box. The ground is under the surface: a mesh's
+/// triangles whose centroid is inside the box (a DEM is cropped, and `decimate`d, while it is
+/// read). The ground is under the surface: a mesh's
 /// triangles are wound counter-clockwise seen from outside (the water side), a DEM's rows run
 /// from north (top line of the file) to south.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -36,6 +37,11 @@ pub struct TerrainSpec {
     /// transform).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crop: Option<CropSpec>,
+    /// A DEM only: keep every n-th row and column of the file (n ≥ 1), read so, for a survey
+    /// grid finer than the water needs. The crop acts while the file is read too: only the
+    /// cells near the crop box are held.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decimate: Option<usize>,
     /// What to do with a DEM's no-data (or NaN) cells: `refuse` (default: the load fails and
     /// names the cells) or `fill` (each takes the mean of its valid neighbours, repeated
     /// inwards until none is left).

@@ -11,7 +11,7 @@ mod run;
 mod solid;
 mod terrain;
 
-pub(crate) use terrain::terrain_field_error;
+pub(crate) use terrain::{indexed_field_error, terrain_field_error};
 
 use super::error::FieldError;
 use super::schema::Scene;

@@ -12,7 +12,20 @@ pub(crate) fn terrain_field_error(
     problem: &str,
     fix: &str,
 ) -> FieldError {
-    let mut segments = vec![Seg::Key("terrain".into()), Seg::Index(index)];
+    indexed_field_error("terrain", index, field, value, problem, fix)
+}
+
+/// An error at `table[index].field` (`field` empty: the table itself), e.g. a block that a
+/// terrain buries.
+pub(crate) fn indexed_field_error(
+    table: &str,
+    index: usize,
+    field: &str,
+    value: String,
+    problem: &str,
+    fix: &str,
+) -> FieldError {
+    let mut segments = vec![Seg::Key(table.into()), Seg::Index(index)];
     if !field.is_empty() {
         segments.push(Seg::Key(field.into()));
     }
@@ -109,6 +122,29 @@ pub(super) fn check(
                     format!("{c:?}"),
                     "lies wholly outside [domain]: no triangle could be kept",
                     "give a crop box that overlaps [domain]",
+                );
+            }
+        }
+        if let Some(n) = t.decimate {
+            let dem = matches!(
+                TerrainFormat::of(&t.file),
+                Some(TerrainFormat::EsriAscii | TerrainFormat::GeoTiff)
+            );
+            if n == 0 {
+                fail(
+                    i,
+                    "decimate",
+                    format!("{n}"),
+                    "must be at least 1 (every n-th row and column is kept)",
+                    "give decimate = 1 to keep every cell, or e.g. decimate = 4",
+                );
+            } else if !dem {
+                fail(
+                    i,
+                    "decimate",
+                    format!("{n}"),
+                    "applies to DEMs (.asc, .tif) only",
+                    "remove decimate, and simplify the mesh in its own tool (e.g. a quadric decimation)",
                 );
             }
         }
