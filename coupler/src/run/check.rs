@@ -5,6 +5,8 @@ use std::path::Path;
 /// Runs `coupler check`; returns the process exit code. A run estimated to crawl
 /// ([`crate::run::sizes::crawl`]) fails the check unless `allow_long`.
 pub fn run(scene: Option<&Path>, slides_vtk: Option<&Path>, allow_long: bool) -> u8 {
+    // The scene's checks, the summary and the estimate read the terrains once between them.
+    let _once = shared::terrain::reuse::Reuse::begin();
     let loaded = crate::run::scenes::load_as_written(scene);
     match loaded {
         Ok(s) => {
@@ -22,7 +24,7 @@ pub fn run(scene: Option<&Path>, slides_vtk: Option<&Path>, allow_long: bool) ->
                     "closed"
                 }
             );
-            match shared::terrain::Terrain::load_all(&s) {
+            match shared::terrain::Terrain::load_all_kept(&s) {
                 Ok(terrain) => terrain.iter().for_each(|t| println!("{}", t.summary())),
                 Err(e) => {
                     eprintln!("coupler: error: {e}");

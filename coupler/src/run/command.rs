@@ -30,9 +30,12 @@ pub fn run(args: RunArgs) -> u8 {
 
 fn run_inner(args: RunArgs) -> Result<u8, String> {
     let resume = crate::run::resume::resume(&args)?;
+    // The scene's checks and the estimates read the terrains once between them.
+    let once = shared::terrain::reuse::Reuse::begin();
     let (scene, origin) = crate::run::settings::scene(&args, resume.as_ref())?;
     crate::run::settings::describe(&scene, &args, resume.as_ref());
     let checked = crate::run::settings::check_flags(&args, &scene, resume.as_ref())?;
+    drop(once);
     let (run_id, _lock) = claim_run_id(&args)?;
     let nodes = node_commands(&args, &scene)?;
     let (out, mut dir, fresh_lock) = run_dir(&args, &scene, &run_id, resume.as_ref())?;

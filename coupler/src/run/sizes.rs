@@ -117,7 +117,7 @@ pub fn estimate(scene: &Scene, solver: Option<&str>) -> Option<Estimate> {
         0.0
     };
     // A terrain that does not load is reported by the scene check; it adds nothing here.
-    let terrain = Terrain::load_all(scene).unwrap_or_default();
+    let terrain = Terrain::load_all_kept(scene).unwrap_or_default();
     if !terrain.is_empty() {
         volume -= water_in_ground(scene, &terrain, dx);
         area += terrain
@@ -286,7 +286,7 @@ fn area_in_domain(t: &Terrain, scene: &Scene) -> f64 {
 /// water's bounding boxes sampled on columns 2 dx apart, each column's water below the highest
 /// terrain surface over it counted. Boxes only (the water of every repository scene with a
 /// terrain); another shape adds nothing, keeping the estimate an upper one.
-fn water_in_ground(scene: &Scene, terrain: &[Terrain], dx: f64) -> f64 {
+fn water_in_ground(scene: &Scene, terrain: &[std::sync::Arc<Terrain>], dx: f64) -> f64 {
     let Some(fluid) = scene.fluid.as_ref() else {
         return 0.0;
     };

@@ -16,6 +16,7 @@
 pub mod dem;
 pub mod files;
 pub mod geotiff;
+pub mod reuse;
 pub mod topology;
 
 use crate::math::{Point, Real, Rotation, Vector};
@@ -188,6 +189,18 @@ impl Terrain {
             .collect()
     }
 
+    /// [`Self::load_all`], each terrain loaded once under a [`reuse::Reuse`] guard.
+    pub fn load_all_kept(scene: &Scene) -> Result<Vec<std::sync::Arc<Terrain>>, String> {
+        scene
+            .terrain
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                reuse::load(t, &scene.domain).map_err(|e| to_field_error(i, e).to_string())
+            })
+            .collect()
+    }
+
     pub fn triangles(&self) -> usize {
         self.mesh.num_triangles()
     }
@@ -300,7 +313,7 @@ pub fn to_field_error(index: usize, e: TerrainError) -> FieldError {
 pub fn check_scene(scene: &Scene) -> Vec<FieldError> {
     let mut out = Vec::new();
     for (i, t) in scene.terrain.iter().enumerate() {
-        match Terrain::load(t, &scene.domain) {
+        match reuse::load(t, &scene.domain) {
             Err(e) => out.push(to_field_error(i, e)),
             Ok(terrain) => out.extend(buried_blocks(scene, i, &terrain)),
         }
