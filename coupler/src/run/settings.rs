@@ -99,7 +99,9 @@ pub fn check_flags(
         ("--setup-timeout", args.setup_timeout),
     ] {
         if !(v.is_finite() && v > 0.0 && v < 1e9) {
-            return Err(format!("{flag} {v}: must be a positive number of seconds"));
+            return Err(format!(
+                "{flag} {v:e}: must be a positive number of seconds below 1e9 (about 30 years). Fix: e.g. {flag} 60"
+            ));
         }
     }
     let (endpoints, node_connect) = zenoh_endpoints(args)?;

@@ -179,26 +179,12 @@ impl Terrain {
 
     /// Every `[[terrain]]` of a scene; the error names the table and field.
     pub fn load_all(scene: &Scene) -> Result<Vec<Terrain>, String> {
-        scene
-            .terrain
-            .iter()
-            .enumerate()
-            .map(|(i, t)| {
-                Terrain::load(t, &scene.domain).map_err(|e| to_field_error(i, e).to_string())
-            })
-            .collect()
+        each_terrain(scene, Terrain::load)
     }
 
     /// [`Self::load_all`], each terrain loaded once under a [`reuse::Reuse`] guard.
     pub fn load_all_kept(scene: &Scene) -> Result<Vec<std::sync::Arc<Terrain>>, String> {
-        scene
-            .terrain
-            .iter()
-            .enumerate()
-            .map(|(i, t)| {
-                reuse::load(t, &scene.domain).map_err(|e| to_field_error(i, e).to_string())
-            })
-            .collect()
+        each_terrain(scene, reuse::load)
     }
 
     pub fn triangles(&self) -> usize {
@@ -306,6 +292,19 @@ pub fn bed_elevation(scene: &Scene, terrain: &[Terrain], x: Real, y: Real) -> Re
 /// A [`TerrainError`] of `terrain[index]` as a scene field error.
 pub fn to_field_error(index: usize, e: TerrainError) -> FieldError {
     terrain_field_error(index, e.field, e.value, &e.problem, &e.fix)
+}
+
+/// `load` of every `[[terrain]]` of the scene; the first error names its table and field.
+fn each_terrain<T>(
+    scene: &Scene,
+    load: impl Fn(&TerrainSpec, &DomainSpec) -> Result<T, TerrainError>,
+) -> Result<Vec<T>, String> {
+    scene
+        .terrain
+        .iter()
+        .enumerate()
+        .map(|(i, t)| load(t, &scene.domain).map_err(|e| to_field_error(i, e).to_string()))
+        .collect()
 }
 
 /// Loads every terrain of the scene and reports what is wrong with each (the coupler's check

@@ -10,9 +10,11 @@ use crate::scene::{DomainSpec, TerrainSpec};
 use std::cell::RefCell;
 use std::sync::Arc;
 
+/// The terrains loaded under the current guard, by their table and domain.
+type Kept = Vec<(String, Arc<Terrain>)>;
+
 thread_local! {
-    /// The terrains loaded under the current guard, by their table and domain.
-    static KEPT: RefCell<Option<Vec<(String, Arc<Terrain>)>>> = const { RefCell::new(None) };
+    static KEPT: RefCell<Option<Kept>> = const { RefCell::new(None) };
 }
 
 /// While alive, [`load`] on this thread loads each `[[terrain]]` table once.
