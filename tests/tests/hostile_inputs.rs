@@ -1,8 +1,8 @@
 //! Files from the outside world cannot take the process down (issue 45): a table of hostile
 //! inputs — headers that lie, sparse and device files, a FIFO, a deflate bomb, scenes with wrong
-//! types or values that would be accepted though wrong, damaged checkpoints — each given to the
-//! real `coupler` under a 1 GiB address-space limit (`setrlimit(RLIMIT_AS)`, inherited by the
-//! nodes it starts). Every case must end within seconds in a clear error: a nonzero exit code
+//! types or values that would be accepted though wrong, damaged checkpoints, network endpoints
+//! that cannot exist — each given to the real `coupler` under a 1 GiB address-space limit
+//! (`setrlimit(RLIMIT_AS)`, inherited by the nodes it starts). Every case must end within seconds in a clear error: a nonzero exit code
 //! (not a signal: no abort, no panic, no out-of-memory kill), a message naming the file or
 //! field and the fix, and no hang.
 //!
@@ -577,6 +577,41 @@ const CASES: &[Case] = &[
             })
         },
         says: &["coupler-0000009999.ckpt", "renamed", "fix"],
+    },
+    // Network endpoints.
+    Case {
+        name: "a zenoh endpoint without a port",
+        make: |dir| {
+            let out = dir.join("run").display().to_string();
+            args(&[
+                "run",
+                "--transport",
+                "zenoh",
+                "--listen",
+                "garbage",
+                "--quiet",
+                "--out",
+                &out,
+            ])
+        },
+        says: &["'garbage' is not a zenoh endpoint", "fix"],
+    },
+    Case {
+        name: "a zenoh endpoint that cannot exist",
+        make: |dir| {
+            let out = dir.join("run").display().to_string();
+            args(&[
+                "run",
+                "--transport",
+                "zenoh",
+                "--connect",
+                "tcp/999.1.1.1:99999",
+                "--quiet",
+                "--out",
+                &out,
+            ])
+        },
+        says: &["tcp/999.1.1.1:99999", "65535", "fix"],
     },
 ];
 

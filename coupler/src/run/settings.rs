@@ -193,6 +193,32 @@ fn default_checkpoints(args: &RunArgs, scene: &Scene, resume: Option<&Resumed>) 
     Some(minutes)
 }
 
+/// What is wrong with a zenoh endpoint `PROTOCOL/HOST:PORT` that can be told without the
+/// network (a port past 65 535, a dotted address with a part past 255 would otherwise cost
+/// the whole connect timeout), or `None`.
+fn endpoint_problem(endpoint: &str) -> Option<String> {
+    let Some((proto, addr)) = endpoint.split_once('/').filter(|(p, _)| !p.is_empty()) else {
+        return Some("no PROTOCOL/ before the address".into());
+    };
+    let Some((host, port)) = addr.rsplit_once(':') else {
+        return Some("no :PORT after the host".into());
+    };
+    if !matches!(proto, "tcp" | "udp" | "tls" | "quic") {
+        return None; // other links (unixsock-stream, …) have addresses of their own
+    }
+    if port.parse::<u16>().is_err() {
+        return Some(format!("port '{port}' is not a number from 0 to 65535"));
+    }
+    let dotted: Vec<&str> = host.split('.').collect();
+    let numeric = dotted.len() == 4 && dotted.iter().all(|p| p.chars().all(|c| c.is_ascii_digit()));
+    if numeric && host.parse::<std::net::Ipv4Addr>().is_err() {
+        return Some(format!(
+            "'{host}' is not an IPv4 address (each part 0 to 255)"
+        ));
+    }
+    None
+}
+
 /// Where the coupler listens and connects (zenoh), and what the nodes it starts connect to.
 fn zenoh_endpoints(args: &RunArgs) -> Result<(Endpoints, Vec<String>), String> {
     if args.transport != Kind::Zenoh {
@@ -205,14 +231,11 @@ fn zenoh_endpoints(args: &RunArgs) -> Result<(Endpoints, Vec<String>), String> {
         return Ok((Endpoints::default(), Vec::new()));
     }
     for e in args.listen.iter().chain(&args.connect) {
-        let ok = e
-            .split_once('/')
-            .is_some_and(|(proto, addr)| !proto.is_empty() && addr.contains(':'));
-        if !ok {
-            return Err(format!(
-                "'{e}' is not a zenoh endpoint. Fix: write PROTOCOL/HOST:PORT, e.g. tcp/0.0.0.0:7447"
-            ));
-        }
+        endpoint_problem(e).map_or(Ok(()), |problem| {
+            Err(format!(
+                "'{e}' is not a zenoh endpoint: {problem}. Fix: write PROTOCOL/HOST:PORT, e.g. tcp/0.0.0.0:7447"
+            ))
+        })?;
     }
     let listen = if !args.listen.is_empty() {
         args.listen.clone()
@@ -262,6 +285,23 @@ mod tests {
         match cli.command {
             crate::cli::Cmd::Run(args) => *args,
             _ => unreachable!(),
+        }
+    }
+
+    #[test]
+    fn an_endpoint_that_cannot_exist_is_named_before_any_connect() {
+        assert_eq!(endpoint_problem("tcp/0.0.0.0:7447"), None);
+        assert_eq!(endpoint_problem("tcp/[::1]:7447"), None);
+        assert_eq!(endpoint_problem("tcp/coupler.example.org:7447"), None);
+        for (bad, says) in [
+            ("garbage", "PROTOCOL"),
+            ("tcp/10.0.0.1", "PORT"),
+            ("tcp/10.0.0.1:99999", "65535"),
+            ("tcp/999.1.1.1:7447", "IPv4"),
+            ("tcp/10.0.0.1:-1", "65535"),
+        ] {
+            let p = endpoint_problem(bad).unwrap_or_default();
+            assert!(p.contains(says), "{bad}: {p}");
         }
     }
 

@@ -160,7 +160,16 @@ impl ZenohRun {
                 .map_err(zerr(&format!("config {key} = {value}")))?;
         }
         let session = ::zenoh::open(config).wait().map_err(|e| {
-            TransportError::Zenoh(if router {
+            TransportError::Zenoh(if router && !endpoints.connect.is_empty() {
+                // The router also connects (--connect): either may be what failed.
+                format!(
+                    "cannot listen on {} and connect to {}: {e}. Fix: check that the --connect \
+                     endpoints are running zenoh routers reachable from here (address and port), \
+                     and that the --listen port is free on an address of this host",
+                    endpoints.listen.join(", "),
+                    endpoints.connect.join(", ")
+                )
+            } else if router {
                 format!(
                     "cannot listen on {}: {e}. Fix: choose a free port, or an address of this host",
                     endpoints.listen.join(", ")
