@@ -74,11 +74,8 @@ pub(super) fn type_fix(field: &str, message: &str) -> Option<String> {
     let (found, expected) = rest.rsplit_once(", expected ")?;
     let expected = expected.trim();
     let (words, example) = match expected {
-        "usize" | "u64" => ("a whole number >= 0, without sign or decimal point", "10"),
-        "u32" => (
-            "a whole number from 0 to 4294967295, without sign or decimal point",
-            "10",
-        ),
+        // The field's own range (solid_substeps 1..=10 000, …) is its validation's to name.
+        "usize" | "u64" | "u32" => ("a whole number >= 0, without sign or decimal point", "10"),
         "u16" => ("a whole number from 0 to 65535", "10"),
         "u8" => ("a whole number from 0 to 255", "10"),
         "i64" | "i32" => ("a whole number, without decimal point", "10"),
@@ -178,7 +175,7 @@ mod tests {
             (
                 DEFAULT_SCENE.replace("[coupling]\n", "[coupling]\nsolid_substeps = -2\n"),
                 "coupling.solid_substeps",
-                "whole number from 0 to 4294967295",
+                "whole number >= 0, without sign",
                 "solid_substeps = 4",
             ),
             (
