@@ -96,6 +96,20 @@ fn cube_slide(size: f64, spacing: f64, max_blocks: &str) -> String {
     s
 }
 
+/// `dir/name` holding `head` and then zeros to `len` bytes, which take no disk (a sparse file).
+fn sparse(dir: &Path, name: &str, head: &[u8], len: u64) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, head).unwrap();
+    resize(&p, len);
+    p
+}
+
+/// Cuts `file` to, or extends it with zeros to, `len` bytes.
+fn resize(file: &Path, len: u64) {
+    let f = std::fs::OpenOptions::new().write(true).open(file).unwrap();
+    f.set_len(len).unwrap();
+}
+
 /// Strings as owned arguments.
 fn args(words: &[&str]) -> Vec<String> {
     words.iter().map(|w| w.to_string()).collect()
@@ -301,11 +315,7 @@ const CASES: &[Case] = &[
     },
     Case {
         name: "scene file of 2 MB (sparse)",
-        make: |dir| {
-            let p = dir.join("big.toml");
-            std::fs::File::create(&p).unwrap().set_len(2 << 20).unwrap();
-            check(&p)
-        },
+        make: |dir| check(&sparse(dir, "big.toml", b"", 2 << 20)),
         says: &["big.toml", "more than a scene may hold"],
     },
     Case {
@@ -456,11 +466,7 @@ const CASES: &[Case] = &[
     Case {
         name: "sparse 10 GB STL",
         make: |dir| {
-            let f = dir.join("zeros.stl");
-            std::fs::File::create(&f)
-                .unwrap()
-                .set_len(10 << 30)
-                .unwrap();
+            let f = sparse(dir, "zeros.stl", b"", 10 << 30);
             check(&fjord_with_terrain(dir, &f))
         },
         says: &["terrain[0].file", "limit", "fix"],
@@ -468,14 +474,7 @@ const CASES: &[Case] = &[
     Case {
         name: "ASCII STL of one endless line (sparse 1 GB)",
         make: |dir| {
-            let f = dir.join("line.stl");
-            std::fs::write(&f, b"solid x\n").unwrap();
-            std::fs::OpenOptions::new()
-                .append(true)
-                .open(&f)
-                .unwrap()
-                .set_len(1 << 30)
-                .unwrap();
+            let f = sparse(dir, "line.stl", b"solid x\n", 1 << 30);
             check(&fjord_with_terrain(dir, &f))
         },
         says: &["terrain[0].file", "line longer", "fix"],
@@ -483,11 +482,7 @@ const CASES: &[Case] = &[
     Case {
         name: "sparse 10 GB ESRI grid",
         make: |dir| {
-            let f = dir.join("zeros.asc");
-            std::fs::File::create(&f)
-                .unwrap()
-                .set_len(10 << 30)
-                .unwrap();
+            let f = sparse(dir, "zeros.asc", b"", 10 << 30);
             check(&fjord_with_terrain(dir, &f))
         },
         says: &["terrain[0].file", "fix"],
@@ -557,16 +552,7 @@ const CASES: &[Case] = &[
     },
     Case {
         name: "a fluid checkpoint cut short",
-        make: |dir| {
-            damaged_checkpoint(dir, "fluid", |f| {
-                std::fs::OpenOptions::new()
-                    .write(true)
-                    .open(f)
-                    .unwrap()
-                    .set_len(1000)
-                    .unwrap()
-            })
-        },
+        make: |dir| damaged_checkpoint(dir, "fluid", |f| resize(f, 1000)),
         says: &["fluid-", "truncated", "fix"],
     },
     Case {
