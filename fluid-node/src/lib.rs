@@ -28,6 +28,7 @@ pub mod core;
 pub mod instruments;
 pub mod kernels;
 pub mod methods;
+pub mod ranks;
 pub mod sph;
 pub mod system;
 pub mod validation;

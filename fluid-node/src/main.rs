@@ -1,15 +1,71 @@
 //! `fluid-node --solver NAME`: the SPH side of a rockwave run, with any solver of
 //! [`fluid_node::REGISTRY`]. Started by the coupler, or by hand with the run's `--prefix` (see
-//! the README).
+//! the README). Started as N MPI ranks (built with `--features mpi`), rank 0 is the node and
+//! the others follow it ([`fluid_node::ranks`]).
 
+use fluid_node::ranks::{self, leader};
 use shared::solver::{FluidSolver, SetupContext, SolverError};
+use std::process::ExitCode;
 
 fn build(name: &str, ctx: &SetupContext) -> Result<Box<dyn FluidSolver>, SolverError> {
     Ok(fluid_node::REGISTRY.build(name, ctx)?)
 }
 
-fn main() -> std::process::ExitCode {
+/// Rank 0's solvers: the other ranks are told to build theirs alike.
+fn lead(name: &str, ctx: &SetupContext) -> Result<Box<dyn FluidSolver>, SolverError> {
+    match ranks::current() {
+        Some(comm) => leader::Leader::build(comm, name, ctx, build),
+        None => build(name, ctx),
+    }
+}
+
+fn main() -> ExitCode {
+    if let Some(code) = join_ranks() {
+        return code;
+    }
     // On one of rayon's workers, not on the main thread (`on_pool`: a wake-up per parallel pass
     // otherwise).
-    fluid_node::on_pool(|| shared::runtime::fluid_main(&fluid_node::REGISTRY.names(), build))
+    let code =
+        fluid_node::on_pool(|| shared::runtime::fluid_main(&fluid_node::REGISTRY.names(), lead));
+    // The last handle: MPI is finalised here, after the solver is gone.
+    drop(ranks::uninstall());
+    code
+}
+
+/// Joins the MPI job when started as one of several ranks: rank 0 goes on as the node (None),
+/// the others follow it here and exit.
+#[cfg(feature = "mpi")]
+fn join_ranks() -> Option<ExitCode> {
+    ranks::launched_ranks().filter(|&n| n > 1)?;
+    let comm = match ranks::mpi::MpiRanks::init() {
+        Ok(c) => std::sync::Arc::new(c),
+        Err(e) => {
+            eprintln!("fluid-node: cannot join the MPI job: {e}");
+            return Some(ExitCode::from(shared::runtime::exit::SOLVER));
+        }
+    };
+    if comm.rank() == 0 {
+        ranks::install(comm);
+        return None;
+    }
+    let rank = comm.rank();
+    let followed = fluid_node::on_pool(|| leader::follow(comm, build));
+    match followed {
+        Ok(()) => Some(ExitCode::SUCCESS),
+        Err(e) => {
+            eprintln!("fluid-node rank {rank}: {e}");
+            Some(ExitCode::from(shared::runtime::exit::SOLVER))
+        }
+    }
+}
+
+/// Built without MPI: refuses to be one of several ranks (each would join the run as the
+/// fluid node).
+#[cfg(not(feature = "mpi"))]
+fn join_ranks() -> Option<ExitCode> {
+    let n = ranks::launched_ranks().filter(|&n| n > 1)?;
+    eprintln!(
+        "fluid-node: started as one of {n} MPI ranks, but built without MPI: rebuild with `cargo build --release --features fluid-node/mpi` (Debian packages libopenmpi-dev openmpi-bin libclang-dev), or run one fluid rank"
+    );
+    Some(ExitCode::from(shared::runtime::exit::SOLVER))
 }

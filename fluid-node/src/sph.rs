@@ -19,11 +19,13 @@
 
 use crate::core::phases::{Phase, PhaseClock};
 use crate::methods::SphMethod;
+use crate::ranks::comm::Comm;
 use crate::system::{FluidSystem, Initial};
 use shared::math::Real;
 use shared::protocol::{BlockLoad, BlockState};
 use shared::registry::solver_params;
 use shared::solver::{FluidSolver, SetupContext, Solver, SolverError, StepReport};
+use std::sync::Arc;
 
 /// An SPH solver: the shared system and one method.
 pub struct Sph<S: SphMethod> {
@@ -42,12 +44,27 @@ pub trait SphSolver: FluidSolver + Send {
 }
 
 impl<S: SphMethod> Sph<S> {
-    /// Fills the scene's water and builds the method from its table `[fluid.<S::NAME>]`.
+    /// Fills the scene's water and builds the method from its table `[fluid.<S::NAME>]`, on the
+    /// ranks this process is one of ([`crate::ranks::current`]), if several.
     pub fn new(ctx: &SetupContext) -> Result<Self, SolverError> {
+        Self::on_ranks(ctx, crate::ranks::current())
+    }
+
+    /// [`Self::new`] as one of `ranks` (one rank when None).
+    pub fn on_ranks(ctx: &SetupContext, ranks: Option<Arc<dyn Comm>>) -> Result<Self, SolverError> {
+        if let Some(c) = &ranks
+            && !S::SPLITS
+        {
+            return Err(SolverError::Failed(format!(
+                "the fluid solver '{}' does not run on several ranks yet ({} ranks asked): use `[fluid] solver = \"wcsph\"`, or one rank",
+                S::NAME,
+                c.size()
+            )));
+        }
         let init = Initial::from_scene(ctx.scene)?;
         let params = solver_params::<S::Params>(&init.fluid.solvers, "fluid", S::NAME)?;
         let (mut method, layout) = S::new(params, &init)?;
-        let mut sys = FluidSystem::new(ctx, S::NAME, &init, layout)?;
+        let mut sys = FluidSystem::new(ctx, S::NAME, &init, layout, ranks)?;
         method.start(&mut sys);
         let dt_next = method.dt_proposal(0.0, init.gravity.norm());
         Ok(Self {

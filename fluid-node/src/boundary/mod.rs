@@ -181,11 +181,17 @@ impl Boundary {
     }
 
     /// Lists the fixed neighbours of the (just sorted) fluid and finds the wall particles near
-    /// water.
-    pub fn list_fixed(&mut self, fluid: &[Vector], grid: &CellGrid, radius: Real) {
+    /// water; only of the particles `listed` marks, if given (a rank's own: `crate::ranks`).
+    pub fn list_fixed(
+        &mut self,
+        fluid: &[Vector],
+        grid: &CellGrid,
+        radius: Real,
+        listed: Option<&[bool]>,
+    ) {
         if let Some(w) = &mut self.fixed {
             self.fixed_lists
-                .build(fluid, &w.position, &w.grid, radius, false);
+                .build_for(fluid, &w.position, &w.grid, radius, false, listed);
             w.activate(&self.fixed_lists, fluid, grid, radius);
         }
     }

@@ -108,6 +108,16 @@ impl CellGrid {
             .fold(0.0, Real::max)
     }
 
+    /// Cells along each axis.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// The permutation of the last [`Self::sort`] (sorted slot → previous index).
+    pub fn last_order(&self) -> &[u32] {
+        &self.order
+    }
+
     pub fn cell_size(&self) -> Real {
         self.cell
     }

@@ -75,6 +75,20 @@ impl NeighborLists {
         radius: Real,
         same: bool,
     ) {
+        self.build_for(from, to, to_grid, radius, same, None);
+    }
+
+    /// [`Self::build`] for the points `listed` marks only (all when None); the others get
+    /// empty lists (a rank lists the particles it owns, not its halo: `crate::ranks`).
+    pub fn build_for(
+        &mut self,
+        from: &[Vector],
+        to: &[Vector],
+        to_grid: &CellGrid,
+        radius: Real,
+        same: bool,
+        listed: Option<&[bool]>,
+    ) {
         debug_assert!(radius <= to_grid.radius() * (1.0 + 1e-12));
         let n_chunks = from.len().div_ceil(CHUNK);
         self.chunks.resize_with(n_chunks, ChunkLists::default);
@@ -110,7 +124,8 @@ impl NeighborLists {
             .for_each(|(c, ch)| {
                 let lo = c * CHUNK;
                 let hi = (lo + CHUNK).min(from.len());
-                fill_chunk(ch, &from[lo..hi], lo, to_grid, near, &test);
+                let listed = listed.map(|l| &l[lo..hi]);
+                fill_chunk(ch, &from[lo..hi], lo, listed, to_grid, near, &test);
             });
     }
 
@@ -196,6 +211,7 @@ fn fill_chunk(
     ch: &mut ChunkLists,
     from: &[Vector],
     lo: usize,
+    listed: Option<&[bool]>,
     to_grid: &CellGrid,
     near: &[Vec<f32>; 3],
     test: &Test,
@@ -209,6 +225,13 @@ fn fill_chunk(
         // The coordinates were rewritten for this build.
         cand.invalidate();
         for (k, xi) in from.iter().enumerate() {
+            if listed.is_some_and(|l| !l[k]) {
+                if test.h2.is_some() {
+                    ch.poly6.push(0.0);
+                }
+                ch.start.push(ch.index.len() as u32);
+                continue;
+            }
             let p = [
                 (xi.x - origin.x) as f32,
                 (xi.y - origin.y) as f32,

@@ -22,6 +22,9 @@ use std::time::{Duration, Instant};
 /// which is said per variant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
+    /// On several ranks: the hand-over of particles at a sort and the halo's rates after each
+    /// evaluation, waiting included (`crate::ranks::share`).
+    Halo,
     /// The counting sort of the particles by cell (`CellGrid::sort`, grid.rs).
     Sort,
     /// The particle arrays put in the sorted order (`Particles::permute`).
@@ -66,7 +69,8 @@ pub enum Phase {
 
 impl Phase {
     /// Every phase, in step order (the order of [`PhaseClock`]'s array and of the tables).
-    pub const ALL: [Phase; 16] = [
+    pub const ALL: [Phase; 17] = [
+        Phase::Halo,
         Phase::Sort,
         Phase::Permutation,
         Phase::FluidLists,
@@ -89,6 +93,7 @@ impl Phase {
     /// The phase's row label in `fluid-bench --phases`.
     pub fn label(self) -> &'static str {
         match self {
+            Phase::Halo => "halo messages",
             Phase::Sort => "sort",
             Phase::Permutation => "permutation",
             Phase::FluidLists => "fluid lists",

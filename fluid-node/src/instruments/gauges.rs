@@ -56,6 +56,7 @@
 use crate::core::grid::CellGrid;
 use crate::core::particles::Particles;
 use crate::kernels::Kernel;
+use crate::ranks::share::Share;
 use shared::math::{Real, Vector};
 use shared::scene::{GaugeSpec, ProbeSpec};
 use std::fs::File;
@@ -191,6 +192,8 @@ pub struct Recorder {
     min_interval: Real,
     last: Real,
     rows: usize,
+    /// Scratch: the row being read (all instruments; rank 0 of several merges the owners').
+    row: Vec<Real>,
 }
 
 impl Recorder {
@@ -202,8 +205,9 @@ impl Recorder {
         beds: &[Real],
         probes: &[ProbeSpec],
         output_interval: Real,
+        files: bool,
     ) -> std::io::Result<Self> {
-        let gauge_file = if gauges.is_empty() {
+        let gauge_file = if gauges.is_empty() || !files {
             None
         } else {
             Some(Series::create(
@@ -214,7 +218,7 @@ impl Recorder {
                     .chain(gauges.iter().map(|g| format!("{}_spray", g.name))),
             )?)
         };
-        let probe_file = if probes.is_empty() {
+        let probe_file = if probes.is_empty() || !files {
             None
         } else {
             Some(Series::create(
@@ -232,19 +236,23 @@ impl Recorder {
             probes: probes.to_vec(),
             gauge_file,
             probe_file,
+            row: Vec::new(),
             min_interval: output_interval / 50.0,
             last: Real::NEG_INFINITY,
             rows: 0,
         })
     }
 
-    /// Records one row if at least `output.interval/50` has passed since the last one.
+    /// Records one row if at least `output.interval/50` has passed since the last one. On
+    /// several ranks (`share`) every rank reads every instrument and rank 0 writes, for each,
+    /// the reading of the rank owning the point (its neighbourhood is whole there).
     pub fn sample<K: Kernel>(
         &mut self,
         time: Real,
         view: &FluidView<'_, K>,
+        share: Option<&Share>,
     ) -> std::io::Result<()> {
-        if self.gauge_file.is_none() && self.probe_file.is_none() {
+        if self.gauges.is_empty() && self.probes.is_empty() {
             return Ok(());
         }
         // Windowed probes read after every step.
@@ -257,29 +265,47 @@ impl Recorder {
             return Ok(());
         }
         self.last = time;
+        let row = &mut self.row;
+        row.clear();
+        let reference = view.lattice_fraction();
+        let cols = self.gauges.iter().zip(&self.beds);
+        row.extend(
+            cols.clone()
+                .map(|(g, &bed)| view.surface_elevation(g.x, g.y, bed, reference)),
+        );
+        row.extend(cols.map(|(g, &bed)| view.spray_elevation(g.x, g.y, bed)));
+        row.extend(
+            self.probes
+                .iter()
+                .zip(&self.averages)
+                .map(|(p, avg)| match avg {
+                    Some(avg) => avg.mean(),
+                    None => view.pressure_at(&Vector::from(p.position)),
+                }),
+        );
+        if let Some(s) = share {
+            let at = |x: Real, y: Real, z: Real| s.owner_at(view.grid, &Vector::new(x, y, z));
+            let gauges = self.gauges.iter().map(|g| at(g.x, g.y, 0.0));
+            let owners: Vec<usize> = gauges
+                .clone()
+                .chain(gauges)
+                .chain(
+                    self.probes
+                        .iter()
+                        .map(|p| at(p.position[0], p.position[1], p.position[2])),
+                )
+                .collect();
+            s.merge(row, &owners);
+        }
+        let (g, p) = row.split_at(2 * self.gauges.len());
         if let Some(s) = &mut self.gauge_file {
             s.row.clear();
-            let reference = view.lattice_fraction();
-            let cols = self.gauges.iter().zip(&self.beds);
-            s.row.extend(
-                cols.clone()
-                    .map(|(g, &bed)| view.surface_elevation(g.x, g.y, bed, reference)),
-            );
-            s.row
-                .extend(cols.map(|(g, &bed)| view.spray_elevation(g.x, g.y, bed)));
+            s.row.extend_from_slice(g);
             s.write(time)?;
         }
         if let Some(s) = &mut self.probe_file {
             s.row.clear();
-            s.row.extend(
-                self.probes
-                    .iter()
-                    .zip(&self.averages)
-                    .map(|(p, avg)| match avg {
-                        Some(avg) => avg.mean(),
-                        None => view.pressure_at(&Vector::from(p.position)),
-                    }),
-            );
+            s.row.extend_from_slice(p);
             s.write(time)?;
         }
         self.rows += 1;

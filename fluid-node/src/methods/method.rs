@@ -23,6 +23,10 @@ pub trait SphMethod:
     const NAME: &'static str;
     /// One line for `--list` and the docs.
     const DESCRIPTION: &'static str;
+    /// Whether the method runs on several ranks (`crate::ranks`): its step computes the rates
+    /// of `FluidSystem::owned` particles only and calls `FluidSystem::share_rates` after each
+    /// evaluation, and everything else it does is per particle.
+    const SPLITS: bool = false;
     /// The method's own parameters (every field optional; unset ones are derived).
     type Params: SolverParams;
     /// The kernel the instruments interpolate with.

@@ -15,12 +15,15 @@ use crate::core::phases::{Phase, PhaseClock};
 use crate::instruments::gauges::{FluidView, Recorder};
 use crate::instruments::survey::{Rules, Survey};
 use crate::kernels::Kernel;
+use crate::ranks::comm::Comm;
+use crate::ranks::share::Share;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
 use shared::protocol::{BlockLoad, BlockState};
 use shared::scene::VtkFormat;
 use shared::solver::{SetupContext, SolverError};
 use std::path::PathBuf;
+use std::sync::Arc;
 
 // A child module: a checkpoint saves and restores the system's private state.
 pub(crate) mod checkpoint;
@@ -84,17 +87,23 @@ pub struct FluidSystem {
     /// Wall time per phase of the steps, off unless a caller turns it on (`fluid-bench
     /// --phases`); the scheme times its own phases on it too.
     pub phases: PhaseClock,
+    /// This rank's share of the water when the fluid runs on several ranks (`crate::ranks`).
+    pub share: Option<Share>,
 }
 
 impl FluidSystem {
     /// Builds the system from the filled scene as the scheme's `layout` asks: its support is
     /// the neighbour radius, its sound speed sets the default Eq. 22 stiffness, its skin ratio
     /// the Verlet skin of the lists over the support.
+    ///
+    /// With `ranks` (more than one), this rank keeps its slab and halo of the water, and only
+    /// rank 0 writes files.
     pub fn new(
         ctx: &SetupContext,
         solver: &'static str,
         init: &Initial,
         layout: Layout,
+        ranks: Option<Arc<dyn Comm>>,
     ) -> Result<Self, SolverError> {
         let Layout {
             density,
@@ -124,7 +133,14 @@ impl FluidSystem {
         let bodies = setup::body_particles(scene, init, cell, &grid);
         let fixed = setup::wall_particles(scene, init, cell, (lo, hi), &grid);
         let terrain = eq22.terrain(init);
-        let recorder = setup::recorder(ctx, init)?;
+        let lead = ranks.as_ref().is_none_or(|c| c.rank() == 0);
+        if ranks.is_some() && bodies.is_some() {
+            return Err(SolverError::Failed(
+                "moving blocks with a fluid on several ranks are not written yet: run this scene on one fluid rank".into(),
+            ));
+        }
+        let recorder = setup::recorder(ctx, init, lead)?;
+        let share = ranks.map(|c| Share::new(c, &grid, init.fill.positions.len()));
         let mut sys = Self {
             solver,
             particles: Particles::new(init.fill.positions.clone(), density),
@@ -163,15 +179,42 @@ impl FluidSystem {
             penalty_loads: Vec::new(),
             loads_may_follow_step: ctx.scheme == shared::scene::CouplingScheme::Parallel,
             phases: PhaseClock::default(),
+            share,
         };
         sys.check_domain()?;
+        if lead {
+            sys.write_counts()?;
+        }
         sys.prepare();
-        sys.write_counts()?;
         Ok(sys)
     }
 
+    /// Particles this rank holds (its own and its halo on several ranks).
     pub fn len(&self) -> usize {
         self.particles.len()
+    }
+
+    /// Particles on all ranks.
+    pub fn global_len(&self) -> usize {
+        self.share
+            .as_ref()
+            .map_or(self.particles.len(), |s| s.global_len)
+    }
+
+    /// Which particles this rank computes the rates of: None on one rank (all of them).
+    pub fn owned(&self) -> Option<&[bool]> {
+        self.share.as_ref().map(|s| &s.owned[..])
+    }
+
+    /// After an evaluation of the rates on several ranks: the halo's rates from their owners
+    /// (nothing on one rank).
+    pub fn share_rates(&mut self) {
+        if let Some(s) = &mut self.share {
+            let t = self.phases.start();
+            let p = &mut self.particles;
+            s.share_rates(&mut p.acceleration, &mut p.density_rate);
+            self.phases.stop(Phase::Halo, t);
+        }
     }
 
     /// Writes `fluid.json` in the run directory: the particle counts the coupler puts in
@@ -181,7 +224,7 @@ impl FluidSystem {
         let text = format!(
             "{{\n  \"solver\": \"{}\",\n  \"particles\": {},\n  \"boundary_particles_fixed\": {fixed},\n  \"boundary_particles_moving\": {moving},\n  \"dx\": {}\n}}\n",
             self.solver,
-            self.particles.len(),
+            self.global_len(),
             self.dx
         );
         std::fs::write(self.run_dir.join("fluid.json"), text)
@@ -201,17 +244,31 @@ impl FluidSystem {
     pub fn prepare(&mut self) {
         if !self.grid_valid {
             let t = self.phases.start();
+            if let Some(s) = &mut self.share {
+                // The cuts were checked at set-up: a failure here is a broken invariant.
+                s.redistribute(&mut self.particles, &self.grid)
+                    .expect("the slabs fit the grid");
+            }
+            let t = self.phases.lap(Phase::Halo, t);
             let order = self.grid.sort(&self.particles.position);
             let t = self.phases.lap(Phase::Sort, t);
             self.particles
                 .permute(order, self.carried, &mut self.sorted_at);
+            if let Some(s) = &mut self.share {
+                s.after_sort(self.grid.last_order(), &self.grid, &self.sorted_at);
+            }
             let t = self.phases.lap(Phase::Permutation, t);
             self.sorts += 1;
             let (pos, radius) = (&self.particles.position, self.grid.radius());
-            self.fluid_lists.build(pos, pos, &self.grid, radius, true);
+            let owned = self.share.as_ref().map(|s| &s.owned[..]);
+            self.fluid_lists
+                .build_for(pos, pos, &self.grid, radius, true, owned);
             let t = self.phases.lap(Phase::FluidLists, t);
-            self.boundary.list_fixed(pos, &self.grid, radius);
+            self.boundary.list_fixed(pos, &self.grid, radius, owned);
             self.phases.stop(Phase::WallLists, t);
+            if let Some(s) = &mut self.share {
+                s.measure_work(&self.fluid_lists, &self.grid, &self.sorted_at);
+            }
             self.grid_valid = true;
             self.bodies_valid = false;
         }
@@ -228,7 +285,7 @@ impl FluidSystem {
         }
         let (pos, radius) = (&self.sorted_at, self.grid.radius());
         self.fluid_lists.build(pos, pos, &self.grid, radius, true);
-        self.boundary.list_fixed(pos, &self.grid, radius);
+        self.boundary.list_fixed(pos, &self.grid, radius, None);
         self.grid_valid = true;
         self.bodies_valid = false;
         Ok(())
@@ -308,7 +365,7 @@ impl FluidSystem {
         // longer step).
         let t = self.phases.start();
         let p = &self.particles;
-        let survey = Survey::of(
+        let mut survey = Survey::of(
             &p.position,
             &p.velocity,
             &p.acceleration,
@@ -325,17 +382,24 @@ impl FluidSystem {
             },
         );
         self.phases.stop(Phase::Survey, t);
-        if let Some(i) = survey.not_finite {
-            return Err(SolverError::Unstable(format!(
-                "{}: NaN/inf limit exceeded: particle {i} has position {:?}, velocity {:?}, density {}",
-                self.solver,
-                p.position[i].as_slice(),
-                p.velocity[i].as_slice(),
-                p.density[i]
-            )));
+        if let Some(failure) = self.agree(self.failure(&survey, reference_density)) {
+            return Err(failure);
         }
-        if let Some(i) = survey.outside {
-            return Err(self.outside_domain(i));
+        if let Some(s) = &self.share {
+            // The maxima and the sort over all ranks (exact: maxima do not round); the water
+            // aloft counted by its owners.
+            let mut m = [survey.v_max, survey.a_max, survey.moved as u8 as Real];
+            s.comm().max(&mut m);
+            let top = self.domain.1.z;
+            let mut aloft = [p
+                .position
+                .iter()
+                .zip(&s.owned)
+                .filter(|(x, o)| **o && x.z > top)
+                .count() as u64];
+            s.comm().sum(&mut aloft);
+            (survey.v_max, survey.a_max, survey.moved) = (m[0], m[1], m[2] > 0.0);
+            survey.aloft = aloft[0] as usize;
         }
         // Water above an open top is a splash's spray: it stays SPH water (the grid keeps it in
         // its top layer of cells, where the pair loops measure true distances), meets no wall
@@ -346,24 +410,12 @@ impl FluidSystem {
                 "{}: {} particle(s) ({:.3} % of the water) thrown above the open domain top z = {} m at t = {:.4} s: spray that meets no wall up there until it falls back",
                 self.solver,
                 survey.aloft,
-                100.0 * survey.aloft as Real / p.len() as Real,
+                100.0 * survey.aloft as Real / self.global_len() as Real,
                 self.domain.1.z,
                 self.time
             ));
         }
         self.aloft = survey.aloft;
-        if let Some(i) = survey.density {
-            let (q, b) = (p.density[i] / reference_density, self.density_bound);
-            let (what, bound) = if q > b {
-                ("exceeds", b)
-            } else {
-                ("is below", 1.0 / b)
-            };
-            return Err(SolverError::Unstable(format!(
-                "{}: density ratio limit exceeded: ρ/ρ0 = {q:.4} {what} the bound {bound:.4} at particle {i}",
-                self.solver
-            )));
-        }
         if survey.moved || self.skin == 0.0 {
             self.grid_valid = false;
         }
@@ -378,9 +430,50 @@ impl FluidSystem {
             rest_density: self.rest_density,
             dx: self.dx,
         };
-        self.recorder.sample(self.time, &view)?;
+        self.recorder
+            .sample(self.time, &view, self.share.as_ref())?;
         self.phases.stop(Phase::Gauges, t);
         Ok((survey.v_max, survey.a_max))
+    }
+
+    /// The instability the survey of a step found on this rank, if any: a non-finite value
+    /// first, then a particle outside the domain, then a density past the bound.
+    fn failure(&self, survey: &Survey, reference_density: Real) -> Option<SolverError> {
+        let p = &self.particles;
+        if let Some(i) = survey.not_finite {
+            return Some(SolverError::Unstable(format!(
+                "{}: NaN/inf limit exceeded: particle {i} has position {:?}, velocity {:?}, density {}",
+                self.solver,
+                p.position[i].as_slice(),
+                p.velocity[i].as_slice(),
+                p.density[i]
+            )));
+        }
+        if let Some(i) = survey.outside {
+            return Some(self.outside_domain(i));
+        }
+        let i = survey.density?;
+        let (q, b) = (p.density[i] / reference_density, self.density_bound);
+        let (what, bound) = if q > b {
+            ("exceeds", b)
+        } else {
+            ("is below", 1.0 / b)
+        };
+        Some(SolverError::Unstable(format!(
+            "{}: density ratio limit exceeded: ρ/ρ0 = {q:.4} {what} the bound {bound:.4} at particle {i}",
+            self.solver
+        )))
+    }
+
+    /// On several ranks, the instability any rank found (rank 0 names it); on one, `failure`.
+    fn agree(&self, failure: Option<SolverError>) -> Option<SolverError> {
+        let Some(s) = &self.share else {
+            return failure;
+        };
+        let message = failure.map(|e| match e {
+            SolverError::Unstable(m) | SolverError::Failed(m) => m,
+        });
+        s.agree(message).map(SolverError::Unstable)
     }
 
     /// The last step's warning, if any (taken: said once).
@@ -426,17 +519,45 @@ impl FluidSystem {
         ))
     }
 
-    /// `particles_{frame:05}.vtp` with density, pressure and velocity.
+    /// `particles_{frame:05}.vtp` with density, pressure and velocity. On several ranks rank
+    /// 0 gathers the particles in one-rank order and writes the one file.
     pub fn write_frame(&mut self, frame: u32) -> Result<(), SolverError> {
         self.recorder.flush()?;
         let p = &self.particles;
-        let pos: Vec<[f64; 3]> = p.position.iter().map(|x| [x.x, x.y, x.z]).collect();
-        let vel: Vec<[f64; 3]> = p.velocity.iter().map(|x| [x.x, x.y, x.z]).collect();
+        let three = |x: &Vector| [x.x, x.y, x.z];
+        let gathered;
+        let (pos, vel, density, pressure): (Vec<[f64; 3]>, Vec<[f64; 3]>, &[Real], &[Real]) =
+            match &self.share {
+                None => (
+                    p.position.iter().map(three).collect(),
+                    p.velocity.iter().map(three).collect(),
+                    &p.density,
+                    &p.pressure,
+                ),
+                Some(s) => {
+                    let Some(all) = s.gather(|i| {
+                        let (x, v) = (p.position[i], p.velocity[i]);
+                        [x.x, x.y, x.z, v.x, v.y, v.z, p.density[i], p.pressure[i]]
+                    }) else {
+                        return Ok(());
+                    };
+                    gathered = (
+                        all.iter().map(|a| a[6]).collect::<Vec<_>>(),
+                        all.iter().map(|a| a[7]).collect::<Vec<_>>(),
+                    );
+                    (
+                        all.iter().map(|a| [a[0], a[1], a[2]]).collect(),
+                        all.iter().map(|a| [a[3], a[4], a[5]]).collect(),
+                        &gathered.0,
+                        &gathered.1,
+                    )
+                }
+            };
         let path = self.run_dir.join(format!("particles_{frame:05}.vtp"));
         shared::vtk::write_particles(
             &path,
             &pos,
-            &[("density", &p.density), ("pressure", &p.pressure)],
+            &[("density", density), ("pressure", pressure)],
             &[("velocity", &vel)],
             self.vtk_format,
         )?;

@@ -271,7 +271,12 @@ pub(super) fn wall_particles(
 
 /// The wave gauges and pressure probes, each gauge with the bed under it (the highest fixed
 /// block or terrain surface).
-pub(super) fn recorder(ctx: &SetupContext, init: &Initial) -> Result<Recorder, SolverError> {
+/// The scene's instruments; their files only with `files` (rank 0 of several writes them).
+pub(super) fn recorder(
+    ctx: &SetupContext,
+    init: &Initial,
+    files: bool,
+) -> Result<Recorder, SolverError> {
     let scene = ctx.scene;
     // The bed under a gauge: the highest fixed block or terrain surface under it.
     let beds: Vec<Real> = scene
@@ -285,5 +290,6 @@ pub(super) fn recorder(ctx: &SetupContext, init: &Initial) -> Result<Recorder, S
         &beds,
         &scene.probes,
         scene.output.interval,
+        files,
     )?)
 }

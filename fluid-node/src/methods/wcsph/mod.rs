@@ -205,6 +205,9 @@ impl Wcsph {
             g * (rho0 * inv_c2),
         );
         let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
+        // On several ranks, a rank's own particles only: the halo's rates come from their
+        // owners (`share_rates` below).
+        let owned = sys.share.as_ref().map(|s| &s.owned[..]);
         let p = &mut sys.particles;
         let pen = &p.penalty;
         p.acceleration
@@ -213,6 +216,9 @@ impl Wcsph {
             .enumerate()
             .with_max_len(tasks::PARTICLES)
             .for_each(|(i, (a, d))| {
+                if owned.is_some_and(|o| !o[i]) {
+                    return;
+                }
                 let me = &near[i];
                 // Fluid neighbours (wcsph_pairs.rs): symmetric pressure gradient and artificial
                 // viscosity (Monaghan 1992), continuity, δ-SPH diffusion (Molteni & Colagrossi
@@ -233,6 +239,7 @@ impl Wcsph {
                 *d = di * m;
             });
         sys.phases.stop(Phase::Forces, t);
+        sys.share_rates();
     }
 
     /// Predictor: keeps (r, v, ρ)^n and moves half a step with the rates in `acceleration`
@@ -374,6 +381,7 @@ impl SphMethod for Wcsph {
     const NAME: &'static str = "wcsph";
     const DESCRIPTION: &'static str = "weakly compressible SPH (DualSPHysics standard): Tait EOS, Wendland C2, δ-SPH, artificial viscosity";
     const PARTICLE_STEPS_PER_SECOND: Option<f64> = Some(4.61e6);
+    const SPLITS: bool = true;
     type Params = WcsphParams;
     type Kernel = WendlandC2;
 

@@ -1,0 +1,392 @@
+//! One rank's share of the water: the particles of its slab and their halo, kept in the order
+//! they have on one rank, and the messages that keep the halo the owners' exact copy.
+//!
+//! # Same bits on any number of ranks
+//!
+//! On one rank the particles are counting-sorted by cell, stably: after sort k they are in the
+//! order (cell at sort k, place after sort k − 1). A particle's place after a sort is named by
+//! a key, (cell, index within the cell), which any rank holding the whole cell computes alike.
+//! Every rank holds whole cells (whole grid columns along the cut axis), so a rank that puts
+//! its particles in key order and then counting-sorts them by cell gets the one-rank order
+//! restricted to its particles. Its neighbour lists are then the one-rank lists, entry by entry
+//! (the eight-lane pair loops see every neighbour in the same lane), and every sum over a
+//! particle's neighbours rounds as on one rank.
+//!
+//! A rank computes the rates (acceleration, dρ/dt) of the particles it owns only; the halo's
+//! rates come from their owners after every evaluation ([`Share::share_rates`]). Everything
+//! else is per particle (integration, equation of state, Eq. 22), so a halo particle, integrated
+//! by every rank holding it from the same bits, stays the owner's copy to the last bit. At a
+//! sort ([`Share::redistribute`]) each owner sends each of its particles to every rank whose
+//! held columns contain it: the new owners and the new halos at once.
+
+use super::comm::{Comm, wire};
+use super::slabs::{REBALANCE, Slabs};
+use crate::core::grid::CellGrid;
+use crate::core::neighbors::NeighborLists;
+use crate::core::particles::Particles;
+use rayon::prelude::*;
+use shared::math::{Real, Vector};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Words per particle in a hand-over: position, velocity, density, pressure, acceleration,
+/// dρ/dt, the three one-step-back arrays, and the key.
+const WORDS: usize = 3 + 3 + 1 + 1 + 3 + 1 + 3 + 3 + 1 + 1;
+
+/// What the halo costs, for `fluid-bench --ranks`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct HaloStats {
+    /// Halo particles held now.
+    pub halo: usize,
+    /// Bytes sent since the counters were reset.
+    pub bytes_sent: u64,
+    /// Time spent in messages (waiting included) since the counters were reset.
+    pub waiting: Duration,
+    /// The work of the busiest rank over the mean, at the last sort.
+    pub imbalance: f64,
+    /// Times the cuts moved.
+    pub rebalances: u64,
+}
+
+/// One other rank this one trades halo rates with: the owned particles it holds (`send`, local
+/// indices in order) and the halo particles it owns (`receive`).
+#[derive(Debug, Default)]
+struct Link {
+    rank: usize,
+    send: Vec<u32>,
+    receive: Vec<u32>,
+}
+
+/// This rank's share of the particles.
+pub struct Share {
+    comm: Arc<dyn Comm>,
+    /// The cut axis: the domain's longest horizontal one.
+    axis: usize,
+    /// None until the first sort.
+    slabs: Option<Slabs>,
+    /// Per local particle (sorted order): whether this rank owns it.
+    pub owned: Vec<bool>,
+    /// Per local particle: its key (module doc).
+    key: Vec<u64>,
+    links: Vec<Link>,
+    /// Each column's work (listed pairs plus particles) at the last sort, over all ranks.
+    work: Vec<u64>,
+    /// Particles on all ranks.
+    pub global_len: usize,
+    pub stats: HaloStats,
+}
+
+impl Share {
+    /// The share of rank `comm.rank()` of `global_len` particles on `grid`.
+    pub fn new(comm: Arc<dyn Comm>, grid: &CellGrid, global_len: usize) -> Self {
+        let dims = grid.dims();
+        let axis = if dims[1] > dims[0] { 1 } else { 0 };
+        Self {
+            comm,
+            axis,
+            slabs: None,
+            owned: Vec::new(),
+            key: Vec::new(),
+            links: Vec::new(),
+            work: Vec::new(),
+            global_len,
+            stats: HaloStats::default(),
+        }
+    }
+
+    pub fn comm(&self) -> &dyn Comm {
+        &*self.comm
+    }
+
+    pub fn rank(&self) -> usize {
+        self.comm.rank()
+    }
+
+    /// The column along the cut axis of a point.
+    #[inline]
+    fn column(&self, grid: &CellGrid, x: &Vector) -> usize {
+        grid.coords(x)[self.axis]
+    }
+
+    /// The rank owning the point `x` (instruments read where they stand).
+    pub fn owner_at(&self, grid: &CellGrid, x: &Vector) -> usize {
+        let slabs = self.slabs.as_ref().expect("the first sort cut the slabs");
+        slabs.owner(self.column(grid, x))
+    }
+
+    /// Particles this rank owns.
+    pub fn owned_count(&self) -> usize {
+        self.owned.iter().filter(|&&o| o).count()
+    }
+
+    /// Before a sort: hands every particle to the ranks that hold its column now, and leaves
+    /// this rank's in key order. The first call cuts the slabs from the particle counts (every
+    /// rank starts with every particle); later calls move the cuts when the work drifted past
+    /// [`REBALANCE`].
+    pub fn redistribute(&mut self, p: &mut Particles, grid: &CellGrid) -> Result<(), String> {
+        let t = Instant::now();
+        let me = self.rank();
+        let columns = grid.dims()[self.axis];
+        let first = self.slabs.is_none();
+        if first {
+            let mut counts = vec![0u64; columns];
+            for x in &p.position {
+                counts[self.column(grid, x)] += 1;
+            }
+            self.slabs = Some(Slabs::balanced(self.axis, &counts, self.comm.size())?);
+            self.key = (0..p.len() as u64).collect();
+            self.owned = vec![true; p.len()];
+        } else {
+            let slabs = self.slabs.as_ref().unwrap();
+            self.stats.imbalance = slabs.imbalance(&self.work);
+            if self.stats.imbalance > REBALANCE {
+                self.slabs = Some(Slabs::balanced(self.axis, &self.work, self.comm.size())?);
+                self.stats.rebalances += 1;
+            }
+        }
+        let slabs = self.slabs.as_ref().unwrap();
+        // What each rank is sent of the particles this rank owns (all of them, at the start,
+        // on every rank: each keeps its own held columns and sends nothing).
+        let size = self.comm.size();
+        let mut bundles: Vec<Vec<u8>> = vec![Vec::new(); size];
+        for i in 0..p.len() {
+            if !self.owned[i] {
+                continue;
+            }
+            let c = self.column(grid, &p.position[i]);
+            for (q, bundle) in bundles.iter_mut().enumerate() {
+                if slabs.held(q).contains(&c) && (q == me || !first) {
+                    encode(p, i, self.key[i], bundle);
+                }
+            }
+        }
+        let mine = std::mem::take(&mut bundles[me]);
+        let received = if first {
+            Vec::new()
+        } else {
+            let out: Vec<(usize, Vec<u8>)> = bundles
+                .into_iter()
+                .enumerate()
+                .filter(|(q, _)| *q != me)
+                .collect();
+            self.stats.bytes_sent += out.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
+            self.comm.exchange(out)
+        };
+        // This rank's particles, in key order.
+        let mut items: Vec<(u64, &[u8])> = std::iter::once(&mine)
+            .chain(received.iter())
+            .flat_map(|b| b.chunks_exact(8 * WORDS))
+            .map(|c| {
+                (
+                    u64::from_le_bytes(c[8 * (WORDS - 1)..].try_into().unwrap()),
+                    c,
+                )
+            })
+            .collect();
+        items.par_sort_unstable_by_key(|(k, _)| *k);
+        decode(p, items.iter().map(|(_, c)| *c));
+        self.key = items.iter().map(|(k, _)| *k).collect();
+        let own = slabs.owned(me);
+        self.owned = p
+            .position
+            .iter()
+            .map(|x| own.contains(&self.column(grid, x)))
+            .collect();
+        self.stats.waiting += t.elapsed();
+        Ok(())
+    }
+
+    /// After the sort: the keys and ownership follow the permutation `order` (slot k took
+    /// particle `order[k]`); the new keys are (cell, index in cell) at the sorted positions;
+    /// the links of the halo are listed anew.
+    pub fn after_sort(&mut self, order: &[u32], grid: &CellGrid, sorted_at: &[Vector]) {
+        let me = self.rank();
+        let owned: Vec<bool> = order.iter().map(|&o| self.owned[o as usize]).collect();
+        self.owned = owned;
+        self.key = sorted_at
+            .par_iter()
+            .enumerate()
+            .map(|(k, x)| {
+                let c = grid.cell_index(x);
+                ((c as u64) << 32) | (k - grid.cell_range(c).start) as u64
+            })
+            .collect();
+        let slabs = self.slabs.as_ref().unwrap();
+        self.links.clear();
+        for q in (0..self.comm.size()).filter(|&q| q != me) {
+            let (held, own) = (slabs.held(q), slabs.owned(q));
+            let mut link = Link {
+                rank: q,
+                ..Link::default()
+            };
+            for (k, x) in sorted_at.iter().enumerate() {
+                let c = self.column(grid, x);
+                if self.owned[k] && held.contains(&c) {
+                    link.send.push(k as u32);
+                } else if !self.owned[k] && own.contains(&c) {
+                    link.receive.push(k as u32);
+                }
+            }
+            if !link.send.is_empty() || !link.receive.is_empty() {
+                self.links.push(link);
+            }
+        }
+        self.stats.halo = self.owned.iter().filter(|&&o| !o).count();
+    }
+
+    /// Measures each column's work from the lists just built (a particle's listed pairs plus
+    /// one) and sums it over the ranks: the next sort's cuts follow it.
+    pub fn measure_work(&mut self, lists: &NeighborLists, grid: &CellGrid, sorted_at: &[Vector]) {
+        let t = Instant::now();
+        let columns = grid.dims()[self.axis];
+        self.work.clear();
+        self.work.resize(columns, 0);
+        for (k, x) in sorted_at.iter().enumerate() {
+            if self.owned[k] {
+                let c = self.column(grid, x);
+                self.work[c] += lists.of(k).len() as u64 + 1;
+            }
+        }
+        self.comm.sum(&mut self.work);
+        self.stats.waiting += t.elapsed();
+    }
+
+    /// Sends the rates of the owned particles other ranks hold and takes those of the halo
+    /// from their owners: after every evaluation of the rates.
+    pub fn share_rates(&mut self, acceleration: &mut [Vector], density_rate: &mut [Real]) {
+        let t = Instant::now();
+        let out: Vec<(usize, Vec<u8>)> = self
+            .links
+            .iter()
+            .map(|l| {
+                let mut b = Vec::with_capacity(32 * l.send.len());
+                for &k in &l.send {
+                    let (a, d) = (acceleration[k as usize], density_rate[k as usize]);
+                    wire::put_f64(&mut b, [a.x, a.y, a.z, d]);
+                }
+                (l.rank, b)
+            })
+            .collect();
+        self.stats.bytes_sent += out.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
+        let got = self.comm.exchange(out);
+        for (l, bytes) in self.links.iter().zip(got) {
+            assert_eq!(
+                bytes.len(),
+                32 * l.receive.len(),
+                "rank {} sent the rates of another halo: the ranks disagree on the cuts",
+                l.rank
+            );
+            let mut w = wire::f64s(&bytes);
+            for &k in &l.receive {
+                let mut next = || w.next().unwrap();
+                acceleration[k as usize] = Vector::new(next(), next(), next());
+                density_rate[k as usize] = next();
+            }
+        }
+        self.stats.waiting += t.elapsed();
+    }
+
+    /// The owned particles of every rank on rank 0, in one-rank order: `fields(i)` are particle
+    /// i's values (the same number for every particle). None on the other ranks.
+    pub fn gather<const N: usize>(
+        &self,
+        fields: impl Fn(usize) -> [Real; N],
+    ) -> Option<Vec<[Real; N]>> {
+        let mut bytes = Vec::with_capacity(8 * (N + 1) * self.owned.len());
+        for (i, _) in self.owned.iter().enumerate().filter(|(_, o)| **o) {
+            wire::put_u64(&mut bytes, [self.key[i]]);
+            wire::put_f64(&mut bytes, fields(i));
+        }
+        let all = self.comm.gather(bytes);
+        if self.rank() != 0 {
+            return None;
+        }
+        let mut items: Vec<(u64, [Real; N])> = all
+            .iter()
+            .flat_map(|b| b.chunks_exact(8 * (N + 1)))
+            .map(|c| {
+                let mut w = wire::words(c);
+                let key = u64::from_le_bytes(w.next().unwrap());
+                let mut v = [0.0; N];
+                for (v, b) in v.iter_mut().zip(w) {
+                    *v = f64::from_le_bytes(b);
+                }
+                (key, v)
+            })
+            .collect();
+        items.par_sort_unstable_by_key(|(k, _)| *k);
+        Some(items.into_iter().map(|(_, v)| v).collect())
+    }
+
+    /// Fills each entry of `row` (on rank 0) with the value its owner computed: `owners[k]` is
+    /// the rank owning entry k. Every rank passes its own row.
+    pub fn merge(&self, row: &mut [Real], owners: &[usize]) {
+        let mut bytes = Vec::with_capacity(8 * row.len());
+        wire::put_f64(&mut bytes, row.iter().copied());
+        let all = self.comm.gather(bytes);
+        if self.rank() == 0 {
+            for (k, v) in row.iter_mut().enumerate() {
+                *v = wire::f64s(&all[owners[k]]).nth(k).unwrap();
+            }
+        }
+    }
+
+    /// Whether any rank says yes (exact: a maximum of 0 and 1).
+    pub fn any(&self, yes: bool) -> bool {
+        let mut v = [yes as u8 as f64];
+        self.comm.max(&mut v);
+        v[0] > 0.0
+    }
+
+    /// Agrees on a failure: if any rank failed, rank 0 gets the lowest failing rank's message
+    /// (named by rank), the others a message saying rank 0 reports it.
+    pub fn agree(&self, failure: Option<String>) -> Option<String> {
+        if !self.any(failure.is_some()) {
+            return None;
+        }
+        let all = self.comm.gather(failure.unwrap_or_default().into_bytes());
+        if self.rank() != 0 {
+            return Some("another rank failed; rank 0 reports why".into());
+        }
+        all.iter()
+            .enumerate()
+            .find(|(_, m)| !m.is_empty())
+            .map(|(r, m)| format!("rank {r}: {}", String::from_utf8_lossy(m)))
+    }
+}
+
+/// Appends particle i's hand-over words and its key to `out`.
+fn encode(p: &Particles, i: usize, key: u64, out: &mut Vec<u8>) {
+    let v = |x: &Vector| [x.x, x.y, x.z];
+    wire::put_f64(out, v(&p.position[i]));
+    wire::put_f64(out, v(&p.velocity[i]));
+    wire::put_f64(out, [p.density[i], p.pressure[i]]);
+    wire::put_f64(out, v(&p.acceleration[i]));
+    wire::put_f64(out, [p.density_rate[i]]);
+    wire::put_f64(out, v(&p.position0[i]));
+    wire::put_f64(out, v(&p.velocity0[i]));
+    wire::put_f64(out, [p.density0[i]]);
+    wire::put_u64(out, [key]);
+}
+
+/// Replaces `p`'s particles with those of `items` (hand-over words, [`encode`]), in order.
+fn decode<'a>(p: &mut Particles, items: impl ExactSizeIterator<Item = &'a [u8]>) {
+    let n = items.len();
+    let mut q = Particles::new(vec![Vector::zeros(); n], vec![0.0; n]);
+    for (i, c) in items.enumerate() {
+        let mut w = [0.0; WORDS];
+        for (v, b) in w.iter_mut().zip(wire::words(c)) {
+            *v = f64::from_le_bytes(b);
+        }
+        let v3 = |k: usize| Vector::new(w[k], w[k + 1], w[k + 2]);
+        q.position[i] = v3(0);
+        q.velocity[i] = v3(3);
+        (q.density[i], q.pressure[i]) = (w[6], w[7]);
+        q.acceleration[i] = v3(8);
+        q.density_rate[i] = w[11];
+        q.position0[i] = v3(12);
+        q.velocity0[i] = v3(15);
+        q.density0[i] = w[18];
+    }
+    *p = q;
+}
