@@ -32,6 +32,10 @@ pub enum Cmd {
         /// steps (otherwise an error naming the field that makes it crawl).
         #[arg(long)]
         allow_long: bool,
+        /// Say what each of N fluid ranks would hold (overrides the scene's `[fluid] ranks`),
+        /// and refuse more ranks than the water can fill.
+        #[arg(long, value_name = "N")]
+        fluid_ranks: Option<u32>,
     },
     /// Remove shared memory left behind by runs whose processes were all killed: every dead
     /// run with a generated id (rw…), and the runs named here (ids given with --run-id).
@@ -118,6 +122,17 @@ pub struct RunArgs {
     /// Executable to run as the solid node instead of the solid-node beside the coupler.
     #[arg(long)]
     pub solid_cmd: Option<String>,
+    /// Run the fluid node as N MPI ranks (overrides the scene's `[fluid] ranks`): the
+    /// coupler starts `mpirun -n N fluid-node …` (see --mpirun); rank 0 is the node it talks
+    /// to. Needs MPI and a fluid node built with `--features fluid-node/mpi`.
+    #[arg(long, value_name = "N")]
+    pub fluid_ranks: Option<u32>,
+    /// The MPI launcher that starts the fluid ranks, with its own arguments, split into words
+    /// as a shell splits them, e.g. "srun --mpi=pmix" or "mpirun --hostfile hosts --mca btl
+    /// tcp,self"; `-n N` and the fluid node's command are appended. Default: mpirun (with
+    /// --oversubscribe when it is Open MPI's).
+    #[arg(long, value_name = "COMMAND", env = "ROCKWAVE_MPIRUN")]
+    pub mpirun: Option<String>,
     /// Do not start the nodes: wait (up to --connect-timeout) for nodes started by hand with
     /// `--prefix <run id>` (and, over zenoh, `--transport zenoh --connect <endpoint>`, possibly
     /// on other hosts). The coupler prints the commands.

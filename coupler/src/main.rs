@@ -13,7 +13,13 @@ fn main() -> ExitCode {
             scene,
             slides_vtk,
             allow_long,
-        } => run::check::run(scene.as_deref(), slides_vtk.as_deref(), allow_long),
+            fluid_ranks,
+        } => run::check::run(
+            scene.as_deref(),
+            slides_vtk.as_deref(),
+            allow_long,
+            fluid_ranks,
+        ),
         Cmd::Clean { run_ids } => run::clean::run(&run_ids),
         Cmd::Povray {
             run_dir,

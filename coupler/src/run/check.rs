@@ -3,8 +3,14 @@
 use std::path::Path;
 
 /// Runs `coupler check`; returns the process exit code. A run estimated to crawl
-/// ([`crate::run::sizes::crawl`]) fails the check unless `allow_long`.
-pub fn run(scene: Option<&Path>, slides_vtk: Option<&Path>, allow_long: bool) -> u8 {
+/// ([`crate::run::sizes::crawl`]) fails the check unless `allow_long`; so do more fluid ranks
+/// (`fluid_ranks`, else the scene's) than the water can fill.
+pub fn run(
+    scene: Option<&Path>,
+    slides_vtk: Option<&Path>,
+    allow_long: bool,
+    fluid_ranks: Option<u32>,
+) -> u8 {
     // The scene's checks, the summary and the estimate read the terrains once between them.
     let _once = shared::terrain::reuse::Reuse::begin();
     let loaded = crate::run::scenes::load_as_written(scene);
@@ -46,6 +52,14 @@ pub fn run(scene: Option<&Path>, slides_vtk: Option<&Path>, allow_long: bool) ->
             if let Some(e) = crate::run::sizes::estimate(&s, None) {
                 println!("estimate: {}", e.describe());
             }
+            match per_rank_line(&s, fluid_ranks) {
+                Ok(Some(line)) => println!("{line}"),
+                Ok(None) => {}
+                Err(e) => {
+                    eprintln!("coupler: error: {e}");
+                    return 1;
+                }
+            }
             for e in crate::run::sizes::crawl(&s, None) {
                 if allow_long {
                     eprintln!("coupler: warning (--allow-long): {e}");
@@ -61,5 +75,45 @@ pub fn run(scene: Option<&Path>, slides_vtk: Option<&Path>, allow_long: bool) ->
             eprintln!("coupler: error: {e}");
             1
         }
+    }
+}
+
+/// What each fluid rank would hold when the run has more than one
+/// ([`crate::run::per_rank::PerRank`]), or why those ranks cannot be.
+fn per_rank_line(
+    scene: &shared::scene::Scene,
+    flag: Option<u32>,
+) -> Result<Option<String>, String> {
+    let ranks = crate::run::per_rank::ranks(flag, scene)?;
+    Ok(crate::run::per_rank::PerRank::estimate(scene, ranks)
+        .filter(|_| ranks > 1)
+        .map(|p| p.describe()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared::scene::Scene;
+
+    #[test]
+    fn check_says_what_each_rank_holds() {
+        let s = Scene::default_scene();
+        assert_eq!(
+            per_rank_line(&s, None),
+            Ok(None),
+            "one rank: nothing more to say"
+        );
+        assert_eq!(per_rank_line(&s, Some(1)), Ok(None));
+        let line = per_rank_line(&s, Some(3)).unwrap().unwrap();
+        assert!(
+            line.starts_with("on 3 fluid ranks: slabs of 1.883 m along x"),
+            "{line}"
+        );
+        let mut written = s.clone();
+        written.fluid.as_mut().unwrap().ranks = 2;
+        let line = per_rank_line(&written, None).unwrap().unwrap();
+        assert!(line.starts_with("on 2 fluid ranks"), "{line}");
+        let msg = per_rank_line(&s, Some(99)).unwrap_err();
+        assert!(msg.contains("at most 12 ranks"), "{msg}");
     }
 }

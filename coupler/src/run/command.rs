@@ -37,7 +37,7 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     let checked = crate::run::settings::check_flags(&args, &scene, resume.as_ref())?;
     drop(once);
     let (run_id, _lock) = claim_run_id(&args)?;
-    let nodes = node_commands(&args, &scene)?;
+    let nodes = node_commands(&args, &scene, &checked)?;
     let (out, mut dir, fresh_lock) = run_dir(&args, &scene, &run_id, resume.as_ref())?;
     // Cheap housekeeping: files of runs whose processes were all killed long ago.
     let stale = shared::transport::remove_stale_runs(Duration::from_secs(60));
@@ -92,12 +92,27 @@ fn claim_run_id(args: &RunArgs) -> Result<(RunId, RunLock), String> {
     Ok((run_id, lock))
 }
 
-/// The fluid and solid node commands; a missing node binary is reported before anything is
-/// written.
-fn node_commands(args: &RunArgs, scene: &Scene) -> Result<(NodeCommand, NodeCommand), String> {
+/// The fluid and solid node commands, the fluid's through the MPI launcher on more than one
+/// rank ([`crate::run::launcher`]); a missing node binary or launcher is reported before
+/// anything is written.
+fn node_commands(
+    args: &RunArgs,
+    scene: &Scene,
+    checked: &Checked,
+) -> Result<(NodeCommand, NodeCommand), String> {
     let fluid_cmd = match &args.fluid_cmd {
         Some(c) => NodeCommand::given(Role::Fluid, c),
         None => NodeCommand::beside_me(Role::Fluid)?,
+    };
+    let fluid_cmd = if Session::roles(scene).contains(&Role::Fluid) {
+        crate::run::launcher::fluid_command(
+            fluid_cmd,
+            checked.fluid_ranks,
+            &checked.launcher,
+            args.attach,
+        )?
+    } else {
+        fluid_cmd
     };
     let solid_cmd = match &args.solid_cmd {
         Some(c) => NodeCommand::given(Role::Solid, c),
@@ -244,6 +259,8 @@ fn options(
             .map(|m| Duration::from_secs_f64(m * 60.0)),
         resume,
         retries: args.retries,
+        fluid_ranks: checked.fluid_ranks,
+        launcher: checked.launcher,
     }
 }
 

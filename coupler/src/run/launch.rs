@@ -13,6 +13,9 @@ pub struct NodeCommand {
     pub program: PathBuf,
     /// Extra arguments given before the runtime's own (`--prefix`).
     pub args: Vec<String>,
+    /// Variables set in the process's environment besides the coupler's own (an MPI
+    /// launcher's, [`crate::run::launcher`]).
+    pub env: Vec<(String, String)>,
 }
 
 impl NodeCommand {
@@ -26,6 +29,7 @@ impl NodeCommand {
             role,
             program,
             args: Vec::new(),
+            env: Vec::new(),
         })
     }
 
@@ -37,6 +41,7 @@ impl NodeCommand {
             role,
             program,
             args: words.collect(),
+            env: Vec::new(),
         }
     }
 
@@ -114,6 +119,7 @@ impl NodeProcess {
             .arg("--prefix")
             .arg(id.as_str())
             .args(transport)
+            .envs(cmd.env.iter().map(|(k, v)| (k, v)))
             .stdin(std::process::Stdio::null())
             .spawn()
             .map_err(|e| {
@@ -159,7 +165,10 @@ impl NodeProcess {
         }
     }
 
-    /// Asks the process to end (SIGTERM), waits `grace`, then kills it.
+    /// Asks the process to end (SIGTERM), waits `grace`, then kills it and every process it
+    /// started. An MPI launcher forwards the SIGTERM to its ranks, but SIGKILL cannot be
+    /// forwarded, and Open MPI puts each rank in a process group of its own: the ranks are
+    /// found as the launcher's descendants before it is killed, so none is left behind.
     pub fn terminate(&mut self, grace: Duration) -> Option<ExitStatus> {
         if self.exited().is_some() {
             return self.status;
@@ -171,10 +180,46 @@ impl NodeProcess {
         if let Some(s) = self.wait_exit(grace) {
             return Some(s);
         }
+        let started = descendants(self.child.id() as libc::pid_t);
         let _ = self.child.kill();
+        for pid in started {
+            // SAFETY: kill(2) on a process our child started, found an instant ago.
+            unsafe {
+                libc::kill(pid, libc::SIGKILL);
+            }
+        }
         self.status = self.child.wait().ok();
         self.status
     }
+}
+
+/// Every live descendant of `root` (its children, theirs, …), read from /proc: one pass over
+/// the processes' parents. Empty where /proc cannot be read.
+fn descendants(root: libc::pid_t) -> Vec<libc::pid_t> {
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    let parent_of: Vec<(libc::pid_t, libc::pid_t)> = entries
+        .filter_map(|e| e.ok()?.file_name().to_str()?.parse().ok())
+        .filter_map(|pid| Some((pid, parent(pid)?)))
+        .collect();
+    let mut found = vec![root];
+    let mut next = 0;
+    while next < found.len() {
+        let p = found[next];
+        found.extend(parent_of.iter().filter(|(_, pp)| *pp == p).map(|(c, _)| *c));
+        next += 1;
+    }
+    found.remove(0);
+    found
+}
+
+/// The parent of `pid` from /proc/PID/stat (the field after the command, which is in
+/// parentheses and may hold spaces).
+fn parent(pid: libc::pid_t) -> Option<libc::pid_t> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let (_, rest) = stat.rsplit_once(')')?;
+    rest.split_whitespace().nth(1)?.parse().ok()
 }
 
 impl Drop for NodeProcess {
@@ -201,5 +246,47 @@ fn signal_name(sig: i32) -> &'static str {
         libc::SIGSEGV => " (SIGSEGV)",
         libc::SIGABRT => " (SIGABRT)",
         _ => "",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn alive(pid: libc::pid_t) -> bool {
+        std::fs::read_to_string(format!("/proc/{pid}/stat"))
+            .ok()
+            .and_then(|s| Some(s.rsplit_once(')')?.1.split_whitespace().next()? != "Z"))
+            .unwrap_or(false)
+    }
+
+    /// A process that ignores SIGTERM is killed with everything it started, as an MPI
+    /// launcher's ranks (each in a process group of its own) must be.
+    #[test]
+    fn a_kill_takes_the_processes_a_node_started_with_it() {
+        let cmd = NodeCommand {
+            role: Role::Fluid,
+            program: PathBuf::from("/bin/sh"),
+            args: vec![
+                "-c".into(),
+                "trap '' TERM; sleep 30 & sleep 30 & wait".into(),
+            ],
+            env: vec![("RW_TREE_TEST".into(), "1".into())],
+        };
+        let id = RunId::parse("treekill").unwrap();
+        let mut p = NodeProcess::spawn(&cmd, &id, &[]).unwrap();
+        let started = Instant::now();
+        let mut kids = Vec::new();
+        while kids.len() < 2 && started.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(10));
+            kids = descendants(p.pid() as libc::pid_t);
+        }
+        assert_eq!(kids.len(), 2, "{kids:?}");
+        assert!(p.terminate(Duration::from_millis(100)).is_some());
+        let gone = Instant::now();
+        while kids.iter().any(|&k| alive(k)) && gone.elapsed() < Duration::from_secs(2) {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert!(kids.iter().all(|&k| !alive(k)), "left: {kids:?}");
     }
 }

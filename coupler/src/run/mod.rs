@@ -1,9 +1,10 @@
 //! One coupled run, as `coupler run`, `check` and `clean` do it. Read `coupler run` from
 //! `command.rs` (the run in order), with `resume.rs` and `settings.rs` (the scene, its overrides
-//! and the flags), `lock.rs` and `launch.rs` (the run id, the node processes), `output.rs` (the
-//! run directory), `session/` (the coupled steps), `checkpoint.rs`, and `summary/`
-//! (`summary.json`). `scenes.rs`, `sizes.rs`, `slides.rs` and `resolution.rs` check and size a
-//! scene; `povray.rs` renders a run directory.
+//! and the flags), `lock.rs`, `launch.rs` and `launcher.rs` (the run id, the node processes,
+//! the MPI launcher of the fluid ranks), `output.rs` (the run directory), `session/` (the
+//! coupled steps), `checkpoint.rs`, and `summary/` (`summary.json`). `scenes.rs`, `sizes.rs`,
+//! `per_rank.rs`, `slides.rs` and `resolution.rs` check and size a scene; `povray.rs` renders a
+//! run directory.
 //!
 //! Nothing here uses [`crate::studies`]: the studies are built on runs, not the other way.
 
@@ -13,8 +14,10 @@ pub mod clean;
 pub mod command;
 pub mod error;
 pub mod launch;
+pub mod launcher;
 pub mod lock;
 pub mod output;
+pub mod per_rank;
 pub mod povray;
 pub mod progress;
 pub mod resolution;

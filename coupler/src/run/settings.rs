@@ -2,6 +2,7 @@
 //! estimate printed before the run, and the flags checked before anything of the run exists.
 
 use crate::cli::RunArgs;
+use crate::run::launcher::Launcher;
 use crate::run::resume::Resumed;
 use shared::scene::Scene;
 use shared::transport::{Endpoints, Kind};
@@ -85,9 +86,14 @@ pub struct Checked {
     /// Checkpoint every this many simulated seconds and wall-clock minutes.
     pub checkpoint_interval: Option<f64>,
     pub checkpoint_wall_minutes: Option<f64>,
+    /// MPI ranks of the fluid node (`--fluid-ranks`, else `[fluid] ranks`), and the launcher
+    /// that starts them when there is more than one (`--mpirun`).
+    pub fluid_ranks: u32,
+    pub launcher: Launcher,
 }
 
-/// Checks the timeouts, the transport's endpoints, retries, checkpoints and the dt factor.
+/// Checks the timeouts, the transport's endpoints, retries, checkpoints, the dt factor and the
+/// fluid's ranks (saying what each would hold).
 pub fn check_flags(
     args: &RunArgs,
     scene: &Scene,
@@ -151,11 +157,20 @@ pub fn check_flags(
             args.dt_factor
         ));
     }
+    let fluid_ranks = crate::run::per_rank::ranks(args.fluid_ranks, scene)?;
+    let launcher = Launcher::parse(args.mpirun.as_deref())?;
+    if fluid_ranks > 1
+        && let Some(p) = crate::run::per_rank::PerRank::estimate(scene, fluid_ranks)
+    {
+        eprintln!("coupler: {}", p.describe());
+    }
     Ok(Checked {
         endpoints,
         node_connect,
         checkpoint_interval,
         checkpoint_wall_minutes,
+        fluid_ranks,
+        launcher,
     })
 }
 

@@ -13,6 +13,7 @@ mod validate;
 pub use error::FieldError;
 pub use read::MAX_SCENE_BYTES;
 pub use schema::*;
+pub use validate::fluid_ranks_problem;
 pub(crate) use validate::{indexed_field_error, terrain_field_error};
 
 use std::path::Path;

@@ -21,6 +21,7 @@ mod steps;
 use crate::run::checkpoint::CouplerCheckpoint;
 use crate::run::error::RunError;
 use crate::run::launch::{NodeCommand, NodeProcess};
+use crate::run::launcher::Launcher;
 use crate::run::stats::RunStats;
 use shared::protocol::*;
 use shared::scene::{CouplingScheme, Scene};
@@ -69,6 +70,10 @@ pub struct RunOptions {
     /// How often a node that dies or hangs is restarted, every node rolling back to the last
     /// checkpoint (or to t = 0 without one).
     pub retries: u32,
+    /// MPI ranks of the fluid node. `fluid_cmd` already starts them through `launcher`; with
+    /// `attach` the coupler prints the launcher's command line for the user to run.
+    pub fluid_ranks: u32,
+    pub launcher: Launcher,
 }
 
 /// One node as the coupler sees it.

@@ -41,12 +41,18 @@ impl Session {
             );
             let extra = self.node_transport_args().join(" ");
             for &role in &roles {
-                eprintln!(
-                    "  {}-node --prefix {}{}{extra}",
+                let node = format!(
+                    "{}-node --prefix {}{}{extra}",
                     role.name(),
                     self.opts.run_id,
                     if extra.is_empty() { "" } else { " " }
                 );
+                let ranks = if role == Role::Fluid {
+                    self.opts.fluid_ranks
+                } else {
+                    1
+                };
+                eprintln!("  {}", self.opts.launcher.attach_line(ranks, &node));
             }
         }
         self.handshake(&roles, processes)?;

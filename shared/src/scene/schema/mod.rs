@@ -147,6 +147,12 @@ pub struct FluidSpec {
     /// How every block, fixed or moving, holds the water.
     #[serde(default)]
     pub walls: Walls,
+    /// MPI ranks the fluid node runs as (`coupler run --fluid-ranks` overrides it): 1 is one
+    /// process; N > 1 makes `coupler run` start the fluid node through an MPI launcher
+    /// (`mpirun -n N`, or `--mpirun`), each rank holding a slab of the water. At most
+    /// [`MAX_FLUID_RANKS`]. Not written when 1, so a scene without it reads back as written.
+    #[serde(default = "one_rank", skip_serializing_if = "is_one_rank")]
+    pub ranks: u32,
     /// `[fluid.<solver>]`: each solver's own parameter table, as written.
     #[serde(flatten)]
     pub solvers: SolverTables,
@@ -198,6 +204,19 @@ fn default_kinematic_viscosity() -> f64 {
 fn default_density_ratio_bound() -> f64 {
     1.3
 }
+fn one_rank() -> u32 {
+    1
+}
+fn is_one_rank(ranks: &u32) -> bool {
+    *ranks == 1
+}
+
+/// Most MPI ranks `[fluid] ranks` and `--fluid-ranks` accept: a guard against a typo (an extra
+/// digit), not a limit of the decomposition. The slabs are cut along one axis, so past a few
+/// thousand ranks each slab is thinner than the halos it trades at any resolution a cluster
+/// node's memory holds (`coupler check` names the finer limit of each scene), and
+/// docs/PERFORMANCE.md models scaling to 1 000 ranks.
+pub const MAX_FLUID_RANKS: u32 = 4096;
 
 /// One water volume.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

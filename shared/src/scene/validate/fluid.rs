@@ -2,7 +2,7 @@
 
 use super::checker::Checker;
 use crate::scene::error::Seg;
-use crate::scene::schema::Scene;
+use crate::scene::schema::{MAX_FLUID_RANKS, Scene};
 
 /// `[fluid]`, when the scene has one.
 pub(super) fn check(c: &mut Checker, s: &Scene) {
@@ -42,6 +42,9 @@ pub(super) fn check(c: &mut Checker, s: &Scene) {
                     "e.g. density_ratio_bound = 1.3",
                 );
             }
+            if let Some((problem, fix)) = fluid_ranks_problem(f.ranks) {
+                c.fail("ranks", f.ranks, &problem, &fix);
+            }
             for (i, w) in f.water.iter().enumerate() {
                 c.key("water", |c| {
                     c.at(Seg::Index(i), |c| c.shape(&w.shape, d, true))
@@ -54,10 +57,62 @@ pub(super) fn check(c: &mut Checker, s: &Scene) {
                         key,
                         value,
                         "is not a field of [fluid]",
-                        "fields are solver, density, dx, kinematic_viscosity, density_ratio_bound, walls, water; solver parameters go in their own table, e.g. [fluid.wcsph]",
+                        "fields are solver, density, dx, kinematic_viscosity, density_ratio_bound, walls, ranks, water; solver parameters go in their own table, e.g. [fluid.wcsph]",
                     );
                 }
             }
         });
+    }
+}
+
+/// What is wrong with a count of fluid ranks (`[fluid] ranks`, `coupler run --fluid-ranks`): the
+/// problem and the fix, or `None` for a count from 1 to [`MAX_FLUID_RANKS`].
+pub fn fluid_ranks_problem(ranks: u32) -> Option<(String, String)> {
+    match ranks {
+        0 => Some((
+            "must be at least 1: rank 0 is the fluid node the coupler talks to".into(),
+            "ranks = 1 runs the fluid node as one process, ranks = N as N MPI ranks".into(),
+        )),
+        n if n > MAX_FLUID_RANKS => Some((
+            format!("is past the limit of {MAX_FLUID_RANKS} ranks"),
+            format!(
+                "use at most {MAX_FLUID_RANKS} (`coupler check` says how many the scene's water can fill)"
+            ),
+        )),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::{DEFAULT_SCENE, MAX_FLUID_RANKS, Scene};
+
+    fn with_ranks(line: &str) -> Result<Scene, String> {
+        let text = DEFAULT_SCENE.replace("\ndx = 0.04\n", &format!("\ndx = 0.04\n{line}\n"));
+        Scene::parse(&text, "t.toml").map_err(|e| e.to_string())
+    }
+
+    /// `[fluid] ranks` is 1 by default and not written back then (scene.toml of a run stays as
+    /// it was); 0 and past the limit are named with the fix.
+    #[test]
+    fn fluid_ranks_are_checked_and_written_only_when_not_one() {
+        let one = Scene::default_scene();
+        assert_eq!(one.fluid.as_ref().unwrap().ranks, 1);
+        assert!(!toml::to_string(&one).unwrap().contains("ranks"));
+        let three = with_ranks("ranks = 3").unwrap();
+        assert_eq!(three.fluid.as_ref().unwrap().ranks, 3);
+        let text = toml::to_string(&three).unwrap();
+        assert!(text.contains("ranks = 3"), "{text}");
+        let msg = with_ranks("ranks = 0").unwrap_err();
+        assert!(
+            msg.contains("fluid.ranks = 0") && msg.contains("at least 1") && msg.contains("fix:"),
+            "{msg}"
+        );
+        let msg = with_ranks(&format!("ranks = {}", MAX_FLUID_RANKS + 1)).unwrap_err();
+        assert!(
+            msg.contains("fluid.ranks = 4097") && msg.contains("at most 4096"),
+            "{msg}"
+        );
+        assert!(with_ranks(&format!("ranks = {MAX_FLUID_RANKS}")).is_ok());
     }
 }

@@ -11,6 +11,7 @@ mod run;
 mod solid;
 mod terrain;
 
+pub use fluid::fluid_ranks_problem;
 pub(crate) use terrain::{indexed_field_error, terrain_field_error};
 
 use super::error::FieldError;

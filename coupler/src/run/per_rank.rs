@@ -1,0 +1,250 @@
+//! What N fluid ranks would hold, before any of them starts: particles and memory per rank
+//! (`coupler check --fluid-ranks N`, and the start of `coupler run` on ranks), and the refusal
+//! of more ranks than the water's slabs can hold, naming `fluid.ranks` or `--fluid-ranks` and
+//! the most that fit.
+//!
+//! The fluid node cuts the domain into slabs along its longest horizontal axis; each rank owns
+//! the particles of its slab and keeps copies of its neighbours' particles near the cuts (the
+//! halo). The estimate takes slabs of equal width holding equal shares of the water (the cuts
+//! move with the work, which keeps the shares near equal), and a halo on both sides of every
+//! slab (the two end slabs have one: an upper estimate).
+
+use crate::run::sizes::{BASE_BYTES, estimate};
+use fluid_node::methods::wcsph::WCSPH_SKIN;
+use shared::scene::{FieldError, Scene, fluid_ranks_problem};
+
+/// Kernel support over the particle spacing: the Wendland C2 kernel reaches 2h, with every
+/// solver's default h = 1.3 dx.
+pub const SUPPORT_OVER_DX: f64 = 2.6;
+/// Grid cells of the halo on each side of a slab: the particles within two cells of a cut are
+/// copied to the neighbour.
+pub const HALO_CELLS: f64 = 2.0;
+/// Narrowest slab, in grid cells: a slab narrower than its two halos would hold more copies
+/// than particles of its own, and trade most of its water every step.
+pub const MIN_SLAB_CELLS: u32 = 4;
+/// Bytes of the fluid node's per-particle arrays (`fluid_node::core::Particles`): ten arrays of
+/// f64, six of them 3-vectors of 24 B (position, velocity, acceleration, penalty force, and
+/// position and velocity at the step's start) and four scalars of 8 B (density, pressure,
+/// density rate, density at the step's start).
+pub const PARTICLE_ARRAY_BYTES: f64 = 6.0 * 24.0 + 4.0 * 8.0;
+/// Neighbours listed per particle: ~33 within the support of a full 3D lattice at h = 1.3 dx,
+/// ~50 within the lists' reach of 1.1 supports.
+pub const NEIGHBOURS_PER_PARTICLE: f64 = 50.0;
+/// Bytes a rank spends per particle it holds, own or halo: [`PARTICLE_ARRAY_BYTES`] plus a
+/// u32 index per listed neighbour. Estimated from the arrays, not measured (the whole node's
+/// measured figure is [`crate::run::sizes::BYTES_PER_PARTICLE`]).
+pub const BYTES_PER_RANK_PARTICLE: f64 = PARTICLE_ARRAY_BYTES + 4.0 * NEIGHBOURS_PER_PARTICLE;
+
+/// The slabs of a scene's domain: the axis they are cut along, its length and a grid cell.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Slabs {
+    /// 0 for x, 1 for y: the longest horizontal axis of the domain.
+    pub axis: usize,
+    /// The domain's length along `axis` [m].
+    pub length: f64,
+    /// A grid cell [m]: the kernel support × (1 + the Verlet skin, [`WCSPH_SKIN`]).
+    pub cell: f64,
+}
+
+impl Slabs {
+    /// The slabs of `scene` at its `fluid.dx`; `None` without water.
+    pub fn of(scene: &Scene) -> Option<Slabs> {
+        let fluid = scene.fluid.as_ref().filter(|_| scene.has_fluid())?;
+        let d = &scene.domain;
+        let extent = |k: usize| d.max[k] - d.min[k];
+        let axis = if extent(1) > extent(0) { 1 } else { 0 };
+        Some(Slabs {
+            axis,
+            length: extent(axis),
+            cell: SUPPORT_OVER_DX * fluid.dx * (1.0 + WCSPH_SKIN),
+        })
+    }
+
+    /// The most ranks whose slabs are each at least [`MIN_SLAB_CELLS`] cells wide (at least 1).
+    pub fn most_ranks(&self) -> u32 {
+        let n = (self.length / (f64::from(MIN_SLAB_CELLS) * self.cell)).floor();
+        n.clamp(1.0, f64::from(u32::MAX)) as u32
+    }
+
+    fn axis_name(&self) -> &'static str {
+        ["x", "y"][self.axis]
+    }
+}
+
+/// What one of N fluid ranks would hold.
+#[derive(Debug, Clone)]
+pub struct PerRank {
+    pub ranks: u32,
+    pub slabs: Slabs,
+    /// Water particles a rank owns: the water's / N.
+    pub particles: f64,
+    /// Halo particles a rank keeps: its own × 2 sides × [`HALO_CELLS`] cells over its slab's
+    /// width, at most the water it does not own.
+    pub halo: f64,
+    /// Boundary particles a rank holds: the walls' / N.
+    pub boundary: f64,
+    /// Memory of one rank [bytes]: [`BASE_BYTES`] + [`BYTES_PER_RANK_PARTICLE`] × (own + halo
+    /// + boundary particles).
+    pub memory: f64,
+}
+
+impl PerRank {
+    /// The estimate for `ranks` ranks; `None` without water.
+    pub fn estimate(scene: &Scene, ranks: u32) -> Option<PerRank> {
+        let slabs = Slabs::of(scene)?;
+        let whole = estimate(scene, None)?;
+        let n = f64::from(ranks.max(1));
+        let particles = whole.fluid_particles / n;
+        let slab = slabs.length / n;
+        let halo = if ranks > 1 {
+            (particles * 2.0 * HALO_CELLS * slabs.cell / slab)
+                .min(whole.fluid_particles - particles)
+        } else {
+            0.0
+        };
+        let boundary = whole.boundary_particles / n;
+        Some(PerRank {
+            ranks,
+            slabs,
+            particles,
+            halo,
+            boundary,
+            memory: BASE_BYTES + BYTES_PER_RANK_PARTICLE * (particles + halo + boundary),
+        })
+    }
+
+    /// One line for `coupler check` and the start of a run.
+    pub fn describe(&self) -> String {
+        let s = &self.slabs;
+        format!(
+            "on {} fluid ranks: slabs of {:.3} m along {} (the domain's {:.3} m); each rank about {:.3e} water particles + {:.3e} halo ({:.0} % more: 2 × {} cells of {:.3} m) + {:.3e} boundary, about {:.0} MB of memory ({} B per particle, estimated from the particle arrays and neighbour lists)",
+            self.ranks,
+            s.length / f64::from(self.ranks),
+            s.axis_name(),
+            s.length,
+            self.particles,
+            self.halo,
+            100.0 * self.halo / self.particles.max(1.0),
+            HALO_CELLS,
+            s.cell,
+            self.boundary,
+            self.memory / 1e6,
+            BYTES_PER_RANK_PARTICLE
+        )
+    }
+}
+
+/// The fluid ranks a run uses: `flag` (`--fluid-ranks`) or the scene's `[fluid] ranks`,
+/// checked: from 1 to [`shared::scene::MAX_FLUID_RANKS`], and no more than the water's slabs
+/// can hold ([`Slabs::most_ranks`]). The error names where the count came from and the fix.
+pub fn ranks(flag: Option<u32>, scene: &Scene) -> Result<u32, String> {
+    let from_scene = scene.fluid.as_ref().map_or(1, |f| f.ranks);
+    let ranks = flag.unwrap_or(from_scene);
+    if let (Some(n), Some((problem, fix))) = (flag, fluid_ranks_problem(ranks)) {
+        return Err(format!("--fluid-ranks {n}: {problem}. Fix: {fix}"));
+    }
+    let Some(slabs) = Slabs::of(scene) else {
+        return Ok(ranks); // no water: no fluid node to start
+    };
+    let most = slabs.most_ranks();
+    if ranks <= most {
+        return Ok(ranks);
+    }
+    let problem = format!(
+        "more ranks than the water can fill: the fluid node cuts the domain into slabs along {} ({:.3} m), each at least {MIN_SLAB_CELLS} grid cells of {:.3} m wide ({:.3} m), so at most {most} rank{}",
+        slabs.axis_name(),
+        slabs.length,
+        slabs.cell,
+        f64::from(MIN_SLAB_CELLS) * slabs.cell,
+        if most == 1 { "" } else { "s" }
+    );
+    let finer = "or a finer fluid.dx (the cells shrink with it)";
+    Err(match flag {
+        Some(n) => {
+            format!("--fluid-ranks {n}: {problem}. Fix: --fluid-ranks {most} or fewer, {finer}")
+        }
+        None => FieldError::new(
+            &["fluid", "ranks"],
+            ranks.to_string(),
+            &problem,
+            &format!("ranks = {most} or fewer, {finer}"),
+        )
+        .to_string(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default scene's tank is 5.65 m along x; at dx = 0.04 m a cell is 2.6 × 1.1 × 0.04 =
+    /// 0.1144 m, a slab at least 0.4576 m: 12 ranks fit.
+    #[test]
+    fn the_slabs_of_the_default_scene_hold_twelve_ranks() {
+        let s = Scene::default_scene();
+        let slabs = Slabs::of(&s).unwrap();
+        assert_eq!(slabs.axis, 0);
+        assert!((slabs.cell - 0.1144).abs() < 1e-9, "{slabs:?}");
+        assert_eq!(slabs.most_ranks(), 12);
+        assert_eq!(ranks(None, &s), Ok(1));
+        assert_eq!(ranks(Some(12), &s), Ok(12));
+        let msg = ranks(Some(13), &s).unwrap_err();
+        for says in [
+            "--fluid-ranks 13",
+            "along x",
+            "at most 12 ranks",
+            "Fix: --fluid-ranks 12",
+        ] {
+            assert!(msg.contains(says), "{says}: {msg}");
+        }
+        let mut written = s.clone();
+        written.fluid.as_mut().unwrap().ranks = 40;
+        let msg = ranks(None, &written).unwrap_err();
+        assert!(
+            msg.starts_with("fluid.ranks = 40: more ranks than the water can fill")
+                && msg.contains("fix: ranks = 12 or fewer"),
+            "{msg}"
+        );
+        assert_eq!(
+            ranks(Some(2), &written),
+            Ok(2),
+            "the flag overrides the scene"
+        );
+        let msg = ranks(Some(0), &s).unwrap_err();
+        assert!(
+            msg.contains("--fluid-ranks 0: must be at least 1") && msg.contains("Fix:"),
+            "{msg}"
+        );
+        let msg = ranks(Some(5000), &s).unwrap_err();
+        assert!(msg.contains("at most 4096"), "{msg}");
+    }
+
+    /// Three ranks each own a third of the water and a halo of 2 × 2 cells over a slab of a
+    /// third of the tank; one rank has no halo.
+    #[test]
+    fn each_rank_holds_its_share_and_a_halo() {
+        let s = Scene::default_scene();
+        let whole = estimate(&s, None).unwrap();
+        let one = PerRank::estimate(&s, 1).unwrap();
+        assert_eq!((one.particles, one.halo), (whole.fluid_particles, 0.0));
+        let three = PerRank::estimate(&s, 3).unwrap();
+        assert!((three.particles - whole.fluid_particles / 3.0).abs() < 1e-6);
+        let halo_share = 4.0 * 0.1144 / (5.65 / 3.0);
+        assert!(
+            (three.halo / three.particles - halo_share).abs() < 1e-9,
+            "{three:?}"
+        );
+        assert!(three.memory < one.memory);
+        let line = three.describe();
+        for says in [
+            "on 3 fluid ranks",
+            "along x",
+            "halo (24 % more",
+            "MB of memory",
+            "376 B",
+        ] {
+            assert!(line.contains(says), "{says}: {line}");
+        }
+        assert!(PerRank::estimate(&s, 12).unwrap().halo <= whole.fluid_particles);
+    }
+}
