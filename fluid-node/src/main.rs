@@ -37,19 +37,20 @@ fn main() -> ExitCode {
 #[cfg(feature = "mpi")]
 fn join_ranks() -> Option<ExitCode> {
     ranks::launched_ranks().filter(|&n| n > 1)?;
-    let comm = match ranks::mpi::MpiRanks::init() {
+    let comm: std::sync::Arc<dyn ranks::comm::Comm> = match ranks::mpi::MpiRanks::init() {
         Ok(c) => std::sync::Arc::new(c),
         Err(e) => {
             eprintln!("fluid-node: cannot join the MPI job: {e}");
             return Some(ExitCode::from(shared::runtime::exit::SOLVER));
         }
     };
+    ranks::install(comm.clone());
     if comm.rank() == 0 {
-        ranks::install(comm);
         return None;
     }
     let rank = comm.rank();
     let followed = fluid_node::on_pool(|| leader::follow(comm, build));
+    drop(ranks::uninstall());
     match followed {
         Ok(()) => Some(ExitCode::SUCCESS),
         Err(e) => {

@@ -61,10 +61,30 @@ impl<S: SphMethod> Sph<S> {
                 c.size()
             )));
         }
-        let init = Initial::from_scene(ctx.scene)?;
-        let params = solver_params::<S::Params>(&init.fluid.solvers, "fluid", S::NAME)?;
-        let (mut method, layout) = S::new(params, &init)?;
-        let mut sys = FluidSystem::new(ctx, S::NAME, &init, layout, ranks)?;
+        let built = (|| {
+            let init = Initial::from_scene(ctx.scene)?;
+            let params = solver_params::<S::Params>(&init.fluid.solvers, "fluid", S::NAME)?;
+            let (method, layout) = S::new(params, &init)?;
+            let sys = FluidSystem::new(ctx, S::NAME, &init, layout, ranks.clone())?;
+            Ok::<_, SolverError>((init, method, sys))
+        })();
+        // On several ranks all fail if one did (a file one host cannot read, a run directory
+        // rank 0 cannot write): the sort below is the ranks' first exchange.
+        let failed = |c: &Arc<dyn Comm>, yes: bool| crate::ranks::any(&**c, yes);
+        let (init, mut method, mut sys) = match (built, &ranks) {
+            (Ok(b), Some(c)) if failed(c, false) => {
+                drop(b);
+                return Err(SolverError::Failed(
+                    "another fluid rank failed to set up; its message is on its standard error".into(),
+                ));
+            }
+            (Err(e), Some(c)) => {
+                failed(c, true);
+                return Err(e);
+            }
+            (b, _) => b?,
+        };
+        sys.prepare();
         method.start(&mut sys);
         let dt_next = method.dt_proposal(0.0, init.gravity.norm());
         Ok(Self {

@@ -175,8 +175,11 @@ pub fn follow(comm: Arc<dyn Comm>, factory: Factory) -> Result<(), String> {
                 };
                 match factory(&solver, &ctx) {
                     Ok(s) => break s,
-                    // Rank 0 fails alike and says stop.
-                    Err(_) => continue,
+                    // Rank 0 fails too (the ranks agree) and says stop.
+                    Err(e) => {
+                        eprintln!("fluid-node rank {}: {e}", comm.rank());
+                        continue;
+                    }
                 }
             }
             Call::Stop => return Ok(()),

@@ -41,6 +41,13 @@ pub fn current() -> Option<Arc<dyn Comm>> {
     RANKS.lock().unwrap().clone().filter(|c| c.size() > 1)
 }
 
+/// Whether any rank says yes (exact: a maximum of 0 and 1). Every rank must call it.
+pub fn any(comm: &dyn Comm, yes: bool) -> bool {
+    let mut v = [yes as u8 as f64];
+    comm.max(&mut v);
+    v[0] > 0.0
+}
+
 /// How many ranks a launcher started this process among, read from the environment Open MPI
 /// (`OMPI_COMM_WORLD_SIZE`), MPICH's Hydra and Slurm's PMI (`PMI_SIZE`) and PMIx
 /// (`PMIX_SIZE`) give every rank: a node built without MPI refuses to run as one of many.

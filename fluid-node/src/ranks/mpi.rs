@@ -3,7 +3,10 @@
 
 use super::comm::Comm;
 use mpi::collective::SystemOperation;
+use mpi::request::{Request, Scope};
+use std::time::Duration;
 use mpi::topology::SimpleCommunicator;
+use mpi::point_to_point::MatchedReceiveVec;
 use mpi::traits::*;
 
 /// The MPI world of this process.
@@ -37,6 +40,52 @@ impl MpiRanks {
     }
 }
 
+/// Longest nap between two looks at a pending message.
+const MAX_NAP: Duration = Duration::from_micros(500);
+
+/// Naps between looks at a pending message, 5 µs at first and twice as long each time up to
+/// [`MAX_NAP`]. MPI's own blocking calls poll (Open MPI's shared-memory transport spins a core
+/// while it waits), and the ranks share their cores with the coupler and the solid node: a rank
+/// that waits must sleep. Within a step the messages come within microseconds and the first
+/// naps are short; a rank waiting for the coupler's next step sleeps 2000 times a second.
+struct Naps(Duration);
+
+impl Naps {
+    fn new() -> Self {
+        Self(Duration::from_micros(5))
+    }
+    fn take(&mut self) {
+        std::thread::sleep(self.0);
+        self.0 = (self.0 * 2).min(MAX_NAP);
+    }
+}
+
+/// Waits for `request` to complete, napping.
+fn wait<'a, D: ?Sized, S: Scope<'a>>(mut request: Request<'a, D, S>) {
+    let mut naps = Naps::new();
+    loop {
+        match request.test() {
+            Ok(_) => return,
+            Err(r) => request = r,
+        }
+        naps.take();
+    }
+}
+
+impl MpiRanks {
+    /// The next message from rank `from`, napping until it is there.
+    fn receive(&self, from: usize) -> Vec<u8> {
+        let source = self.world.process_at_rank(from as i32);
+        let mut naps = Naps::new();
+        loop {
+            if let Some(probed) = source.immediate_matched_probe() {
+                return probed.matched_receive_vec::<u8>().0;
+            }
+            naps.take();
+        }
+    }
+}
+
 impl Comm for MpiRanks {
     fn rank(&self) -> usize {
         self.world.rank() as usize
@@ -58,57 +107,58 @@ impl Comm for MpiRanks {
                         .immediate_send(scope, &bytes[..])
                 })
                 .collect();
-            let got = out
-                .iter()
-                .map(|(from, _)| {
-                    self.world
-                        .process_at_rank(*from as i32)
-                        .receive_vec::<u8>()
-                        .0
-                })
-                .collect();
+            let got = out.iter().map(|(from, _)| self.receive(*from)).collect();
             for s in sends {
-                s.wait();
+                wait(s);
             }
             got
         })
     }
 
     fn gather(&self, bytes: Vec<u8>) -> Vec<Vec<u8>> {
-        let root = self.world.process_at_rank(0);
         if self.rank() != 0 {
-            root.send(&bytes[..]);
+            let root = self.world.process_at_rank(0);
+            mpi::request::scope(|scope| wait(root.immediate_send(scope, &bytes[..])));
             return Vec::new();
         }
         let mut all = vec![bytes];
-        all.extend((1..self.size()).map(|from| {
-            self.world
-                .process_at_rank(from as i32)
-                .receive_vec::<u8>()
-                .0
-        }));
+        all.extend((1..self.size()).map(|from| self.receive(from)));
         all
     }
 
     fn broadcast(&self, bytes: &mut Vec<u8>) {
         let root = self.world.process_at_rank(0);
         let mut len = bytes.len() as u64;
-        root.broadcast_into(&mut len);
+        mpi::request::scope(|scope| wait(root.immediate_broadcast_into(scope, &mut len)));
         bytes.resize(len as usize, 0);
         if len > 0 {
-            root.broadcast_into(&mut bytes[..]);
+            mpi::request::scope(|scope| {
+                wait(root.immediate_broadcast_into(scope, &mut bytes[..]));
+            });
         }
     }
 
     fn max(&self, values: &mut [f64]) {
         let mine = values.to_vec();
-        self.world
-            .all_reduce_into(&mine[..], values, SystemOperation::max());
+        mpi::request::scope(|scope| {
+            wait(self.world.immediate_all_reduce_into(
+                scope,
+                &mine[..],
+                values,
+                SystemOperation::max(),
+            ));
+        });
     }
 
     fn sum(&self, values: &mut [u64]) {
         let mine = values.to_vec();
-        self.world
-            .all_reduce_into(&mine[..], values, SystemOperation::sum());
+        mpi::request::scope(|scope| {
+            wait(self.world.immediate_all_reduce_into(
+                scope,
+                &mine[..],
+                values,
+                SystemOperation::sum(),
+            ));
+        });
     }
 }

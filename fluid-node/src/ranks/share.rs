@@ -331,17 +331,10 @@ impl Share {
         }
     }
 
-    /// Whether any rank says yes (exact: a maximum of 0 and 1).
-    pub fn any(&self, yes: bool) -> bool {
-        let mut v = [yes as u8 as f64];
-        self.comm.max(&mut v);
-        v[0] > 0.0
-    }
-
     /// Agrees on a failure: if any rank failed, rank 0 gets the lowest failing rank's message
     /// (named by rank), the others a message saying rank 0 reports it.
     pub fn agree(&self, failure: Option<String>) -> Option<String> {
-        if !self.any(failure.is_some()) {
+        if !super::any(&*self.comm, failure.is_some()) {
             return None;
         }
         let all = self.comm.gather(failure.unwrap_or_default().into_bytes());

@@ -95,6 +95,8 @@ impl FluidSystem {
     /// Builds the system from the filled scene as the scheme's `layout` asks: its support is
     /// the neighbour radius, its sound speed sets the default Eq. 22 stiffness, its skin ratio
     /// the Verlet skin of the lists over the support.
+    /// The particles are not sorted yet: [`Self::prepare`] does it, once every rank has come
+    /// this far.
     ///
     /// With `ranks` (more than one), this rank keeps its slab and halo of the water, and only
     /// rank 0 writes files.
@@ -141,7 +143,7 @@ impl FluidSystem {
         }
         let recorder = setup::recorder(ctx, init, lead)?;
         let share = ranks.map(|c| Share::new(c, &grid, init.fill.positions.len()));
-        let mut sys = Self {
+        let sys = Self {
             solver,
             particles: Particles::new(init.fill.positions.clone(), density),
             grid,
@@ -185,7 +187,6 @@ impl FluidSystem {
         if lead {
             sys.write_counts()?;
         }
-        sys.prepare();
         Ok(sys)
     }
 
