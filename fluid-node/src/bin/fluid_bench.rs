@@ -26,6 +26,10 @@
 //! alternating blocks of BLOCK steps and reports their ratio pair by pair (the `paired`
 //! module): the 2 ÷ 1 ratio without a minute between its two sides.
 //!
+//! `fluid-bench --ranks N` instead runs each size on N MPI ranks (built with `--features mpi`;
+//! the `ranks` module): the run's particle-steps per second, and per rank its particles, halo,
+//! bytes and time in messages per step, and the work's imbalance.
+//!
 //! `fluid-bench --ceiling ROUNDS` instead measures what 2 threads give over 1 on this machine
 //! for loops with no serial part (the `ceiling` module), the yardstick for the solvers' own
 //! 2 ÷ 1 ratios.
@@ -36,6 +40,9 @@ mod ceiling;
 mod paired;
 #[path = "fluid_bench/phase_table.rs"]
 mod phase_table;
+#[cfg(feature = "mpi")]
+#[path = "fluid_bench/ranks.rs"]
+mod ranks;
 /// The dam-break scene of every row.
 #[path = "fluid_bench/scene.rs"]
 mod scene;
@@ -118,6 +125,10 @@ struct Args {
     /// and size: µs per step of each phase per thread count, and their 2 ÷ 1.
     #[arg(long, conflicts_with_all = ["ceiling", "paired"])]
     phases: bool,
+    /// Instead of the rows per thread count: each size on this many MPI ranks of the first
+    /// `--threads` threads each, of the first solver (needs `--features mpi`).
+    #[arg(long, allow_hyphen_values = true, conflicts_with_all = ["ceiling", "paired", "phases"])]
+    ranks: Option<usize>,
 }
 
 fn main() {
@@ -145,6 +156,10 @@ fn main() {
     };
     if let Some(block) = args.paired {
         paired::run(&solvers, &sizes, &params, block, from, timed);
+        return;
+    }
+    if let Some(n) = args.ranks {
+        on_ranks(n, &solvers[0], &sizes, threads[0], &params, from, timed);
         return;
     }
     println!(
@@ -228,4 +243,45 @@ fn main() {
         }
     }
     phase_table::print(&timed_phases);
+}
+
+/// `--ranks N`: started again under MPI, or, as one of the ranks, the rows.
+#[cfg(feature = "mpi")]
+fn on_ranks(
+    n: usize,
+    solver: &str,
+    sizes: &[usize],
+    threads: usize,
+    params: &[String],
+    from: f64,
+    timed: Option<usize>,
+) {
+    if fluid_node::ranks::launched_ranks().is_none() {
+        std::process::exit(if ranks::launch(n) == std::process::ExitCode::SUCCESS {
+            0
+        } else {
+            1
+        });
+    }
+    let comm = fluid_node::ranks::mpi::MpiRanks::init().unwrap_or_else(|e| {
+        eprintln!("fluid-bench: {e}");
+        std::process::exit(2)
+    });
+    ranks::run(
+        std::sync::Arc::new(comm),
+        solver,
+        sizes,
+        threads,
+        params,
+        from,
+        timed,
+    );
+}
+
+#[cfg(not(feature = "mpi"))]
+fn on_ranks(_: usize, _: &str, _: &[usize], _: usize, _: &[String], _: f64, _: Option<usize>) {
+    eprintln!(
+        "fluid-bench: --ranks needs MPI: build with `cargo build --release --features fluid-node/mpi` (Debian packages libopenmpi-dev openmpi-bin libclang-dev)"
+    );
+    std::process::exit(2);
 }

@@ -137,8 +137,6 @@ impl Share {
             self.key = (0..p.len() as u64).collect();
             self.owned = vec![true; p.len()];
         } else {
-            let slabs = self.slabs.as_ref().unwrap();
-            self.stats.imbalance = slabs.imbalance(&self.work);
             if self.stats.imbalance > REBALANCE {
                 self.slabs = Some(Slabs::balanced(self.axis, &self.work, self.comm.size())?);
                 self.stats.rebalances += 1;
@@ -248,6 +246,7 @@ impl Share {
             }
         }
         self.comm.sum(&mut self.work);
+        self.stats.imbalance = self.slabs.as_ref().unwrap().imbalance(&self.work);
         self.stats.waiting += t.elapsed();
     }
 

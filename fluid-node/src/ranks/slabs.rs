@@ -23,8 +23,9 @@ pub struct Slabs {
 
 impl Slabs {
     /// Cuts `work` (per column along `axis`) into `size` slabs of about equal work, each at least
-    /// one column wide: rank r's slab ends at the first column where the running total reaches
-    /// (r + 1)/size of the whole. Fails when there are fewer columns than ranks.
+    /// one column wide: rank r's slab ends where the running total comes closest to
+    /// (r + 1)/size of the whole (a column goes to the slab if its middle is below that).
+    /// Fails when there are fewer columns than ranks.
     pub fn balanced(axis: usize, work: &[u64], size: usize) -> Result<Self, String> {
         let columns = work.len();
         if columns < size {
@@ -42,7 +43,7 @@ impl Slabs {
             // At least one column for this rank, and one left for each rank after it.
             let lowest = cuts[r] + 1;
             let highest = columns - (size - 1 - r);
-            while c < lowest || (c < highest && running + (work[c] as u128) <= target) {
+            while c < lowest || (c < highest && 2 * running + (work[c] as u128) <= 2 * target) {
                 running += work[c] as u128;
                 c += 1;
             }
@@ -93,15 +94,16 @@ mod tests {
     fn cuts_divide_the_work_and_name_the_owner() {
         let work = [1, 1, 1, 1, 10, 1, 1, 1, 1, 2];
         let s = Slabs::balanced(0, &work, 2).unwrap();
-        // 20 in all: the first slab takes columns until 10 is reached.
-        assert_eq!(s.owned(0), 0..4);
-        assert_eq!(s.owned(1), 4..10);
-        assert_eq!(s.owner(3), 0);
-        assert_eq!(s.owner(4), 1);
+        // 20 in all: the first slab takes the columns whose middle is below 10 (column 4 runs
+        // from 4 to 14, its middle 9).
+        assert_eq!(s.owned(0), 0..5);
+        assert_eq!(s.owned(1), 5..10);
+        assert_eq!(s.owner(4), 0);
+        assert_eq!(s.owner(5), 1);
         assert_eq!(s.owner(9), 1);
-        assert_eq!(s.held(0), 0..6);
-        assert_eq!(s.held(1), 2..10);
-        assert!((s.imbalance(&work) - 16.0 / 10.0).abs() < 1e-12);
+        assert_eq!(s.held(0), 0..7);
+        assert_eq!(s.held(1), 3..10);
+        assert!((s.imbalance(&work) - 14.0 / 10.0).abs() < 1e-12);
         // Empty work still gives every rank a column.
         let s = Slabs::balanced(1, &[0; 5], 5).unwrap();
         assert_eq!((0..5).map(|r| s.owned(r).len()).collect::<Vec<_>>(), [1; 5]);

@@ -1,0 +1,160 @@
+//! `fluid-bench --ranks N`: the bench's dam break on N MPI ranks (the fluid split into slabs,
+//! `fluid_node::ranks`), each rank with the first of `--threads` threads. Started outside MPI,
+//! the bench starts itself again under `mpirun -n N` (`ROCKWAVE_MPIRUN` replaces `mpirun`);
+//! under MPI, rank 0 prints one row per size with the run's particle-steps per second, and one
+//! row per rank: the particles it owns and holds in its halo, the bytes it sent and the time
+//! it spent in messages (waiting included) per step, and the imbalance of the work.
+
+use fluid_node::ranks::{self, comm::Comm};
+use fluid_node::sph::SphSolver;
+use fluid_node::validation::{self, TempRunDir, build};
+use shared::coupling::step::StepRule;
+use shared::protocol::BlockLoad;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Starts the bench again as `ranks` MPI ranks (this process is not one), and returns its exit
+/// status.
+pub fn launch(ranks: usize) -> std::process::ExitCode {
+    let words = std::env::var("ROCKWAVE_MPIRUN").unwrap_or_else(|_| "mpirun".into());
+    let mut words = words.split_whitespace();
+    let program = words.next().unwrap_or("mpirun");
+    let me = std::env::current_exe().expect("the bench's own path");
+    let mut cmd = std::process::Command::new(program);
+    cmd.args(words)
+        // One core per rank is the point of the comparison; a 1-thread rank must not be
+        // pinned with the other onto one core, nor kept from the second.
+        .args(["--oversubscribe", "--bind-to", "none", "-n", &ranks.to_string()])
+        .arg(me)
+        .args(std::env::args().skip(1))
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1");
+    match cmd.status() {
+        Ok(s) if s.success() => std::process::ExitCode::SUCCESS,
+        Ok(s) => {
+            eprintln!("fluid-bench: the ranks ended with {s}");
+            std::process::ExitCode::FAILURE
+        }
+        Err(e) => {
+            eprintln!(
+                "fluid-bench: cannot start '{program}' ({e}): install Debian's openmpi-bin libopenmpi-dev, or name the launcher in ROCKWAVE_MPIRUN"
+            );
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+/// One rank's figures of one size, as gathered on rank 0.
+fn words(v: &[f64]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// The rows of every size, as one of the MPI ranks.
+pub fn run(
+    comm: Arc<dyn Comm>,
+    solver: &str,
+    sizes: &[usize],
+    threads: usize,
+    params: &[String],
+    from: f64,
+    timed: Option<usize>,
+) {
+    let rank = comm.rank();
+    ranks::install(comm.clone());
+    if rank == 0 {
+        println!(
+            "| solver | particles | ranks × threads | steps timed | s/step | particle-steps/s |"
+        );
+        println!("|---|---|---|---|---|---|");
+    }
+    let mut per_rank = Vec::new();
+    for &n in sizes {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        pool.install(|| {
+            let sc = super::scene::scene(solver, n, params);
+            let dir = TempRunDir::new("bench").expect("temp dir");
+            let mut s: Box<dyn SphSolver> = build(solver, &sc, dir.path()).unwrap_or_else(|e| {
+                eprintln!("fluid-bench rank {rank}: {solver}: {e}");
+                std::process::exit(2)
+            });
+            let count = s.system().global_len();
+            let mut loads: Vec<BlockLoad> = Vec::new();
+            let rule = StepRule::new(sc.time.dt_max, sc.time.dt_min);
+            let mut time = 0.0;
+            let mut step = |s: &mut Box<dyn SphSolver>| {
+                time = validation::step(s.as_mut(), &rule, time, sc.time.end, &mut loads)
+                    .expect("stable")
+                    .0;
+            };
+            for _ in 0..3 {
+                step(&mut s);
+            }
+            while s.system().time < from {
+                step(&mut s);
+            }
+            let steps = timed.unwrap_or((3_000_000 / count).clamp(3, 200));
+            let before = s.system().share.as_ref().map(|x| x.stats).unwrap_or_default();
+            // Every rank starts the clock together.
+            comm.max(&mut [0.0]);
+            let start = Instant::now();
+            for _ in 0..steps {
+                step(&mut s);
+            }
+            let mut secs = [start.elapsed().as_secs_f64()];
+            comm.max(&mut secs);
+            let after = s.system().share.as_ref().map(|x| x.stats).unwrap_or_default();
+            let owned = s
+                .system()
+                .owned()
+                .map_or(count, |o| o.iter().filter(|&&x| x).count());
+            let mine = [
+                owned as f64,
+                after.halo as f64,
+                (after.bytes_sent - before.bytes_sent) as f64 / steps as f64,
+                (after.waiting - before.waiting).as_secs_f64() / steps as f64,
+                after.imbalance,
+                after.rebalances as f64,
+            ];
+            let all = comm.gather(words(&mine));
+            if rank == 0 {
+                let secs = secs[0];
+                println!(
+                    "| {solver} | {count} | {} × {threads} | {steps} | {:.4} | {:.3e} |",
+                    comm.size(),
+                    secs / steps as f64,
+                    (count * steps) as f64 / secs
+                );
+                for (r, b) in all.iter().enumerate() {
+                    let v: Vec<f64> = b
+                        .chunks_exact(8)
+                        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+                        .collect();
+                    per_rank.push(format!(
+                        "| {count} | {r} | {:.0} | {:.0} | {:.0} | {:.1} | {:.1} | {:.3} | {:.0} |",
+                        v[0],
+                        v[1],
+                        v[2] / 1e3,
+                        1e3 * v[3],
+                        100.0 * v[3] / (secs / steps as f64),
+                        v[4],
+                        v[5]
+                    ));
+                }
+            }
+        });
+    }
+    if rank == 0 {
+        println!();
+        println!(
+            "| particles | rank | owned | halo | kB sent per step | ms in messages per step | % of the step | imbalance (busiest ÷ mean work) | rebalances |"
+        );
+        println!("|---|---|---|---|---|---|---|---|---|");
+        for row in per_rank {
+            println!("{row}");
+        }
+    }
+    drop(ranks::uninstall());
+}
