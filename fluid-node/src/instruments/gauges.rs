@@ -177,7 +177,7 @@ impl BoxAverage {
 pub struct RecorderMark {
     last: Real,
     rows: usize,
-    averages: Vec<Option<BoxAverage>>,
+    pub(crate) averages: Vec<Option<BoxAverage>>,
 }
 
 pub struct Recorder {
@@ -265,7 +265,7 @@ impl Recorder {
             return Ok(());
         }
         self.last = time;
-        let row = &mut self.row;
+        let mut row = std::mem::take(&mut self.row);
         row.clear();
         let reference = view.lattice_fraction();
         let cols = self.gauges.iter().zip(&self.beds);
@@ -284,18 +284,14 @@ impl Recorder {
                 }),
         );
         if let Some(s) = share {
-            let at = |x: Real, y: Real, z: Real| s.owner_at(view.grid, &Vector::new(x, y, z));
-            let gauges = self.gauges.iter().map(|g| at(g.x, g.y, 0.0));
+            let at = |x: Real, y: Real| s.owner_at(view.grid, &Vector::new(x, y, 0.0));
+            let gauges = self.gauges.iter().map(|g| at(g.x, g.y));
             let owners: Vec<usize> = gauges
                 .clone()
                 .chain(gauges)
-                .chain(
-                    self.probes
-                        .iter()
-                        .map(|p| at(p.position[0], p.position[1], p.position[2])),
-                )
+                .chain(self.probe_owners(s, view.grid))
                 .collect();
-            s.merge(row, &owners);
+            s.merge(&mut row, &owners);
         }
         let (g, p) = row.split_at(2 * self.gauges.len());
         if let Some(s) = &mut self.gauge_file {
@@ -308,11 +304,21 @@ impl Recorder {
             s.row.extend_from_slice(p);
             s.write(time)?;
         }
+        // Kept for its capacity.
+        self.row = row;
         self.rows += 1;
         if self.rows.is_multiple_of(FLUSH_EVERY) {
             self.flush()?;
         }
         Ok(())
+    }
+
+    /// The rank owning each probe's point (on several ranks).
+    pub fn probe_owners(&self, share: &Share, grid: &CellGrid) -> Vec<usize> {
+        self.probes
+            .iter()
+            .map(|p| share.owner_at(grid, &Vector::from(p.position)))
+            .collect()
     }
 
     /// The sampling state a checkpoint keeps: the last sample's time and the row count.

@@ -27,6 +27,10 @@ enum Call {
     Advance(Real),
     Frame(u32, Real),
     Finish,
+    /// Take part in a checkpoint (rank 0 writes the whole state).
+    Save,
+    /// Restore the whole state rank 0 read, continuing the files in the run directory.
+    Restore(Vec<u8>, PathBuf),
     /// The run is over (or rank 0 failed to build): leave.
     Stop,
 }
@@ -91,13 +95,6 @@ impl Drop for Leader {
     }
 }
 
-/// What rank 0 does not do on several ranks yet, as the error that says so.
-fn not_yet(what: &str) -> SolverError {
-    SolverError::Failed(format!(
-        "{what} of a fluid on several ranks is not written yet: run with `--no-checkpoints`, or on one rank"
-    ))
-}
-
 impl Solver for Leader {
     fn name(&self) -> &str {
         self.inner.name()
@@ -123,11 +120,16 @@ impl Solver for Leader {
     }
 
     fn save_state(&mut self) -> Result<Vec<u8>, SolverError> {
-        Err(not_yet("a checkpoint"))
+        tell(&*self.comm, &Call::Save);
+        self.inner.save_state()
     }
 
-    fn restore_state(&mut self, _state: &[u8], _run_dir: &Path) -> Result<(), SolverError> {
-        Err(not_yet("resuming"))
+    fn restore_state(&mut self, state: &[u8], run_dir: &Path) -> Result<(), SolverError> {
+        tell(
+            &*self.comm,
+            &Call::Restore(state.to_vec(), run_dir.to_path_buf()),
+        );
+        self.inner.restore_state(state, run_dir)
     }
 }
 
@@ -196,6 +198,8 @@ pub fn follow(comm: Arc<dyn Comm>, factory: Factory) -> Result<(), String> {
             Call::Advance(dt) => solver.advance(dt).map(|_| ()),
             Call::Frame(frame, time) => solver.write_frame(frame, time),
             Call::Finish => solver.finish(),
+            Call::Save => solver.save_state().map(|_| ()),
+            Call::Restore(state, run_dir) => solver.restore_state(&state, &run_dir),
             Call::Stop => return Ok(()),
             Call::Setup { .. } => return Err("rank 0 sent a second setup".into()),
         };

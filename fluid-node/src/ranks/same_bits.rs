@@ -139,3 +139,88 @@ fn a_dam_break_gives_the_same_bits_on_one_two_and_three_ranks() {
         }
     }
 }
+
+/// Steps `steps` steps, then returns the checkpoint (rank 0's; empty on the others).
+fn steps_then_save(s: &mut Sph<Wcsph>, steps: usize) -> Vec<u8> {
+    for _ in 0..steps {
+        let dt = s.dt_proposal().min(1e-3);
+        s.advance(dt).unwrap();
+    }
+    s.save_state().unwrap()
+}
+
+/// The whole state of rank 0 (one-rank order), as bits.
+fn whole(s: &Sph<Wcsph>) -> Option<Vec<[u64; 8]>> {
+    let p = &s.sys.particles;
+    let bits = |i: usize| {
+        let (x, v) = (p.position[i], p.velocity[i]);
+        [x.x, x.y, x.z, v.x, v.y, v.z, p.density[i], p.pressure[i]]
+    };
+    let all: Vec<[f64; 8]> = match &s.sys.share {
+        None => (0..p.len()).map(bits).collect(),
+        Some(share) => share.gather(bits)?,
+    };
+    Some(all.iter().map(|a| a.map(f64::to_bits)).collect())
+}
+
+/// Runs `f` on `n` thread ranks, each with its own run directory; returns rank 0's result.
+fn on_threads<T: Send>(
+    n: usize,
+    dirs: &[tempfile::TempDir],
+    f: impl Fn(Arc<dyn Comm>, &Path) -> T + Sync,
+) -> T {
+    let ranks = ThreadRanks::new(n);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = ranks
+            .into_iter()
+            .zip(dirs)
+            .map(|(c, d)| {
+                let f = &f;
+                s.spawn(move || f(c, d.path()))
+            })
+            .collect();
+        let mut results: Vec<T> = handles.into_iter().map(|h| h.join().unwrap()).collect();
+        results.swap_remove(0)
+    })
+}
+
+#[test]
+fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
+    let scene = scene();
+    fn ctx<'a>(scene: &'a Scene, dir: &'a Path) -> SetupContext<'a> {
+        SetupContext {
+            scene,
+            run_dir: dir,
+            scheme: CouplingScheme::Parallel,
+            peer_present: false,
+        }
+    }
+    let (before, after) = (300, 200);
+    // One rank, straight through, saving halfway.
+    let one = tempfile::tempdir().unwrap();
+    let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, one.path()), None).unwrap();
+    let saved = steps_then_save(&mut s, before);
+    steps_then_save(&mut s, after);
+    let reference = whole(&s).unwrap();
+    // Two ranks save the same bytes.
+    let dirs: Vec<_> = (0..3).map(|_| tempfile::tempdir().unwrap()).collect();
+    let on_two = on_threads(2, &dirs[..2], |c, d| {
+        let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
+        steps_then_save(&mut s, before)
+    });
+    assert!(on_two == saved, "the checkpoint of 2 ranks differs from one rank's");
+    // Three ranks resume from it (rank 0 continues the files of the one-rank run's copy).
+    for f in ["gauges.csv", "probes.csv"] {
+        std::fs::copy(one.path().join(f), dirs[0].path().join(f)).unwrap();
+    }
+    let resumed = on_threads(3, &dirs, |c, d| {
+        let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
+        s.restore_state(&saved, d).unwrap();
+        steps_then_save(&mut s, after);
+        whole(&s)
+    });
+    let resumed = resumed.expect("rank 0 gathers");
+    let first = resumed.iter().zip(&reference).position(|(a, b)| a != b);
+    assert_eq!(first, None, "resumed on 3 ranks: the first particle that differs");
+    assert_eq!(resumed.len(), reference.len());
+}

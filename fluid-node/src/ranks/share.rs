@@ -317,6 +317,121 @@ impl Share {
         Some(items.into_iter().map(|(_, v)| v).collect())
     }
 
+    /// Every particle on rank 0, in one-rank order, with the positions at the last sort (for a
+    /// checkpoint); None on the other ranks.
+    pub fn gather_particles(
+        &self,
+        p: &Particles,
+        sorted_at: &[Vector],
+    ) -> Option<(Particles, Vec<Vector>)> {
+        let v = |x: &Vector| [x.x, x.y, x.z];
+        let all = self.gather(|i| {
+            let mut w = [0.0; 26];
+            let parts: [&[Real]; 11] = [
+                &v(&p.position[i]),
+                &v(&p.velocity[i]),
+                &[p.density[i], p.pressure[i]],
+                &v(&p.acceleration[i]),
+                &[p.density_rate[i]],
+                &v(&p.penalty[i]),
+                &v(&p.position0[i]),
+                &v(&p.velocity0[i]),
+                &[p.density0[i]],
+                &v(&sorted_at[i]),
+                &[],
+            ];
+            let mut k = 0;
+            for part in parts {
+                w[k..k + part.len()].copy_from_slice(part);
+                k += part.len();
+            }
+            w
+        })?;
+        let n = all.len();
+        let mut q = Particles::new(vec![Vector::zeros(); n], vec![0.0; n]);
+        let mut at = vec![Vector::zeros(); n];
+        for (i, w) in all.iter().enumerate() {
+            let v3 = |k: usize| Vector::new(w[k], w[k + 1], w[k + 2]);
+            q.position[i] = v3(0);
+            q.velocity[i] = v3(3);
+            (q.density[i], q.pressure[i]) = (w[6], w[7]);
+            q.acceleration[i] = v3(8);
+            q.density_rate[i] = w[11];
+            q.penalty[i] = v3(12);
+            q.position0[i] = v3(15);
+            q.velocity0[i] = v3(18);
+            q.density0[i] = w[21];
+            at[i] = v3(22);
+        }
+        Some((q, at))
+    }
+
+    /// `items` on rank 0 with each entry k taken from rank `owners[k]` (items that serde
+    /// encodes: the probes' running averages); None on the other ranks.
+    pub fn merge_encoded<T: serde::Serialize + serde::de::DeserializeOwned>(
+        &self,
+        items: &[T],
+        owners: &[usize],
+    ) -> Option<Vec<T>> {
+        let config = bincode::config::standard();
+        let bytes = bincode::serde::encode_to_vec(items, config).expect("items encode");
+        let all = self.comm.gather(bytes);
+        if self.rank() != 0 {
+            return None;
+        }
+        let decoded: Vec<Vec<T>> = all
+            .iter()
+            .map(|b| {
+                bincode::serde::decode_from_slice(b, config)
+                    .expect("a rank's items decode")
+                    .0
+            })
+            .collect();
+        let mut per_rank: Vec<_> = decoded.into_iter().map(|v| v.into_iter()).collect();
+        let mut out = Vec::with_capacity(items.len());
+        for &owner in owners {
+            for (r, it) in per_rank.iter_mut().enumerate() {
+                let item = it.next().expect("every rank has every item");
+                if r == owner {
+                    out.push(item);
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// After a restore (every rank holds the whole state, in the order of the last sort):
+    /// keeps this rank's slab and halo by the positions at that sort, as the first sort would
+    /// have, and lists them anew (the sort of a sorted set is the identity).
+    pub fn restore(&mut self, p: &mut Particles, sorted_at: &mut Vec<Vector>, grid: &CellGrid) {
+        let columns = grid.dims()[self.axis];
+        let mut counts = vec![0u64; columns];
+        for x in sorted_at.iter() {
+            counts[self.column(grid, x)] += 1;
+        }
+        let slabs = Slabs::balanced(self.axis, &counts, self.comm.size())
+            .expect("the slabs fit the grid (checked at set-up)");
+        let me = self.rank();
+        let (held, own) = (slabs.held(me), slabs.owned(me));
+        let keep: Vec<usize> = (0..p.len())
+            .filter(|&i| held.contains(&self.column(grid, &sorted_at[i])))
+            .collect();
+        let mut bytes = Vec::with_capacity(8 * WORDS * keep.len());
+        for &i in &keep {
+            encode(p, i, i as u64, &mut bytes);
+        }
+        let penalty: Vec<Vector> = keep.iter().map(|&i| p.penalty[i]).collect();
+        decode(p, bytes.chunks_exact(8 * WORDS));
+        p.penalty = penalty;
+        *sorted_at = keep.iter().map(|&i| sorted_at[i]).collect();
+        self.key = keep.iter().map(|&i| i as u64).collect();
+        self.owned = sorted_at
+            .iter()
+            .map(|x| own.contains(&self.column(grid, x)))
+            .collect();
+        self.slabs = Some(slabs);
+    }
+
     /// Fills each entry of `row` (on rank 0) with the value its owner computed: `owners[k]` is
     /// the rank owning entry k. Every rank passes its own row.
     pub fn merge(&self, row: &mut [Real], owners: &[usize]) {

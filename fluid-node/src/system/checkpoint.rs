@@ -13,6 +13,10 @@
 //! and the lists are those the uninterrupted run is using), the boundary particles' extrapolated pressures (recomputed
 //! in every force evaluation) and the moving blocks' poses (every step reads the solid's newest
 //! geometry before it computes anything).
+//!
+//! On several ranks rank 0 gathers the particles in one-rank order and the probes' averages
+//! from the ranks owning them: the file is the one a single rank writes, to the byte, and a run
+//! resumes from it on any number of ranks (each takes its slab from the whole).
 
 use super::FluidSystem;
 use crate::core::particles::Particles;
@@ -44,19 +48,36 @@ struct Restored<S> {
     dt_next: Real,
 }
 
-/// Flushes the instruments' files and encodes the state.
+/// Flushes the instruments' files and encodes the state (on several ranks: rank 0 the whole
+/// state, the others nothing).
 pub(crate) fn save<S: serde::Serialize>(
     sys: &mut FluidSystem,
     scheme: &S,
     dt_next: Real,
 ) -> Result<Vec<u8>, SolverError> {
     sys.recorder.flush()?;
+    let mut mark = sys.recorder.mark();
+    let gathered;
+    let (particles, sorted_at) = match &sys.share {
+        None => (&sys.particles, &sys.sorted_at[..]),
+        Some(share) => {
+            let owners = sys.recorder.probe_owners(share, &sys.grid);
+            let whole = share.gather_particles(&sys.particles, &sys.sorted_at);
+            let merged = share.merge_encoded(&mark.averages, &owners);
+            let (Some(whole), Some(averages)) = (whole, merged) else {
+                return Ok(Vec::new());
+            };
+            mark.averages = averages;
+            gathered = whole;
+            (&gathered.0, &gathered.1[..])
+        }
+    };
     encode(&Saved {
-        particles: &sys.particles,
-        sorted_at: &sys.sorted_at,
+        particles,
+        sorted_at,
         time: sys.time,
         steps: sys.steps,
-        recorder: sys.recorder.mark(),
+        recorder: mark,
         scheme,
         dt_next,
     })
@@ -72,11 +93,11 @@ pub(crate) fn restore<S: serde::de::DeserializeOwned>(
     run_dir: &Path,
 ) -> Result<Real, SolverError> {
     let r: Restored<S> = decode(state, "fluid checkpoint").map_err(SolverError::Failed)?;
-    if r.particles.len() != sys.particles.len() {
+    if r.particles.len() != sys.global_len() {
         return Err(SolverError::Failed(format!(
             "the checkpoint holds {} particles, the scene fills {}: it was written for another scene or build",
             r.particles.len(),
-            sys.particles.len()
+            sys.global_len()
         )));
     }
     if r.sorted_at.len() != r.particles.len() {
@@ -91,6 +112,10 @@ pub(crate) fn restore<S: serde::de::DeserializeOwned>(
     sys.steps = r.steps;
     // Counted again from the positions: as the step the checkpoint followed ended.
     sys.aloft = sys.count_aloft();
+    if let Some(share) = &mut sys.share {
+        // This rank's slab of the whole, in the order of the last sort.
+        share.restore(&mut sys.particles, &mut sys.sorted_at, &sys.grid);
+    }
     *scheme = r.scheme;
     sys.run_dir = run_dir.to_path_buf();
     sys.recorder.resume(run_dir, r.recorder)?;

@@ -284,9 +284,17 @@ impl FluidSystem {
                 "the checkpoint's particles are not in the order of their last sort: the file is damaged or from another build".into(),
             ));
         }
+        if let Some(s) = &mut self.share {
+            s.after_sort(self.grid.last_order(), &self.grid, &self.sorted_at);
+        }
         let (pos, radius) = (&self.sorted_at, self.grid.radius());
-        self.fluid_lists.build(pos, pos, &self.grid, radius, true);
-        self.boundary.list_fixed(pos, &self.grid, radius, None);
+        let owned = self.share.as_ref().map(|s| &s.owned[..]);
+        self.fluid_lists
+            .build_for(pos, pos, &self.grid, radius, true, owned);
+        self.boundary.list_fixed(pos, &self.grid, radius, owned);
+        if let Some(s) = &mut self.share {
+            s.measure_work(&self.fluid_lists, &self.grid, &self.sorted_at);
+        }
         self.grid_valid = true;
         self.bodies_valid = false;
         Ok(())
