@@ -10,6 +10,7 @@
 
 use crate::boundary::walls::WallParticles;
 use crate::core::grid::CellGrid;
+use crate::ranks::share::Share;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::geometry::strain::{MaterialMap, Strain};
@@ -275,12 +276,15 @@ impl BodyParticles {
     /// boundary particles, into `self.loads`. `pair(f, w, r_fw, r)` is the solver's pressure
     /// force of wall particle `w` on fluid particle `f` (r_fw = x_f − x_w, r = |r_fw|); the block
     /// takes its reverse (Newton's third law pair by pair, so the exchange conserves momentum).
-    /// Parallel over the active particles, then a short sequential sum per block.
+    /// Parallel over the active particles, then a short sequential sum per block. On several
+    /// ranks (`split`, with the fluid's `grid`) each boundary particle's force is its owner's,
+    /// and rank 0 sums them in one-rank order (the other ranks' loads are not meaningful).
     pub fn react(
         &mut self,
         fluid: &[Vector],
         support: Real,
         pair: impl Fn(usize, Real, Real, &Vector, Real) -> Vector + Sync,
+        split: Option<(&Share, &CellGrid)>,
     ) {
         let s2 = support * support;
         let set = &self.set;
@@ -305,7 +309,27 @@ impl BodyParticles {
         self.loads
             .iter_mut()
             .for_each(|l| *l = (Vector::zeros(), Vector::zeros(), Strain::zeros()));
-        for (&w, f) in set.active.iter().zip(&self.reaction) {
+        let terms: Vec<(u32, Vector)> = match split {
+            None => set.active.iter().copied().zip(self.reaction.iter().copied()).collect(),
+            Some((share, grid)) => {
+                let mine: Vec<(u64, [Real; 3])> = set
+                    .active
+                    .iter()
+                    .zip(&self.reaction)
+                    .filter(|(w, _)| share.owns(grid, &set.position[**w as usize]))
+                    .map(|(&w, f)| (w as u64, [f.x, f.y, f.z]))
+                    .collect();
+                // The owned particles' terms in the order of their indices: the order of the
+                // active list on one rank (a particle active there and not here has no
+                // water near enough to push it: its term is zero and changes no sum).
+                share.gather_items(&mine).map_or_else(Vec::new, |all| {
+                    all.iter()
+                        .map(|(w, f)| (*w as u32, Vector::new(f[0], f[1], f[2])))
+                        .collect()
+                })
+            }
+        };
+        for (w, f) in terms.iter().map(|(w, f)| (*w, f)) {
             let w = w as usize;
             let k = self.owner_sorted[w] as usize;
             let map = &self.maps[k];

@@ -252,9 +252,10 @@ impl Boundary {
         fluid: &[Vector],
         support: Real,
         pair: impl Fn(usize, Real, Real, &Vector, Real) -> Vector + Sync,
+        split: Option<(&crate::ranks::share::Share, &CellGrid)>,
     ) {
         if let Some(b) = &mut self.moving {
-            b.react(fluid, support, pair);
+            b.react(fluid, support, pair, split);
         }
     }
 

@@ -13,6 +13,7 @@
 use crate::core::grid::CellGrid;
 use crate::core::particles::Particles;
 use crate::core::tasks;
+use crate::ranks::share::Share;
 use rayon::prelude::*;
 use shared::geometry::Polyhedron;
 use shared::geometry::strain::{MaterialMap, Strain};
@@ -211,12 +212,15 @@ impl Penalty {
     /// Writes the Eq. 22 force of all blocks on each particle into `particles.penalty`, and the
     /// opposite force and its torque about the centroid, summed per moving block, into `loads`.
     /// A particle's forces are summed the fixed blocks first, then the moving ones, each in
-    /// scene order.
+    /// scene order. On several ranks (`split`) each rank applies the forces to all it holds and
+    /// rank 0 sums the loads from the owners' terms in one-rank order (its `loads`; the other
+    /// ranks' are not meaningful).
     pub fn apply(
         &mut self,
         particles: &mut Particles,
         grid: &CellGrid,
         mut loads: Option<&mut [BlockLoad]>,
+        split: Option<&Share>,
     ) {
         if let Some(l) = loads.as_deref_mut() {
             for (k, load) in l.iter_mut().enumerate() {
@@ -284,6 +288,14 @@ impl Penalty {
                 (Vector::zeros(), Vector::zeros(), Strain::zeros());
             let c = o.map.centroid;
             let loaded = loads.is_some();
+            let mut add = |f: &Vector, at: &Vector| {
+                force -= f;
+                torque -= (at - c).cross(f);
+                if o.map.deformable {
+                    strain -= o.map.strain_load(&o.map.material(at), f);
+                }
+            };
+            let mut terms = Vec::new();
             for (&i, (f, at)) in self.candidates.iter().zip(&self.forces) {
                 // Most candidates are beyond the margin; a zero force changes no sum (none
                 // holds −0), so it is skipped.
@@ -294,10 +306,17 @@ impl Penalty {
                 if !loaded {
                     continue;
                 }
-                force -= f;
-                torque -= (at - c).cross(f);
-                if o.map.deformable {
-                    strain -= o.map.strain_load(&o.map.material(at), f);
+                match split {
+                    None => add(f, at),
+                    // The candidates are in one-rank order (cell by cell), as the keys are.
+                    Some(s) if s.owned[i as usize] => terms
+                        .push((s.key(i as usize), [f.x, f.y, f.z, at.x, at.y, at.z])),
+                    Some(_) => {}
+                }
+            }
+            if let Some(all) = split.filter(|_| loaded).and_then(|s| s.gather_items(&terms)) {
+                for (_, t) in all {
+                    add(&Vector::new(t[0], t[1], t[2]), &Vector::new(t[3], t[4], t[5]));
                 }
             }
             if let (Some(k), Some(l)) = (o.moving, loads.as_deref_mut())

@@ -23,6 +23,8 @@ enum Call {
         scheme: CouplingScheme,
         peer_present: bool,
     },
+    /// The solid's new poses: the blocks' states (as their bytes) and corners.
+    Geometry(Vec<u8>, Vec<[f64; 3]>),
     Prepare,
     Advance(Real),
     Frame(u32, Real),
@@ -135,8 +137,10 @@ impl Solver for Leader {
 
 impl FluidSolver for Leader {
     fn read_geometry(&mut self, blocks: &[BlockState], vertices: &[[f64; 3]]) {
-        // Moving blocks are refused on several ranks (`FluidSystem::new`): nothing to forward.
-        debug_assert!(blocks.is_empty());
+        tell(
+            &*self.comm,
+            &Call::Geometry(bytemuck::cast_slice(blocks).to_vec(), vertices.to_vec()),
+        );
         self.inner.read_geometry(blocks, vertices);
     }
 
@@ -191,6 +195,12 @@ pub fn follow(comm: Arc<dyn Comm>, factory: Factory) -> Result<(), String> {
     loop {
         // Failures are rank 0's to report.
         let _ = match hear(&*comm)? {
+            Call::Geometry(blocks, vertices) => {
+                // Copied out: the bytes need not be aligned as the states are.
+                let blocks: Vec<BlockState> = bytemuck::pod_collect_to_vec(&blocks);
+                solver.read_geometry(&blocks, &vertices);
+                Ok(())
+            }
             Call::Prepare => {
                 solver.prepare_step();
                 Ok(())

@@ -317,6 +317,49 @@ impl Share {
         Some(items.into_iter().map(|(_, v)| v).collect())
     }
 
+    /// Items from every rank on rank 0, sorted by their keys (each key given by one rank): the
+    /// terms of a sum rank 0 then adds in one-rank order. None on the other ranks.
+    pub fn gather_items<const N: usize>(
+        &self,
+        items: &[(u64, [Real; N])],
+    ) -> Option<Vec<(u64, [Real; N])>> {
+        let mut bytes = Vec::with_capacity(8 * (N + 1) * items.len());
+        for (k, v) in items {
+            wire::put_u64(&mut bytes, [*k]);
+            wire::put_f64(&mut bytes, v.iter().copied());
+        }
+        let all = self.comm.gather(bytes);
+        if self.rank() != 0 {
+            return None;
+        }
+        let mut got: Vec<(u64, [Real; N])> = all
+            .iter()
+            .flat_map(|b| b.chunks_exact(8 * (N + 1)))
+            .map(|c| {
+                let mut w = wire::words(c);
+                let key = u64::from_le_bytes(w.next().unwrap());
+                let mut v = [0.0; N];
+                for (v, b) in v.iter_mut().zip(w) {
+                    *v = f64::from_le_bytes(b);
+                }
+                (key, v)
+            })
+            .collect();
+        got.sort_unstable_by_key(|(k, _)| *k);
+        Some(got)
+    }
+
+    /// The key of local particle i (its place in one-rank order at the last sort).
+    pub fn key(&self, i: usize) -> u64 {
+        self.key[i]
+    }
+
+    /// Whether this rank owns the point `x` (a moving block's boundary particle: its
+    /// neighbourhood is whole here).
+    pub fn owns(&self, grid: &CellGrid, x: &Vector) -> bool {
+        self.owner_at(grid, x) == self.rank()
+    }
+
     /// Every particle on rank 0, in one-rank order, with the positions at the last sort (for a
     /// checkpoint); None on the other ranks.
     pub fn gather_particles(

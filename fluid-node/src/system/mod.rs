@@ -136,11 +136,6 @@ impl FluidSystem {
         let fixed = setup::wall_particles(scene, init, cell, (lo, hi), &grid);
         let terrain = eq22.terrain(init);
         let lead = ranks.as_ref().is_none_or(|c| c.rank() == 0);
-        if ranks.is_some() && bodies.is_some() {
-            return Err(SolverError::Failed(
-                "moving blocks with a fluid on several ranks are not written yet: run this scene on one fluid rank".into(),
-            ));
-        }
         let recorder = setup::recorder(ctx, init, lead)?;
         let share = ranks.map(|c| Share::new(c, &grid, init.fill.positions.len()));
         let sys = Self {
@@ -332,7 +327,9 @@ impl FluidSystem {
         self.prepare_bodies();
         let t = self.phases.start();
         let loads = Some(&mut self.penalty_loads[..]).filter(|l| !l.is_empty());
-        self.penalty.apply(&mut self.particles, &self.grid, loads);
+        let split = self.share.as_ref();
+        self.penalty
+            .apply(&mut self.particles, &self.grid, loads, split);
         self.terrain.apply(&mut self.particles, &self.grid);
         self.phases.stop(Phase::Penalty, t);
         self.prepared = true;

@@ -200,7 +200,7 @@ impl SphMethod for Lite {
             .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
                 let rho = p.density[i];
                 kernel.gradient(r, len) * (-m * m * (p.pressure[i] / (rho * rho) + pw / (rw * rw)))
-            });
+            }, None);
     }
 
     fn kernel(&self) -> &WendlandC2 {

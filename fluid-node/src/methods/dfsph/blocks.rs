@@ -47,6 +47,8 @@ impl Dfsph {
             &sys.particles.position,
             kernel.support(),
             |i, pw, rw, r, len| r * (-m * m * k(i, pw, rw, r) * kernel.gradient_factor(len)),
+            // DFSPH does not split over ranks (`SphMethod::SPLITS`).
+            None,
         );
         let g = sys.gravity.norm().max(Real::MIN_POSITIVE);
         let Some(bodies) = sys.boundary.bodies_mut() else {

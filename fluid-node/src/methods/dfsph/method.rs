@@ -287,7 +287,7 @@ impl SphMethod for Dfsph {
                     ki + pw / (rw * rw)
                 };
                 r * (-m * m * k * kernel.gradient_factor(len))
-            });
+            }, None);
     }
 
     fn loads_follow_step(&self, sys: &FluidSystem) -> bool {

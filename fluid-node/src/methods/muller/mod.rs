@@ -320,7 +320,7 @@ impl SphMethod for Muller {
         sys.boundary
             .react(&p.position, spiky.support(), |i, pw, rw, r, len| {
                 spiky.gradient(r, len) * (-m * m * (p.pressure[i] + pw) / (2.0 * rw * p.density[i]))
-            });
+            }, None);
     }
 
     fn kernel(&self) -> &Poly6 {
