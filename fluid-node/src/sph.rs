@@ -75,7 +75,8 @@ impl<S: SphMethod> Sph<S> {
             (Ok(b), Some(c)) if failed(c, false) => {
                 drop(b);
                 return Err(SolverError::Failed(
-                    "another fluid rank failed to set up; its message is on its standard error".into(),
+                    "another fluid rank failed to set up; its message is on its standard error"
+                        .into(),
                 ));
             }
             (Err(e), Some(c)) => {

@@ -310,7 +310,12 @@ impl BodyParticles {
             .iter_mut()
             .for_each(|l| *l = (Vector::zeros(), Vector::zeros(), Strain::zeros()));
         let terms: Vec<(u32, Vector)> = match split {
-            None => set.active.iter().copied().zip(self.reaction.iter().copied()).collect(),
+            None => set
+                .active
+                .iter()
+                .copied()
+                .zip(self.reaction.iter().copied())
+                .collect(),
             Some((share, grid)) => {
                 let mine: Vec<(u64, [Real; 3])> = set
                     .active

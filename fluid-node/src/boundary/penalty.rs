@@ -309,14 +309,21 @@ impl Penalty {
                 match split {
                     None => add(f, at),
                     // The candidates are in one-rank order (cell by cell), as the keys are.
-                    Some(s) if s.owned[i as usize] => terms
-                        .push((s.key(i as usize), [f.x, f.y, f.z, at.x, at.y, at.z])),
+                    Some(s) if s.owned[i as usize] => {
+                        terms.push((s.key(i as usize), [f.x, f.y, f.z, at.x, at.y, at.z]))
+                    }
                     Some(_) => {}
                 }
             }
-            if let Some(all) = split.filter(|_| loaded).and_then(|s| s.gather_items(&terms)) {
+            if let Some(all) = split
+                .filter(|_| loaded)
+                .and_then(|s| s.gather_items(&terms))
+            {
                 for (_, t) in all {
-                    add(&Vector::new(t[0], t[1], t[2]), &Vector::new(t[3], t[4], t[5]));
+                    add(
+                        &Vector::new(t[0], t[1], t[2]),
+                        &Vector::new(t[3], t[4], t[5]),
+                    );
                 }
             }
             if let (Some(k), Some(l)) = (o.moving, loads.as_deref_mut())
@@ -371,7 +378,7 @@ mod tests {
             &mut Vec::new(),
         );
         let mut loads = vec![BlockLoad::default()];
-        pen.apply(&mut p, &grid, Some(&mut loads));
+        pen.apply(&mut p, &grid, Some(&mut loads), None);
         let i = p
             .position
             .iter()
@@ -438,7 +445,7 @@ mod tests {
             &mut Vec::new(),
         );
         let mut loads = vec![BlockLoad::default()];
-        pen.apply(&mut p, &grid, Some(&mut loads));
+        pen.apply(&mut p, &grid, Some(&mut loads), None);
         let i = p.position.iter().position(|x| x.z < 1.1).unwrap();
         let expected = ks * (margin - 0.02) + 1.0 * kd;
         assert!(
@@ -457,7 +464,7 @@ mod tests {
         let mut rigid = state;
         rigid.flags = 0;
         pen.obstacles[0].set_state(rigid);
-        pen.apply(&mut p, &grid, Some(&mut loads));
+        pen.apply(&mut p, &grid, Some(&mut loads), None);
         assert_eq!(loads[0].strain_load, [0.0; 6]);
         assert!(p.penalty.iter().all(|f| f.norm() == 0.0));
     }
@@ -484,7 +491,7 @@ mod tests {
             &mut Vec::new(),
         );
         let mut loads = vec![BlockLoad::default()];
-        pen.apply(&mut p, &grid, Some(&mut loads));
+        pen.apply(&mut p, &grid, Some(&mut loads), None);
         let mut touched = 0;
         let mut total = Vector::zeros();
         for i in 0..p.len() {
@@ -555,7 +562,7 @@ mod tests {
             p.velocity[i] = Vector::new(0.0, 0.0, -a.cos());
         }
         let mut loads = vec![BlockLoad::default()];
-        pen.apply(&mut p, &grid, Some(&mut loads));
+        pen.apply(&mut p, &grid, Some(&mut loads), None);
         let (mut pushed, mut several) = (0, 0);
         for i in 0..n {
             let (x, v) = (&p.position[i], &p.velocity[i]);
@@ -579,7 +586,7 @@ mod tests {
         );
         // A second call (the near cells now kept) gives the same forces.
         let first = p.penalty.clone();
-        pen.apply(&mut p, &grid, Some(&mut loads));
+        pen.apply(&mut p, &grid, Some(&mut loads), None);
         assert_eq!(p.penalty, first);
     }
 }

@@ -97,7 +97,7 @@ pub struct ThreadRanks {
 
 impl ThreadRanks {
     /// `size` ranks, one handle each (hand handle k to the thread of rank k).
-    pub fn new(size: usize) -> Vec<Arc<dyn Comm>> {
+    pub fn handles(size: usize) -> Vec<Arc<dyn Comm>> {
         let boxes = Arc::new(Mailboxes {
             size,
             queues: (0..size * size).map(|_| Default::default()).collect(),
@@ -209,7 +209,7 @@ mod tests {
     /// Three thread ranks exchange, gather, broadcast and reduce as MPI ranks would.
     #[test]
     fn thread_ranks_do_what_mpi_ranks_do() {
-        let ranks = ThreadRanks::new(3);
+        let ranks = ThreadRanks::handles(3);
         let results: Vec<_> = std::thread::scope(|s| {
             let handles: Vec<_> = ranks
                 .iter()

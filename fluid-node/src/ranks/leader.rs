@@ -197,7 +197,10 @@ pub fn follow(comm: Arc<dyn Comm>, factory: Factory) -> Result<(), String> {
         let _ = match hear(&*comm)? {
             Call::Geometry(blocks, vertices) => {
                 // Copied out: the bytes need not be aligned as the states are.
-                let blocks: Vec<BlockState> = bytemuck::pod_collect_to_vec(&blocks);
+                let blocks: Vec<BlockState> = blocks
+                    .chunks_exact(std::mem::size_of::<BlockState>())
+                    .map(bytemuck::pod_read_unaligned)
+                    .collect();
                 solver.read_geometry(&blocks, &vertices);
                 Ok(())
             }

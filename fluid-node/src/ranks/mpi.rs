@@ -3,11 +3,11 @@
 
 use super::comm::Comm;
 use mpi::collective::SystemOperation;
-use mpi::request::{Request, Scope};
-use std::time::Duration;
-use mpi::topology::SimpleCommunicator;
 use mpi::point_to_point::MatchedReceiveVec;
+use mpi::request::{Request, Scope};
+use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
+use std::time::Duration;
 
 /// The MPI world of this process.
 pub struct MpiRanks {

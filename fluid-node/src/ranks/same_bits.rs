@@ -93,7 +93,7 @@ fn a_dam_break_gives_the_same_bits_on_one_two_and_three_ranks() {
     assert!(sorts > 20, "the lists were rebuilt {sorts} times only");
     for n in [2, 3] {
         let dirs: Vec<_> = (0..n).map(|_| tempfile::tempdir().unwrap()).collect();
-        let ranks = ThreadRanks::new(n);
+        let ranks = ThreadRanks::handles(n);
         let results: Vec<_> = std::thread::scope(|s| {
             let handles: Vec<_> = ranks
                 .into_iter()
@@ -169,7 +169,7 @@ fn on_threads<T: Send>(
     dirs: &[tempfile::TempDir],
     f: impl Fn(Arc<dyn Comm>, &Path) -> T + Sync,
 ) -> T {
-    let ranks = ThreadRanks::new(n);
+    let ranks = ThreadRanks::handles(n);
     std::thread::scope(|s| {
         let handles: Vec<_> = ranks
             .into_iter()
@@ -208,7 +208,10 @@ fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
         let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
         steps_then_save(&mut s, before)
     });
-    assert!(on_two == saved, "the checkpoint of 2 ranks differs from one rank's");
+    assert!(
+        on_two == saved,
+        "the checkpoint of 2 ranks differs from one rank's"
+    );
     // Three ranks resume from it (rank 0 continues the files of the one-rank run's copy).
     for f in ["gauges.csv", "probes.csv"] {
         std::fs::copy(one.path().join(f), dirs[0].path().join(f)).unwrap();
@@ -221,6 +224,9 @@ fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
     });
     let resumed = resumed.expect("rank 0 gathers");
     let first = resumed.iter().zip(&reference).position(|(a, b)| a != b);
-    assert_eq!(first, None, "resumed on 3 ranks: the first particle that differs");
+    assert_eq!(
+        first, None,
+        "resumed on 3 ranks: the first particle that differs"
+    );
     assert_eq!(resumed.len(), reference.len());
 }

@@ -32,6 +32,9 @@ mod setup;
 use setup::Eq22;
 pub use setup::{Initial, Layout};
 
+/// A frame's positions and velocities, and its densities and pressures.
+type FrameColumns<'a> = (Vec<[f64; 3]>, Vec<[f64; 3]>, &'a [Real], &'a [Real]);
+
 /// Per-step state shared by the solvers.
 pub struct FluidSystem {
     pub solver: &'static str,
@@ -532,33 +535,32 @@ impl FluidSystem {
         let p = &self.particles;
         let three = |x: &Vector| [x.x, x.y, x.z];
         let gathered;
-        let (pos, vel, density, pressure): (Vec<[f64; 3]>, Vec<[f64; 3]>, &[Real], &[Real]) =
-            match &self.share {
-                None => (
-                    p.position.iter().map(three).collect(),
-                    p.velocity.iter().map(three).collect(),
-                    &p.density,
-                    &p.pressure,
-                ),
-                Some(s) => {
-                    let Some(all) = s.gather(|i| {
-                        let (x, v) = (p.position[i], p.velocity[i]);
-                        [x.x, x.y, x.z, v.x, v.y, v.z, p.density[i], p.pressure[i]]
-                    }) else {
-                        return Ok(());
-                    };
-                    gathered = (
-                        all.iter().map(|a| a[6]).collect::<Vec<_>>(),
-                        all.iter().map(|a| a[7]).collect::<Vec<_>>(),
-                    );
-                    (
-                        all.iter().map(|a| [a[0], a[1], a[2]]).collect(),
-                        all.iter().map(|a| [a[3], a[4], a[5]]).collect(),
-                        &gathered.0,
-                        &gathered.1,
-                    )
-                }
-            };
+        let (pos, vel, density, pressure): FrameColumns<'_> = match &self.share {
+            None => (
+                p.position.iter().map(three).collect(),
+                p.velocity.iter().map(three).collect(),
+                &p.density,
+                &p.pressure,
+            ),
+            Some(s) => {
+                let Some(all) = s.gather(|i| {
+                    let (x, v) = (p.position[i], p.velocity[i]);
+                    [x.x, x.y, x.z, v.x, v.y, v.z, p.density[i], p.pressure[i]]
+                }) else {
+                    return Ok(());
+                };
+                gathered = (
+                    all.iter().map(|a| a[6]).collect::<Vec<_>>(),
+                    all.iter().map(|a| a[7]).collect::<Vec<_>>(),
+                );
+                (
+                    all.iter().map(|a| [a[0], a[1], a[2]]).collect(),
+                    all.iter().map(|a| [a[3], a[4], a[5]]).collect(),
+                    &gathered.0,
+                    &gathered.1,
+                )
+            }
+        };
         let path = self.run_dir.join(format!("particles_{frame:05}.vtp"));
         shared::vtk::write_particles(
             &path,

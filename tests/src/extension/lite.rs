@@ -196,11 +196,15 @@ impl SphMethod for Lite {
             |p| self.density_of(p),
         );
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
-        sys.boundary
-            .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
+        sys.boundary.react(
+            &p.position,
+            kernel.support(),
+            |i, pw, rw, r, len| {
                 let rho = p.density[i];
                 kernel.gradient(r, len) * (-m * m * (p.pressure[i] / (rho * rho) + pw / (rw * rw)))
-            }, None);
+            },
+            None,
+        );
     }
 
     fn kernel(&self) -> &WendlandC2 {

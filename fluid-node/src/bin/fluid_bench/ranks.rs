@@ -24,7 +24,13 @@ pub fn launch(ranks: usize) -> std::process::ExitCode {
     cmd.args(words)
         // One core per rank is the point of the comparison; a 1-thread rank must not be
         // pinned with the other onto one core, nor kept from the second.
-        .args(["--oversubscribe", "--bind-to", "none", "-n", &ranks.to_string()])
+        .args([
+            "--oversubscribe",
+            "--bind-to",
+            "none",
+            "-n",
+            &ranks.to_string(),
+        ])
         .arg(me)
         .args(std::env::args().skip(1))
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
@@ -96,7 +102,12 @@ pub fn run(
                 step(&mut s);
             }
             let steps = timed.unwrap_or((3_000_000 / count).clamp(3, 200));
-            let before = s.system().share.as_ref().map(|x| x.stats).unwrap_or_default();
+            let before = s
+                .system()
+                .share
+                .as_ref()
+                .map(|x| x.stats)
+                .unwrap_or_default();
             // Every rank starts the clock together.
             comm.max(&mut [0.0]);
             let start = Instant::now();
@@ -105,7 +116,12 @@ pub fn run(
             }
             let mut secs = [start.elapsed().as_secs_f64()];
             comm.max(&mut secs);
-            let after = s.system().share.as_ref().map(|x| x.stats).unwrap_or_default();
+            let after = s
+                .system()
+                .share
+                .as_ref()
+                .map(|x| x.stats)
+                .unwrap_or_default();
             let owned = s
                 .system()
                 .owned()

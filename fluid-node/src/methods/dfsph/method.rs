@@ -278,8 +278,10 @@ impl SphMethod for Dfsph {
         }
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
         let (kd, kv) = stiffnesses(p);
-        sys.boundary
-            .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
+        sys.boundary.react(
+            &p.position,
+            kernel.support(),
+            |i, pw, rw, r, len| {
                 let ki = kd[i] + kv[i];
                 let k = if self.mirrored {
                     MIRROR * ki + hydrostatic(&sys.gravity, r, rho0, ki)
@@ -287,7 +289,9 @@ impl SphMethod for Dfsph {
                     ki + pw / (rw * rw)
                 };
                 r * (-m * m * k * kernel.gradient_factor(len))
-            }, None);
+            },
+            None,
+        );
     }
 
     fn loads_follow_step(&self, sys: &FluidSystem) -> bool {

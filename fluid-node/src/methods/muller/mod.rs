@@ -317,10 +317,14 @@ impl SphMethod for Muller {
         let (m, spiky, p) = (sys.mass, &self.spiky, &sys.particles);
         // Eq. 14's pressure force of the wall particle on fluid particle i (r = x_i − x_w),
         // as a force: m·f_pressure/ρ_i.
-        sys.boundary
-            .react(&p.position, spiky.support(), |i, pw, rw, r, len| {
+        sys.boundary.react(
+            &p.position,
+            spiky.support(),
+            |i, pw, rw, r, len| {
                 spiky.gradient(r, len) * (-m * m * (p.pressure[i] + pw) / (2.0 * rw * p.density[i]))
-            }, None);
+            },
+            None,
+        );
     }
 
     fn kernel(&self) -> &Poly6 {

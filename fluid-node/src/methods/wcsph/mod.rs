@@ -479,12 +479,16 @@ impl SphMethod for Wcsph {
         );
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
         let split = sys.share.as_ref().map(|s| (s, &sys.grid));
-        sys.boundary
-            .react(&p.position, kernel.support(), |i, pw, rw, r, len| {
+        sys.boundary.react(
+            &p.position,
+            kernel.support(),
+            |i, pw, rw, r, len| {
                 let ri = p.density[i];
                 r * (kernel.gradient_factor(len)
                     * (-m * m * (p.pressure[i] / (ri * ri) + pw / (rw * rw))))
-            }, split);
+            },
+            split,
+        );
     }
 
     fn kernel(&self) -> &WendlandC2 {
