@@ -92,6 +92,15 @@ impl Boundary {
         self.fixed_lists.pairs() + self.moving_lists.pairs()
     }
 
+    /// The fixed boundary neighbours listed for fluid particle `i` (a rank's work measure).
+    pub fn fixed_listed(&self, i: usize) -> usize {
+        if self.fixed.is_some() {
+            self.fixed_lists.of(i).len()
+        } else {
+            0
+        }
+    }
+
     /// Number of fixed and of moving boundary particles.
     pub fn counts(&self) -> (usize, usize) {
         (

@@ -21,6 +21,7 @@
 
 use super::comm::{Comm, wire};
 use super::slabs::{REBALANCE, Slabs};
+use crate::boundary::Boundary;
 use crate::core::grid::CellGrid;
 use crate::core::neighbors::NeighborLists;
 use crate::core::particles::Particles;
@@ -74,6 +75,8 @@ pub struct Share {
     /// Particles on all ranks.
     pub global_len: usize,
     pub stats: HaloStats,
+    /// Whether the first sort is done ([`Self::recut_at_start`]).
+    started: bool,
 }
 
 impl Share {
@@ -91,6 +94,7 @@ impl Share {
             work: Vec::new(),
             global_len,
             stats: HaloStats::default(),
+            started: false,
         }
     }
 
@@ -112,6 +116,12 @@ impl Share {
     pub fn owner_at(&self, grid: &CellGrid, x: &Vector) -> usize {
         let slabs = self.slabs.as_ref().expect("the first sort cut the slabs");
         slabs.owner(self.column(grid, x))
+    }
+
+    /// After the first sort, once: whether the cuts should move at once (the particle counts
+    /// the first cuts followed were far from the work), for the system to sort again.
+    pub fn recut_at_start(&mut self) -> bool {
+        !std::mem::replace(&mut self.started, true) && self.stats.imbalance > REBALANCE
     }
 
     /// Particles this rank owns.
@@ -232,9 +242,15 @@ impl Share {
         self.stats.halo = self.owned.iter().filter(|&&o| !o).count();
     }
 
-    /// Measures each column's work from the lists just built (a particle's listed pairs plus
-    /// one) and sums it over the ranks: the next sort's cuts follow it.
-    pub fn measure_work(&mut self, lists: &NeighborLists, grid: &CellGrid, sorted_at: &[Vector]) {
+    /// Measures each column's work from the lists just built (a particle's listed fluid and
+    /// wall pairs plus one) and sums it over the ranks: the next sort's cuts follow it.
+    pub fn measure_work(
+        &mut self,
+        lists: &NeighborLists,
+        walls: &Boundary,
+        grid: &CellGrid,
+        sorted_at: &[Vector],
+    ) {
         let t = Instant::now();
         let columns = grid.dims()[self.axis];
         self.work.clear();
@@ -242,7 +258,7 @@ impl Share {
         for (k, x) in sorted_at.iter().enumerate() {
             if self.owned[k] {
                 let c = self.column(grid, x);
-                self.work[c] += lists.of(k).len() as u64 + 1;
+                self.work[c] += (lists.of(k).len() + walls.fixed_listed(k)) as u64 + 1;
             }
         }
         self.comm.sum(&mut self.work);
@@ -473,6 +489,7 @@ impl Share {
             .map(|x| own.contains(&self.column(grid, x)))
             .collect();
         self.slabs = Some(slabs);
+        self.started = true;
     }
 
     /// Fills each entry of `row` (on rank 0) with the value its owner computed: `owners[k]` is

@@ -11,7 +11,7 @@ use std::ops::Range;
 pub const HALO: usize = 2;
 
 /// Imbalance (the busiest rank's work over the mean) past which the cuts move at the next sort.
-pub const REBALANCE: f64 = 1.10;
+pub const REBALANCE: f64 = 1.05;
 
 /// Where the slabs of `size` ranks begin and end, in grid columns along `axis`.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -266,10 +266,23 @@ impl FluidSystem {
             self.boundary.list_fixed(pos, &self.grid, radius, owned);
             self.phases.stop(Phase::WallLists, t);
             if let Some(s) = &mut self.share {
-                s.measure_work(&self.fluid_lists, &self.grid, &self.sorted_at);
+                s.measure_work(
+                    &self.fluid_lists,
+                    &self.boundary,
+                    &self.grid,
+                    &self.sorted_at,
+                );
             }
             self.grid_valid = true;
             self.bodies_valid = false;
+            // The first cuts followed the particle counts: cut again by the work at once (the
+            // particles have not moved: the one-rank order and every bit stay; not counted as
+            // a sort of the run).
+            if self.share.as_mut().is_some_and(Share::recut_at_start) {
+                self.grid_valid = false;
+                self.sorts -= 1;
+                self.prepare();
+            }
         }
     }
 
@@ -291,7 +304,12 @@ impl FluidSystem {
             .build_for(pos, pos, &self.grid, radius, true, owned);
         self.boundary.list_fixed(pos, &self.grid, radius, owned);
         if let Some(s) = &mut self.share {
-            s.measure_work(&self.fluid_lists, &self.grid, &self.sorted_at);
+            s.measure_work(
+                &self.fluid_lists,
+                &self.boundary,
+                &self.grid,
+                &self.sorted_at,
+            );
         }
         self.grid_valid = true;
         self.bodies_valid = false;
