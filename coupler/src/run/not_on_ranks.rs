@@ -33,7 +33,7 @@ pub fn checkpoints(
             _ => "",
         };
         let fix = match *flag {
-            "--resume" => format!("resume it with --fluid-ranks 1"),
+            "--resume" => "resume it with --fluid-ranks 1".to_string(),
             _ => format!("drop {flag}, {ONE_RANK}"),
         };
         return Err(format!(
