@@ -64,6 +64,7 @@ pub const fn entry<S: SphMethod>() -> Entry<dyn SphSolver> {
             study_variants: S::study_variants,
             known_limitation: S::known_limitation,
             particle_steps_per_second: S::PARTICLE_STEPS_PER_SECOND,
+            splits_over_ranks: S::SPLITS,
         },
     }
 }

@@ -150,11 +150,14 @@ pub struct Advice {
     /// Particle-steps per second of one thread of the solver, measured (`fluid-bench`): what a
     /// run's wall time is estimated with (the default checkpoints); `None` if not measured.
     pub particle_steps_per_second: Option<f64>,
+    /// Whether the solver runs on several ranks of the fluid node (MPI): the coupler refuses a
+    /// run on more than one rank before it starts when it does not.
+    pub splits_over_ranks: bool,
 }
 
 impl Advice {
     /// No estimate, no warning, the defaults for every study, in no study's rows, no known
-    /// limitation.
+    /// limitation, one rank only.
     pub const NONE: Advice = Advice {
         estimate_dt: |_, _, _| None,
         warnings: |_, _| Vec::new(),
@@ -162,6 +165,7 @@ impl Advice {
         study_variants: |_| &[],
         known_limitation: |_, _| None,
         particle_steps_per_second: None,
+        splits_over_ranks: false,
     };
 }
 

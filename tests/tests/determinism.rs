@@ -58,41 +58,6 @@ struct Run {
     dir: PathBuf,
 }
 
-/// Where two byte strings first differ: None if equal, else a message with the 1-based line
-/// and column and a short excerpt of both lines around the difference.
-fn first_difference(a: &[u8], b: &[u8]) -> Option<String> {
-    if a == b {
-        return None;
-    }
-    let at = a
-        .iter()
-        .zip(b)
-        .position(|(x, y)| x != y)
-        .unwrap_or(a.len().min(b.len()));
-    let line = a[..at].iter().filter(|&&c| c == b'\n').count() + 1;
-    let line_start = a[..at]
-        .iter()
-        .rposition(|&c| c == b'\n')
-        .map_or(0, |p| p + 1);
-    let column = at - line_start + 1;
-    // The prefix up to `at` is common, so the line starts at the same byte in both.
-    let excerpt = |s: &[u8]| {
-        let from = at.saturating_sub(40).max(line_start);
-        let line_end = s[at..]
-            .iter()
-            .position(|&c| c == b'\n')
-            .map_or(s.len(), |p| at + p);
-        String::from_utf8_lossy(&s[from..line_end.min(at + 40)]).into_owned()
-    };
-    Some(format!(
-        "line {line}, column {column} (byte {at}; sizes {} and {} bytes):\n  first:  …{}…\n  second: …{}…",
-        a.len(),
-        b.len(),
-        excerpt(a),
-        excerpt(b)
-    ))
-}
-
 /// Data rows of a CSV file (the header is not counted).
 fn csv_rows(path: &Path) -> Vec<Vec<String>> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -52,9 +52,8 @@ pub fn run(
             if let Some(e) = crate::run::sizes::estimate(&s, None) {
                 println!("estimate: {}", e.describe());
             }
-            match per_rank_line(&s, fluid_ranks) {
-                Ok(Some(line)) => println!("{line}"),
-                Ok(None) => {}
+            match per_rank_lines(&s, fluid_ranks) {
+                Ok(lines) => lines.iter().for_each(|line| println!("{line}")),
                 Err(e) => {
                     eprintln!("coupler: error: {e}");
                     return 1;
@@ -79,15 +78,20 @@ pub fn run(
 }
 
 /// What each fluid rank would hold when the run has more than one
-/// ([`crate::run::per_rank::PerRank`]), or why those ranks cannot be.
-fn per_rank_line(
-    scene: &shared::scene::Scene,
-    flag: Option<u32>,
-) -> Result<Option<String>, String> {
+/// ([`crate::run::per_rank::PerRank`]) and that it writes no checkpoints, or why those ranks
+/// cannot be: more than the water can fill, or what a fluid on several ranks does not do yet
+/// ([`crate::run::not_on_ranks`]).
+fn per_rank_lines(scene: &shared::scene::Scene, flag: Option<u32>) -> Result<Vec<String>, String> {
+    use crate::run::not_on_ranks;
     let ranks = crate::run::per_rank::ranks(flag, scene)?;
+    not_on_ranks::solver_and_blocks(scene, None, ranks)?;
+    not_on_ranks::checkpoints(&[], scene, false, ranks)?;
     Ok(crate::run::per_rank::PerRank::estimate(scene, ranks)
         .filter(|_| ranks > 1)
-        .map(|p| p.describe()))
+        .map(|p| p.describe())
+        .into_iter()
+        .chain(not_on_ranks::no_checkpoints_line(scene, ranks))
+        .collect())
 }
 
 #[cfg(test)]
@@ -95,25 +99,58 @@ mod tests {
     use super::*;
     use shared::scene::Scene;
 
+    /// The dam break of the MPI tests: wcsph, fixed blocks only.
+    fn fixed_only() -> Scene {
+        let mut s = Scene::default_scene();
+        s.blocks
+            .retain(|b| b.kind == shared::scene::BlockKind::Fixed);
+        s.fluid.as_mut().unwrap().solver = "wcsph".into();
+        s
+    }
+
     #[test]
     fn check_says_what_each_rank_holds() {
-        let s = Scene::default_scene();
+        let s = fixed_only();
         assert_eq!(
-            per_rank_line(&s, None),
-            Ok(None),
+            per_rank_lines(&s, None),
+            Ok(vec![]),
             "one rank: nothing more to say"
         );
-        assert_eq!(per_rank_line(&s, Some(1)), Ok(None));
-        let line = per_rank_line(&s, Some(3)).unwrap().unwrap();
+        assert_eq!(per_rank_lines(&s, Some(1)), Ok(vec![]));
+        let lines = per_rank_lines(&s, Some(3)).unwrap();
         assert!(
-            line.starts_with("on 3 fluid ranks: slabs of 1.883 m along x"),
-            "{line}"
+            lines[0].starts_with("on 3 fluid ranks: slabs of 1.883 m along x"),
+            "{lines:?}"
         );
+        assert!(lines[1].starts_with("no checkpoints: "), "{lines:?}");
         let mut written = s.clone();
         written.fluid.as_mut().unwrap().ranks = 2;
-        let line = per_rank_line(&written, None).unwrap().unwrap();
-        assert!(line.starts_with("on 2 fluid ranks"), "{line}");
-        let msg = per_rank_line(&s, Some(99)).unwrap_err();
+        let lines = per_rank_lines(&written, None).unwrap();
+        assert!(lines[0].starts_with("on 2 fluid ranks"), "{lines:?}");
+        let msg = per_rank_lines(&s, Some(99)).unwrap_err();
         assert!(msg.contains("at most 12 ranks"), "{msg}");
+    }
+
+    /// `coupler check` refuses on ranks what `coupler run` would: solvers that do not split,
+    /// moving blocks, the scene's checkpoints.
+    #[test]
+    fn check_refuses_what_ranks_do_not_do_yet() {
+        let mut muller = fixed_only();
+        muller.fluid.as_mut().unwrap().solver = "muller".into();
+        let msg = per_rank_lines(&muller, Some(2)).unwrap_err();
+        assert!(
+            msg.contains("the fluid solver 'muller' does not run on several ranks yet"),
+            "{msg}"
+        );
+        assert_eq!(per_rank_lines(&muller, Some(1)), Ok(vec![]));
+        let msg = per_rank_lines(&Scene::default_scene(), Some(2)).unwrap_err();
+        assert!(
+            msg.contains("moving blocks with a fluid on several ranks"),
+            "{msg}"
+        );
+        let mut ckpt = fixed_only();
+        ckpt.output.checkpoint_interval = Some(0.5);
+        let msg = per_rank_lines(&ckpt, Some(2)).unwrap_err();
+        assert!(msg.starts_with("output.checkpoint_interval = 0.5: checkpoints of a fluid on several ranks are not written yet"), "{msg}");
     }
 }

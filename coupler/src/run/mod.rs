@@ -3,8 +3,8 @@
 //! and the flags), `lock.rs`, `launch.rs` and `launcher.rs` (the run id, the node processes,
 //! the MPI launcher of the fluid ranks), `output.rs` (the run directory), `session/` (the
 //! coupled steps), `checkpoint.rs`, and `summary/` (`summary.json`). `scenes.rs`, `sizes.rs`,
-//! `per_rank.rs`, `slides.rs` and `resolution.rs` check and size a scene; `povray.rs` renders a
-//! run directory.
+//! `per_rank.rs`, `not_on_ranks.rs`, `slides.rs` and `resolution.rs` check and size a
+//! scene; `povray.rs` renders a run directory.
 //!
 //! Nothing here uses [`crate::studies`]: the studies are built on runs, not the other way.
 
@@ -16,6 +16,7 @@ pub mod error;
 pub mod launch;
 pub mod launcher;
 pub mod lock;
+pub mod not_on_ranks;
 pub mod output;
 pub mod per_rank;
 pub mod povray;

@@ -129,10 +129,15 @@ pub fn check_flags(
             ));
         }
     }
+    let fluid_ranks = crate::run::per_rank::ranks(args.fluid_ranks, scene)?;
+    refuse_on_ranks(args, scene, resume, fluid_ranks)?;
     let (checkpoint_interval, checkpoint_wall_minutes) = if args.no_checkpoints {
         eprintln!(
             "coupler: no checkpoints (--no-checkpoints): a run killed starts again from t = 0"
         );
+        (None, None)
+    } else if let Some(line) = crate::run::not_on_ranks::no_checkpoints_line(scene, fluid_ranks) {
+        eprintln!("coupler: {line}");
         (None, None)
     } else {
         let interval = args
@@ -157,7 +162,6 @@ pub fn check_flags(
             args.dt_factor
         ));
     }
-    let fluid_ranks = crate::run::per_rank::ranks(args.fluid_ranks, scene)?;
     let launcher = Launcher::parse(args.mpirun.as_deref())?;
     if fluid_ranks > 1
         && let Some(p) = crate::run::per_rank::PerRank::estimate(scene, fluid_ranks)
@@ -172,6 +176,35 @@ pub fn check_flags(
         fluid_ranks,
         launcher,
     })
+}
+
+/// What a fluid on `ranks` ranks cannot do yet ([`crate::run::not_on_ranks`]): the run's fluid
+/// solver (a resumed run's is its checkpoint's), moving blocks, and every way of asking for
+/// checkpoints.
+fn refuse_on_ranks(
+    args: &RunArgs,
+    scene: &Scene,
+    resume: Option<&Resumed>,
+    ranks: u32,
+) -> Result<(), String> {
+    let solver = resume
+        .and_then(|r| r.checkpoint.fluid_solver.as_deref())
+        .or(args.fluid_solver.as_deref());
+    crate::run::not_on_ranks::solver_and_blocks(scene, solver, ranks)?;
+    let mut flags = Vec::new();
+    if let Some(v) = args.checkpoint_interval {
+        flags.push(("--checkpoint-interval", v.to_string()));
+    }
+    if let Some(v) = args.checkpoint_wall_minutes {
+        flags.push(("--checkpoint-wall-minutes", v.to_string()));
+    }
+    if args.retries > 0 {
+        flags.push(("--retries", args.retries.to_string()));
+    }
+    if let Some(dir) = &args.resume {
+        flags.push(("--resume", dir.display().to_string()));
+    }
+    crate::run::not_on_ranks::checkpoints(&flags, scene, args.no_checkpoints, ranks)
 }
 
 /// Wall-clock minutes between the checkpoints of a run estimated to take longer than that when
@@ -366,5 +399,42 @@ mod tests {
         scene_asks.output.checkpoint_interval = Some(1.0);
         let checked = check_flags(&run_args(&["--no-checkpoints"]), &scene_asks, None).unwrap();
         assert_eq!(checked.checkpoint_interval, None, "not even the scene's");
+    }
+
+    /// On several fluid ranks a long run gets no default checkpoints, and every way of asking
+    /// for them is refused before the run starts.
+    #[test]
+    fn runs_on_ranks_have_no_checkpoints() {
+        let mut long = Scene::default_scene();
+        long.blocks
+            .retain(|b| b.kind == shared::scene::BlockKind::Fixed);
+        long.fluid.as_mut().unwrap().solver = "wcsph".into();
+        long.set_dx(0.01);
+        assert_eq!(wall_minutes(&["--fluid-ranks", "2"], &long), None);
+        for (words, says) in [
+            (
+                &["--checkpoint-interval", "0.5"][..],
+                "--checkpoint-interval 0.5: ",
+            ),
+            (&["--retries", "1"][..], "--retries 1: "),
+        ] {
+            let args = run_args(&[words, &["--fluid-ranks", "2"]].concat());
+            let msg = check_flags(&args, &long, None).err().unwrap();
+            assert!(
+                msg.starts_with(says) && msg.contains("or run with --fluid-ranks 1"),
+                "{msg}"
+            );
+        }
+        let msg = check_flags(
+            &run_args(&["--fluid-ranks", "2", "--fluid-solver", "dfsph"]),
+            &long,
+            None,
+        )
+        .err()
+        .unwrap();
+        assert!(
+            msg.contains("'dfsph' does not run on several ranks"),
+            "{msg}"
+        );
     }
 }

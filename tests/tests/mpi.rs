@@ -1,0 +1,415 @@
+//! The fluid node on real MPI ranks (`--features tests/mpi`, which builds the fluid node with
+//! MPI; Debian's openmpi-bin and libopenmpi-dev): a small dam break writes byte-identical results
+//! on 1, 2 and 3 ranks and over TCP only; a rank killed mid-run stops the run at once, named,
+//! with what was written kept and nothing of the run left (processes, shared memory); and what
+//! ranks cannot do is refused before anything is written: a missing launcher, more ranks than
+//! the water fills, a solver that does not split, checkpoints.
+#![cfg(feature = "mpi")]
+
+mod common;
+use common::*;
+use shared::transport::RunId;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// A dam break in a narrow tank, fixed walls only: 1 800 water particles at dx = 1 cm, ~1 400
+/// WCSPH steps to t = 0.2 s, 5 frames, two gauges (one wet, one reached by the front) and a
+/// probe at the toe; a few seconds per run. The tank is 0.6 m along x: 5 slabs at most.
+const DAM_BREAK: &str = r#"
+name = "ranks_dam_break"
+[time]
+end = 0.2
+dt_max = 1e-3
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.6, 0.06, 0.3]
+[output]
+interval = 0.05
+[fluid]
+solver = "wcsph"
+dx = 0.01
+[[fluid.water]]
+shape = { type = "box", min = [0.0, 0.0, 0.0], max = [0.2, 0.06, 0.15] }
+[[gauge]]
+name = "dam"
+x = 0.1
+y = 0.03
+[[gauge]]
+name = "far"
+x = 0.5
+y = 0.03
+[[probe]]
+name = "toe"
+position = [0.3, 0.03, 0.01]
+[[block]]
+name = "floor"
+kind = "fixed"
+shape = { type = "box", min = [-0.02, -0.02, -0.02], max = [0.62, 0.08, 0.0] }
+[[block]]
+name = "left_wall"
+kind = "fixed"
+shape = { type = "box", min = [-0.02, -0.02, -0.02], max = [0.0, 0.08, 0.3] }
+[[block]]
+name = "right_wall"
+kind = "fixed"
+shape = { type = "box", min = [0.6, -0.02, -0.02], max = [0.62, 0.08, 0.3] }
+[[block]]
+name = "south_wall"
+kind = "fixed"
+shape = { type = "box", min = [-0.02, -0.02, -0.02], max = [0.62, 0.0, 0.3] }
+[[block]]
+name = "north_wall"
+kind = "fixed"
+shape = { type = "box", min = [-0.02, 0.06, -0.02], max = [0.62, 0.08, 0.3] }
+"#;
+
+/// The most ranks the dam break's tank holds: 0.6 m over slabs of at least 4 cells of
+/// 2.6 × 1.1 × 0.01 m (coupler/src/run/per_rank.rs).
+const MOST_RANKS: u32 = 5;
+
+/// `--step-timeout` of the killed-rank run: a step here takes milliseconds, so the coupler's
+/// silence limit is not what ends the run; the run must end well within it.
+const STEP_TIMEOUT_S: f64 = 10.0;
+
+/// Writes `text` as a scene file beside the run directory `dir` (which must not exist yet).
+fn scene_file(dir: &Path, text: &str) -> PathBuf {
+    let path = dir.with_extension("toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// `summary.json` without what depends on the machine and the moment: the run id, wall and
+/// CPU times, compute shares, memory.
+fn comparable_summary(dir: &Path) -> serde_json::Value {
+    fn strip(v: &mut serde_json::Value) {
+        match v {
+            serde_json::Value::Object(map) => {
+                map.retain(|k, _| {
+                    !(k == "run_id"
+                        || k == "memory"
+                        || ["wall", "cpu", "compute", "rss"]
+                            .iter()
+                            .any(|w| k.contains(w)))
+                });
+                map.values_mut().for_each(strip);
+            }
+            serde_json::Value::Array(items) => items.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    let mut s = summary(dir);
+    strip(&mut s);
+    s
+}
+
+/// The files two runs of the dam break must hold byte for byte: the series, frames and .pvd
+/// collections ([`result_files`]) and the fluid's description.
+fn compared_files(dir: &Path) -> Vec<String> {
+    let mut names = result_files(dir);
+    names.push("fluid.json".into());
+    names
+}
+
+/// Runs the dam break with `args`; panics with its stderr unless it completes.
+fn dam_break(tag: &str, args: &[&str]) -> PathBuf {
+    let (id, dir) = fresh(&format!("mpi-{tag}"));
+    let scene = scene_file(&dir, DAM_BREAK);
+    let all: Vec<&str> = [scene.to_str().unwrap()]
+        .into_iter()
+        .chain(args.iter().copied())
+        .collect();
+    let start = Instant::now();
+    let out = run(coupler(&id, &dir, &all));
+    assert!(
+        out.status.success(),
+        "{tag} failed after {:?}: {}",
+        start.elapsed(),
+        stderr(&out)
+    );
+    eprintln!("{tag}: {:.1} s", start.elapsed().as_secs_f64());
+    assert!(
+        leftovers(&id).is_empty(),
+        "{tag}: shared memory left behind"
+    );
+    std::fs::remove_file(scene).unwrap();
+    dir
+}
+
+#[test]
+fn the_dam_break_writes_the_same_bits_on_any_rank_count_and_over_tcp() {
+    let one = dam_break("1-rank", &[]);
+    let names = compared_files(&one);
+    for n in [
+        "gauges.csv",
+        "probes.csv",
+        "particles_00000.vtp",
+        "fluid.json",
+    ] {
+        assert!(names.iter().any(|m| m == n), "{n} not written");
+    }
+    let frames = names.iter().filter(|n| n.starts_with("particles_")).count();
+    assert!(frames >= 4, "{frames} particle frames");
+    let reference = comparable_summary(&one);
+    let steps = reference["stats"]["steps"].as_u64().unwrap();
+    assert!(steps >= 300, "only {steps} steps");
+    let gauges = std::fs::read_to_string(one.join("gauges.csv")).unwrap();
+    assert!(gauges.lines().count() > 10, "gauges.csv: {gauges}");
+    let mut dirs = vec![one.clone()];
+    for (tag, args) in [
+        ("2-ranks", &["--fluid-ranks", "2"][..]),
+        ("3-ranks", &["--fluid-ranks", "3"][..]),
+        (
+            "2-ranks-tcp",
+            &[
+                "--fluid-ranks",
+                "2",
+                "--mpirun",
+                "mpirun --mca btl tcp,self",
+            ][..],
+        ),
+    ] {
+        let dir = dam_break(tag, args);
+        assert_eq!(compared_files(&dir), names, "{tag}: other files written");
+        for n in &names {
+            let a = std::fs::read(one.join(n)).unwrap();
+            let b = std::fs::read(dir.join(n)).unwrap();
+            if let Some(diff) = first_difference(&a, &b) {
+                panic!(
+                    "{tag}: {n} differs from one rank's ({} against {}), first at {diff}",
+                    dir.display(),
+                    one.display()
+                );
+            }
+        }
+        assert_eq!(
+            comparable_summary(&dir),
+            reference,
+            "{tag}: summary.json (timings and memory aside)"
+        );
+        dirs.push(dir);
+    }
+    for d in dirs {
+        std::fs::remove_dir_all(d).unwrap();
+    }
+}
+
+/// The MPI rank of a process, from the environment its launcher gave it (Open MPI's
+/// `OMPI_COMM_WORLD_RANK`, MPICH's `PMI_RANK`).
+fn mpi_rank(pid: u32) -> Option<u32> {
+    let env = std::fs::read(format!("/proc/{pid}/environ")).ok()?;
+    env.split(|&b| b == 0).find_map(|var| {
+        let var = String::from_utf8_lossy(var);
+        ["OMPI_COMM_WORLD_RANK=", "PMI_RANK="]
+            .iter()
+            .find_map(|k| var.strip_prefix(k).and_then(|r| r.parse().ok()))
+    })
+}
+
+/// Processes whose command line names the run (the launcher and the ranks carry `--prefix
+/// <run id>`).
+fn processes_of(id: &RunId) -> Vec<(u32, String)> {
+    std::fs::read_dir("/proc")
+        .unwrap()
+        .flatten()
+        .filter_map(|e| e.file_name().to_str()?.parse::<u32>().ok())
+        .map(|pid| (pid, cmdline(pid)))
+        .filter(|(_, cmd)| cmd.contains(id.as_str()) && !cmd.contains("coupler"))
+        .collect()
+}
+
+/// Entries of /dev/shm (read only) whose name contains `what`.
+fn shm_entries(what: &str) -> Vec<String> {
+    std::fs::read_dir("/dev/shm")
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.contains(what))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+#[test]
+fn a_killed_rank_stops_the_run_at_once_and_leaves_nothing_behind() {
+    let (id, dir) = fresh("mpi-killed-rank");
+    let scene = scene_file(&dir, DAM_BREAK);
+    let vader_before = shm_entries("vader_segment");
+    let timeout = STEP_TIMEOUT_S.to_string();
+    let mut cmd = coupler(
+        &id,
+        &dir,
+        &[
+            scene.to_str().unwrap(),
+            "--fluid-ranks",
+            "3",
+            "--end",
+            "100",
+            "--step-timeout",
+            &timeout,
+        ],
+    );
+    let child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("coupler starts");
+    let pid = child.id();
+    // Stepping: the gauges have rows.
+    let gauges = dir.join("gauges.csv");
+    let stepping = eventually(Duration::from_secs(60), || {
+        std::fs::read_to_string(&gauges).is_ok_and(|t| t.lines().count() >= 3)
+    });
+    if !stepping {
+        unsafe_kill(pid, 15);
+        panic!("the run did not step within 60 s");
+    }
+    let launcher = children(pid)
+        .into_iter()
+        .find(|&c| !children(c).is_empty() && cmdline(c).contains("mpirun"))
+        .expect("the coupler's mpirun child");
+    let ranks = children(launcher);
+    assert_eq!(ranks.len(), 3, "ranks under mpirun: {ranks:?}");
+    // A follower: the highest rank, or without a rank in the environment the highest pid.
+    let victim = ranks
+        .iter()
+        .copied()
+        .max_by_key(|&p| (mpi_rank(p), p))
+        .unwrap();
+    let rank = mpi_rank(victim);
+    assert_ne!(rank, Some(0), "rank 0 is the node itself");
+    let shm_running = shm_entries(id.as_str()).len();
+    let killed = Instant::now();
+    unsafe_kill(victim, 9);
+    let (out, _) = wait_output(child, Duration::from_secs_f64(STEP_TIMEOUT_S + 60.0));
+    let took = killed.elapsed();
+    let err = stderr(&out);
+    eprintln!(
+        "killed rank {rank:?} (pid {victim}); the coupler exited {:?} after {:.2} s",
+        out.status.code(),
+        took.as_secs_f64()
+    );
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        took.as_secs_f64() < STEP_TIMEOUT_S + 5.0,
+        "the coupler took {took:?} to stop: {err}"
+    );
+    assert!(err.contains("fluid node"), "the fluid node is named: {err}");
+    // What was written stays.
+    assert!(dir.join("scene.toml").is_file());
+    let text = std::fs::read_to_string(&gauges).unwrap();
+    assert!(
+        text.starts_with("time,") && text.lines().count() >= 3,
+        "gauges.csv kept: {text}"
+    );
+    assert!(dir.join("particles_00000.vtp").is_file());
+    // Nothing of the run is left: no rank, no launcher, no shared memory.
+    assert!(
+        eventually(Duration::from_secs(5), || processes_of(&id).is_empty()),
+        "processes of the run left: {:?}",
+        processes_of(&id)
+    );
+    assert!(leftovers(&id).is_empty(), "{:?}", leftovers(&id));
+    assert!(
+        shm_entries(id.as_str()).is_empty(),
+        "/dev/shm after (held {shm_running} entries of the run while it ran): {:?}",
+        shm_entries(id.as_str())
+    );
+    // Open MPI's shared-memory segments carry its job id, not the run's: reported, not asserted
+    // (other runs of the suite may hold theirs).
+    let vader_after = shm_entries("vader_segment");
+    let new: Vec<&String> = vader_after
+        .iter()
+        .filter(|n| !vader_before.contains(n))
+        .collect();
+    eprintln!("Open MPI segments in /dev/shm: {vader_before:?} before, {new:?} new after");
+    std::fs::remove_file(scene).unwrap();
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// `coupler run` of the dam break with `args` that must be refused before anything is
+/// written; returns its stderr.
+fn refused_run(tag: &str, text: &str, args: &[&str]) -> String {
+    let (id, dir) = fresh(&format!("mpi-{tag}"));
+    let scene = scene_file(&dir, text);
+    let all: Vec<&str> = [scene.to_str().unwrap()]
+        .into_iter()
+        .chain(args.iter().copied())
+        .collect();
+    let out = run(coupler(&id, &dir, &all));
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{tag}: {err}");
+    assert!(!dir.exists(), "{tag}: {} was written: {err}", dir.display());
+    assert!(leftovers(&id).is_empty(), "{tag}: shared memory");
+    std::fs::remove_file(scene).unwrap();
+    err
+}
+
+#[test]
+fn a_missing_launcher_is_named_with_the_packages_before_anything_is_written() {
+    let err = refused_run(
+        "no-launcher",
+        DAM_BREAK,
+        &["--fluid-ranks", "2", "--mpirun", "/nonexistent/mpirun"],
+    );
+    for says in [
+        "'/nonexistent/mpirun' is not installed",
+        "openmpi-bin libopenmpi-dev",
+        "--fluid-ranks 1",
+    ] {
+        assert!(err.contains(says), "{says}: {err}");
+    }
+}
+
+#[test]
+fn more_ranks_than_the_water_fills_are_refused_naming_the_most() {
+    let too_many = (MOST_RANKS + 1).to_string();
+    let err = refused_run("too-many-ranks", DAM_BREAK, &["--fluid-ranks", &too_many]);
+    for says in [
+        format!("--fluid-ranks {too_many}: more ranks than the water can fill"),
+        format!("at most {MOST_RANKS} ranks"),
+        format!("Fix: --fluid-ranks {MOST_RANKS} or fewer"),
+    ] {
+        assert!(err.contains(&says), "{says}: {err}");
+    }
+}
+
+#[test]
+fn what_ranks_do_not_do_yet_is_refused_before_the_run() {
+    let muller = DAM_BREAK.replace("solver = \"wcsph\"", "solver = \"muller\"");
+    let (_, dir) = fresh("mpi-muller-check");
+    let scene = scene_file(&dir, &muller);
+    let out = Command::new(bin("coupler"))
+        .arg("check")
+        .arg(&scene)
+        .args(["--fluid-ranks", "2"])
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{err}");
+    for says in [
+        "the fluid solver 'muller' does not run on several ranks yet",
+        "wcsph",
+        "or run with --fluid-ranks 1",
+    ] {
+        assert!(err.contains(says), "{says}: {err}");
+    }
+    std::fs::remove_file(scene).unwrap();
+    let err = refused_run("muller-run", &muller, &["--fluid-ranks", "2"]);
+    assert!(
+        err.contains("'muller' does not run on several ranks"),
+        "{err}"
+    );
+    let err = refused_run(
+        "checkpoints",
+        DAM_BREAK,
+        &["--fluid-ranks", "2", "--checkpoint-interval", "0.1"],
+    );
+    assert!(
+        err.contains(
+            "--checkpoint-interval 0.1: checkpoints of a fluid on several ranks are not written yet"
+        ) && err.contains("or run with --fluid-ranks 1"),
+        "{err}"
+    );
+}
