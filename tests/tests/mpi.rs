@@ -3,7 +3,9 @@
 //! on 1, 2 and 3 ranks and over TCP only; a rank killed mid-run stops the run at once, named,
 //! with what was written kept and nothing of the run left (processes, shared memory); and what
 //! ranks cannot do is refused before anything is written: a missing launcher, more ranks than
-//! the water fills, a solver that does not split, checkpoints.
+//! the water fills, a solver that does not split. A run checkpointed on 2 ranks and killed
+//! resumes on 3 to the bits of an uninterrupted run on one; a block sliding into water gives the
+//! same bits on 1 and 2 ranks.
 #![cfg(feature = "mpi")]
 
 mod common;
@@ -401,15 +403,114 @@ fn what_ranks_do_not_do_yet_is_refused_before_the_run() {
         err.contains("'muller' does not run on several ranks"),
         "{err}"
     );
-    let err = refused_run(
-        "checkpoints",
-        DAM_BREAK,
-        &["--fluid-ranks", "2", "--checkpoint-interval", "0.1"],
-    );
-    assert!(
-        err.contains(
-            "--checkpoint-interval 0.1: checkpoints of a fluid on several ranks are not written yet"
-        ) && err.contains("or run with --fluid-ranks 1"),
-        "{err}"
-    );
+}
+
+/// The dam break run to `end` seconds.
+fn longer(end: f64) -> String {
+    DAM_BREAK.replace("end = 0.2", &format!("end = {end}"))
+}
+
+#[test]
+fn a_run_checkpointed_on_two_ranks_and_killed_resumes_on_three_to_the_same_bits() {
+    let text = longer(0.4);
+    // One rank, straight through.
+    let (id, one) = fresh("mpi-resume-one");
+    let scene = scene_file(&one, &text);
+    let out = run(coupler(&id, &one, &[scene.to_str().unwrap()]));
+    assert!(out.status.success(), "{}", stderr(&out));
+    std::fs::remove_file(&scene).unwrap();
+    // Two ranks, a checkpoint every 0.1 s, the coupler killed after the first.
+    let (id, dir) = fresh("mpi-resume-two");
+    let scene = scene_file(&dir, &text);
+    let mut child = coupler(
+        &id,
+        &dir,
+        &[
+            scene.to_str().unwrap(),
+            "--fluid-ranks",
+            "2",
+            "--checkpoint-interval",
+            "0.1",
+        ],
+    )
+    .stdout(Stdio::null())
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
+    let start = Instant::now();
+    let checkpointed = || {
+        std::fs::read_dir(dir.join("checkpoints")).is_ok_and(|d| {
+            d.flatten()
+                .any(|e| e.file_name().to_string_lossy().starts_with("coupler-"))
+        })
+    };
+    while !checkpointed() {
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no checkpoint within 120 s"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before a checkpoint"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    std::fs::remove_file(&scene).unwrap();
+    // Resumed on three ranks.
+    let out = run({
+        let mut c = Command::new(bin("coupler"));
+        c.args(["run", "--quiet", "--fluid-ranks", "3", "--resume"])
+            .arg(&dir)
+            .stdin(Stdio::null());
+        c
+    });
+    assert!(out.status.success(), "resume: {}", stderr(&out));
+    assert!(leftovers(&id).is_empty(), "shared memory left behind");
+    for n in ["gauges.csv", "probes.csv", "particles_00008.vtp"] {
+        let (a, b) = (std::fs::read(one.join(n)), std::fs::read(dir.join(n)));
+        let (a, b) = (a.unwrap(), b.unwrap_or_else(|e| panic!("{n}: {e}")));
+        if let Some(diff) = first_difference(&a, &b) {
+            panic!("{n}: the resumed run differs from one rank's, first at {diff}");
+        }
+    }
+    std::fs::remove_dir_all(one).unwrap();
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_block_sliding_into_water_gives_the_same_bits_on_one_and_two_ranks() {
+    // scenes/sliding_wedge.toml cut short: the wedge (an explicit-DDA block on a slope, two-way
+    // coupled) is in the water within 0.3 s.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/sliding_wedge.toml");
+    let text = std::fs::read_to_string(path)
+        .unwrap()
+        .replace("end = 2.5", "end = 0.3")
+        .replace("interval = 0.05", "interval = 0.1");
+    let mut dirs = Vec::new();
+    for ranks in ["1", "2"] {
+        let (id, dir) = fresh(&format!("mpi-wedge-{ranks}"));
+        let scene = scene_file(&dir, &text);
+        let out = run(coupler(
+            &id,
+            &dir,
+            &[scene.to_str().unwrap(), "--fluid-ranks", ranks],
+        ));
+        assert!(out.status.success(), "{ranks} ranks: {}", stderr(&out));
+        std::fs::remove_file(&scene).unwrap();
+        dirs.push(dir);
+    }
+    let names = result_files(&dirs[0]);
+    assert!(names.iter().any(|n| n == "blocks.csv"), "{names:?}");
+    for n in &names {
+        let a = std::fs::read(dirs[0].join(n)).unwrap();
+        let b = std::fs::read(dirs[1].join(n)).unwrap();
+        if let Some(diff) = first_difference(&a, &b) {
+            panic!("{n}: 2 ranks differ from one, first at {diff}");
+        }
+    }
+    for d in dirs {
+        std::fs::remove_dir_all(d).unwrap();
+    }
 }

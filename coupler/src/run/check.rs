@@ -84,13 +84,11 @@ pub fn run(
 fn per_rank_lines(scene: &shared::scene::Scene, flag: Option<u32>) -> Result<Vec<String>, String> {
     use crate::run::not_on_ranks;
     let ranks = crate::run::per_rank::ranks(flag, scene)?;
-    not_on_ranks::solver_and_blocks(scene, None, ranks)?;
-    not_on_ranks::checkpoints(&[], scene, false, ranks)?;
+    not_on_ranks::solver(scene, None, ranks)?;
     Ok(crate::run::per_rank::PerRank::estimate(scene, ranks)
         .filter(|_| ranks > 1)
         .map(|p| p.describe())
         .into_iter()
-        .chain(not_on_ranks::no_checkpoints_line(scene, ranks))
         .collect())
 }
 

@@ -136,9 +136,6 @@ pub fn check_flags(
             "coupler: no checkpoints (--no-checkpoints): a run killed starts again from t = 0"
         );
         (None, None)
-    } else if let Some(line) = crate::run::not_on_ranks::no_checkpoints_line(scene, fluid_ranks) {
-        eprintln!("coupler: {line}");
-        (None, None)
     } else {
         let interval = args
             .checkpoint_interval
@@ -179,8 +176,7 @@ pub fn check_flags(
 }
 
 /// What a fluid on `ranks` ranks cannot do yet ([`crate::run::not_on_ranks`]): the run's fluid
-/// solver (a resumed run's is its checkpoint's), moving blocks, and every way of asking for
-/// checkpoints.
+/// solver (a resumed run's is its checkpoint's) must split over ranks.
 fn refuse_on_ranks(
     args: &RunArgs,
     scene: &Scene,
@@ -190,21 +186,7 @@ fn refuse_on_ranks(
     let solver = resume
         .and_then(|r| r.checkpoint.fluid_solver.as_deref())
         .or(args.fluid_solver.as_deref());
-    crate::run::not_on_ranks::solver_and_blocks(scene, solver, ranks)?;
-    let mut flags = Vec::new();
-    if let Some(v) = args.checkpoint_interval {
-        flags.push(("--checkpoint-interval", v.to_string()));
-    }
-    if let Some(v) = args.checkpoint_wall_minutes {
-        flags.push(("--checkpoint-wall-minutes", v.to_string()));
-    }
-    if args.retries > 0 {
-        flags.push(("--retries", args.retries.to_string()));
-    }
-    if let Some(dir) = &args.resume {
-        flags.push(("--resume", dir.display().to_string()));
-    }
-    crate::run::not_on_ranks::checkpoints(&flags, scene, args.no_checkpoints, ranks)
+    crate::run::not_on_ranks::solver(scene, solver, ranks)
 }
 
 /// Wall-clock minutes between the checkpoints of a run estimated to take longer than that when
