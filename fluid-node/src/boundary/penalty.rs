@@ -244,12 +244,18 @@ impl Penalty {
             .get_or_insert_with(|| NearBlocks::new(&self.obstacles, grid));
         let obstacles = &self.obstacles;
         let (pos, vel) = (&particles.position, &particles.velocity);
+        // On several ranks only the owned particles' forces are read (a halo particle's
+        // acceleration comes from its owner).
+        let owned = split.map(|s| &s.owned[..]);
         particles
             .penalty
             .par_iter_mut()
             .enumerate()
             .with_max_len(tasks::PARTICLES)
             .for_each(|(i, f)| {
+                if owned.is_some_and(|o| !o[i]) {
+                    return;
+                }
                 let mut sum = Vector::zeros();
                 for &b in near.of(grid.cell_index(&pos[i])) {
                     if let Some((force, _)) = obstacles[b as usize].force(&pos[i], &vel[i], ks, kd)

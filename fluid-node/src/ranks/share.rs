@@ -34,6 +34,11 @@ use std::time::{Duration, Instant};
 /// dρ/dt, the three one-step-back arrays, and the key.
 const WORDS: usize = 3 + 3 + 1 + 1 + 3 + 1 + 3 + 3 + 1 + 1;
 
+/// A particle's own work in the cuts' measure, in listed pairs: WCSPH spends ~2 ns a listed
+/// pair and ~50 ns a particle in its per-particle passes (equation of state, records,
+/// integration, survey) on this machine's core, so a particle weighs as 25 pairs.
+const PARTICLE_WORK: usize = 25;
+
 /// What the halo costs, for `fluid-bench --ranks`.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct HaloStats {
@@ -243,7 +248,8 @@ impl Share {
     }
 
     /// Measures each column's work from the lists just built (a particle's listed fluid and
-    /// wall pairs plus one) and sums it over the ranks: the next sort's cuts follow it.
+    /// wall pairs plus [`PARTICLE_WORK`]) and sums it over the ranks: the next sort's cuts
+    /// follow it.
     pub fn measure_work(
         &mut self,
         lists: &NeighborLists,
@@ -258,7 +264,7 @@ impl Share {
         for (k, x) in sorted_at.iter().enumerate() {
             if self.owned[k] {
                 let c = self.column(grid, x);
-                self.work[c] += (lists.of(k).len() + walls.fixed_listed(k)) as u64 + 1;
+                self.work[c] += (lists.of(k).len() + walls.fixed_listed(k) + PARTICLE_WORK) as u64;
             }
         }
         self.comm.sum(&mut self.work);
@@ -505,20 +511,19 @@ impl Share {
         }
     }
 
-    /// Agrees on a failure: if any rank failed, rank 0 gets the lowest failing rank's message
-    /// (named by rank), the others a message saying rank 0 reports it.
-    pub fn agree(&self, failure: Option<String>) -> Option<String> {
-        if !super::any(&*self.comm, failure.is_some()) {
-            return None;
-        }
+    /// Once the ranks know that some rank failed (every rank calls it): rank 0 gets the lowest
+    /// failing rank's message, named by rank; the others a message saying rank 0 reports it.
+    pub fn name_failure(&self, failure: Option<String>) -> String {
         let all = self.comm.gather(failure.unwrap_or_default().into_bytes());
         if self.rank() != 0 {
-            return Some("another rank failed; rank 0 reports why".into());
+            return "another rank failed; rank 0 reports why".into();
         }
         all.iter()
             .enumerate()
             .find(|(_, m)| !m.is_empty())
-            .map(|(r, m)| format!("rank {r}: {}", String::from_utf8_lossy(m)))
+            .map_or("a rank failed".into(), |(r, m)| {
+                format!("rank {r}: {}", String::from_utf8_lossy(m))
+            })
     }
 }
 

@@ -409,24 +409,38 @@ impl FluidSystem {
             },
         );
         self.phases.stop(Phase::Survey, t);
-        if let Some(failure) = self.agree(self.failure(&survey, reference_density)) {
-            return Err(failure);
-        }
+        let failure = self.failure(&survey, reference_density);
         if let Some(s) = &self.share {
-            // The maxima and the sort over all ranks (exact: maxima do not round); the water
-            // aloft counted by its owners.
-            let mut m = [survey.v_max, survey.a_max, survey.moved as u8 as Real];
+            // In one message: whether a rank failed, the maxima and the sort over all ranks
+            // (exact: maxima do not round), whether water is aloft anywhere.
+            let flag = |b: bool| b as u8 as Real;
+            let mut m = [
+                flag(failure.is_some()),
+                survey.v_max,
+                survey.a_max,
+                flag(survey.moved),
+                flag(survey.aloft > 0),
+            ];
             s.comm().max(&mut m);
-            let top = self.domain.1.z;
-            let mut aloft = [p
-                .position
-                .iter()
-                .zip(&s.owned)
-                .filter(|(x, o)| **o && x.z > top)
-                .count() as u64];
-            s.comm().sum(&mut aloft);
-            (survey.v_max, survey.a_max, survey.moved) = (m[0], m[1], m[2] > 0.0);
-            survey.aloft = aloft[0] as usize;
+            if m[0] > 0.0 {
+                return Err(self.agree(failure).expect("a rank failed"));
+            }
+            (survey.v_max, survey.a_max, survey.moved) = (m[1], m[2], m[3] > 0.0);
+            survey.aloft = 0;
+            if m[4] > 0.0 {
+                // The water aloft counted by its owners.
+                let top = self.domain.1.z;
+                let mut aloft = [p
+                    .position
+                    .iter()
+                    .zip(&s.owned)
+                    .filter(|(x, o)| **o && x.z > top)
+                    .count() as u64];
+                s.comm().sum(&mut aloft);
+                survey.aloft = aloft[0] as usize;
+            }
+        } else if let Some(failure) = failure {
+            return Err(failure);
         }
         // Water above an open top is a splash's spray: it stays SPH water (the grid keeps it in
         // its top layer of cells, where the pair loops measure true distances), meets no wall
@@ -492,7 +506,8 @@ impl FluidSystem {
         )))
     }
 
-    /// On several ranks, the instability any rank found (rank 0 names it); on one, `failure`.
+    /// On several ranks, once some rank failed: the instability rank 0 names (the lowest
+    /// failing rank's), every rank calling it; on one, `failure`.
     fn agree(&self, failure: Option<SolverError>) -> Option<SolverError> {
         let Some(s) = &self.share else {
             return failure;
@@ -500,7 +515,7 @@ impl FluidSystem {
         let message = failure.map(|e| match e {
             SolverError::Unstable(m) | SolverError::Failed(m) => m,
         });
-        s.agree(message).map(SolverError::Unstable)
+        Some(SolverError::Unstable(s.name_failure(message)))
     }
 
     /// The last step's warning, if any (taken: said once).
