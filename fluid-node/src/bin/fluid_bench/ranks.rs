@@ -3,7 +3,8 @@
 //! the bench starts itself again under `mpirun -n N` (`ROCKWAVE_MPIRUN` replaces `mpirun`);
 //! under MPI, rank 0 prints one row per size with the run's particle-steps per second, and one
 //! row per rank: the particles it owns and holds in its halo, the bytes it sent and the time
-//! it spent in messages (waiting included) per step, and the imbalance of the work.
+//! it spent in messages (waiting included) per step, the imbalance of the work, and its peak
+//! resident memory.
 
 use fluid_node::ranks::{self, comm::Comm};
 use fluid_node::sph::SphSolver;
@@ -133,6 +134,7 @@ pub fn run(
                 (after.waiting - before.waiting).as_secs_f64() / steps as f64,
                 after.imbalance,
                 after.rebalances as f64,
+                super::peak_rss_mb().unwrap_or(f64::NAN),
             ];
             let all = comm.gather(words(&mine));
             if rank == 0 {
@@ -149,14 +151,15 @@ pub fn run(
                         .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
                         .collect();
                     per_rank.push(format!(
-                        "| {count} | {r} | {:.0} | {:.0} | {:.0} | {:.1} | {:.1} | {:.3} | {:.0} |",
+                        "| {count} | {r} | {:.0} | {:.0} | {:.0} | {:.1} | {:.1} | {:.3} | {:.0} | {:.0} |",
                         v[0],
                         v[1],
                         v[2] / 1e3,
                         1e3 * v[3],
                         100.0 * v[3] / (secs / steps as f64),
                         v[4],
-                        v[5]
+                        v[5],
+                        v[6]
                     ));
                 }
             }
@@ -165,9 +168,9 @@ pub fn run(
     if rank == 0 {
         println!();
         println!(
-            "| particles | rank | owned | halo | kB sent per step | ms in messages per step | % of the step | imbalance (busiest ÷ mean work) | rebalances |"
+            "| particles | rank | owned | halo | kB sent per step | ms in messages per step | % of the step | imbalance (busiest ÷ mean work) | rebalances | peak RSS so far [MB] |"
         );
-        println!("|---|---|---|---|---|---|---|---|---|");
+        println!("|---|---|---|---|---|---|---|---|---|---|");
         for row in per_rank {
             println!("{row}");
         }
