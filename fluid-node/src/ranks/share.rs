@@ -85,11 +85,14 @@ pub struct Share {
 }
 
 impl Share {
-    /// The share of rank `comm.rank()` of `global_len` particles on `grid`.
-    pub fn new(comm: Arc<dyn Comm>, grid: &CellGrid, global_len: usize) -> Self {
+    /// The share of rank `comm.rank()` of `global_len` particles on `grid`; fails when the
+    /// grid has fewer columns along the cut axis than there are ranks (the coupler refuses
+    /// such a run before it starts; ranks started by hand hear it here).
+    pub fn new(comm: Arc<dyn Comm>, grid: &CellGrid, global_len: usize) -> Result<Self, String> {
         let dims = grid.dims();
         let axis = if dims[1] > dims[0] { 1 } else { 0 };
-        Self {
+        Slabs::balanced(axis, &vec![0; dims[axis]], comm.size())?;
+        Ok(Self {
             comm,
             axis,
             slabs: None,
@@ -100,7 +103,7 @@ impl Share {
             global_len,
             stats: HaloStats::default(),
             started: false,
-        }
+        })
     }
 
     pub fn comm(&self) -> &dyn Comm {

@@ -140,7 +140,10 @@ impl FluidSystem {
         let terrain = eq22.terrain(init);
         let lead = ranks.as_ref().is_none_or(|c| c.rank() == 0);
         let recorder = setup::recorder(ctx, init, lead)?;
-        let share = ranks.map(|c| Share::new(c, &grid, init.fill.positions.len()));
+        let share = ranks
+            .map(|c| Share::new(c, &grid, init.fill.positions.len()))
+            .transpose()
+            .map_err(SolverError::Failed)?;
         let sys = Self {
             solver,
             particles: Particles::new(init.fill.positions.clone(), density),
