@@ -4,8 +4,9 @@
 //! with what was written kept and nothing of the run left (processes, shared memory); and what
 //! ranks cannot do is refused before anything is written: a missing launcher, more ranks than
 //! the water fills, a solver that does not split. A run checkpointed on 2 ranks and killed
-//! resumes on 3 to the bits of an uninterrupted run on one; a block sliding into water gives the
-//! same bits on 1 and 2 ranks.
+//! resumes on 3, and a rank killed under `--retries` restarts from the checkpoint, both to the
+//! bits of an uninterrupted run on one; a block sliding into water gives the same bits on 1 and
+//! 2 ranks.
 #![cfg(feature = "mpi")]
 
 mod common;
@@ -513,4 +514,70 @@ fn a_block_sliding_into_water_gives_the_same_bits_on_one_and_two_ranks() {
     for d in dirs {
         std::fs::remove_dir_all(d).unwrap();
     }
+}
+
+#[test]
+fn a_rank_killed_under_retries_restarts_from_the_checkpoint_to_the_same_bits() {
+    let text = longer(0.4);
+    let (id, one) = fresh("mpi-retries-one");
+    let scene = scene_file(&one, &text);
+    let out = run(coupler(&id, &one, &[scene.to_str().unwrap()]));
+    assert!(out.status.success(), "{}", stderr(&out));
+    std::fs::remove_file(&scene).unwrap();
+    let (id, dir) = fresh("mpi-retries-two");
+    let scene = scene_file(&dir, &text);
+    let child = coupler(
+        &id,
+        &dir,
+        &[
+            scene.to_str().unwrap(),
+            "--fluid-ranks",
+            "2",
+            "--checkpoint-interval",
+            "0.1",
+            "--retries",
+            "1",
+        ],
+    )
+    .stdout(Stdio::piped())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    let pid = child.id();
+    let checkpointed = eventually(Duration::from_secs(120), || {
+        std::fs::read_dir(dir.join("checkpoints")).is_ok_and(|d| {
+            d.flatten()
+                .any(|e| e.file_name().to_string_lossy().starts_with("coupler-"))
+        })
+    });
+    assert!(checkpointed, "no checkpoint within 120 s");
+    let launcher = children(pid)
+        .into_iter()
+        .find(|&c| cmdline(c).contains("mpirun"))
+        .expect("the coupler's mpirun child");
+    let follower = children(launcher)
+        .into_iter()
+        .find(|&p| mpi_rank(p) == Some(1))
+        .expect("rank 1 under mpirun");
+    unsafe_kill(follower, 9);
+    let (out, _) = wait_output(child, Duration::from_secs(180));
+    let err = stderr(&out);
+    assert!(
+        out.status.success(),
+        "the retry did not finish the run: {err}"
+    );
+    assert!(err.contains("restart 1 of 1"), "{err}");
+    assert!(leftovers(&id).is_empty(), "shared memory left behind");
+    for n in ["gauges.csv", "probes.csv", "particles_00008.vtp"] {
+        let (a, b) = (
+            std::fs::read(one.join(n)).unwrap(),
+            std::fs::read(dir.join(n)).unwrap(),
+        );
+        if let Some(diff) = first_difference(&a, &b) {
+            panic!("{n}: the restarted run differs from one rank's, first at {diff}");
+        }
+    }
+    std::fs::remove_file(&scene).unwrap();
+    std::fs::remove_dir_all(one).unwrap();
+    std::fs::remove_dir_all(dir).unwrap();
 }
