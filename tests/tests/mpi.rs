@@ -116,8 +116,14 @@ fn compared_files(dir: &Path) -> Vec<String> {
 
 /// Runs the dam break with `args`; panics with its stderr unless it completes.
 fn dam_break(tag: &str, args: &[&str]) -> PathBuf {
+    run_scene(tag, DAM_BREAK, args)
+}
+
+/// Runs scene `text` with `args`; panics with its stderr unless it completes, or if it leaves
+/// shared memory behind.
+fn run_scene(tag: &str, text: &str, args: &[&str]) -> PathBuf {
     let (id, dir) = fresh(&format!("mpi-{tag}"));
-    let scene = scene_file(&dir, DAM_BREAK);
+    let scene = scene_file(&dir, text);
     let all: Vec<&str> = [scene.to_str().unwrap()]
         .into_iter()
         .chain(args.iter().copied())
@@ -406,6 +412,17 @@ fn what_ranks_do_not_do_yet_is_refused_before_the_run() {
     );
 }
 
+/// Panics unless `names` in `b` equal those in `a` to the byte, naming the first difference.
+fn assert_same_files(a: &Path, b: &Path, names: &[&str], what: &str) {
+    for n in names {
+        let (x, y) = (std::fs::read(a.join(n)).unwrap(), std::fs::read(b.join(n)));
+        let y = y.unwrap_or_else(|e| panic!("{what}: {n}: {e}"));
+        if let Some(diff) = first_difference(&x, &y) {
+            panic!("{what}: {n} differs from one rank's, first at {diff}");
+        }
+    }
+}
+
 /// The dam break run to `end` seconds.
 fn longer(end: f64) -> String {
     DAM_BREAK.replace("end = 0.2", &format!("end = {end}"))
@@ -415,11 +432,7 @@ fn longer(end: f64) -> String {
 fn a_run_checkpointed_on_two_ranks_and_killed_resumes_on_three_to_the_same_bits() {
     let text = longer(0.4);
     // One rank, straight through.
-    let (id, one) = fresh("mpi-resume-one");
-    let scene = scene_file(&one, &text);
-    let out = run(coupler(&id, &one, &[scene.to_str().unwrap()]));
-    assert!(out.status.success(), "{}", stderr(&out));
-    std::fs::remove_file(&scene).unwrap();
+    let one = run_scene("resume-one", &text, &[]);
     // Two ranks, a checkpoint every 0.1 s, the coupler killed after the first.
     let (id, dir) = fresh("mpi-resume-two");
     let scene = scene_file(&dir, &text);
@@ -469,13 +482,8 @@ fn a_run_checkpointed_on_two_ranks_and_killed_resumes_on_three_to_the_same_bits(
     });
     assert!(out.status.success(), "resume: {}", stderr(&out));
     assert!(leftovers(&id).is_empty(), "shared memory left behind");
-    for n in ["gauges.csv", "probes.csv", "particles_00008.vtp"] {
-        let (a, b) = (std::fs::read(one.join(n)), std::fs::read(dir.join(n)));
-        let (a, b) = (a.unwrap(), b.unwrap_or_else(|e| panic!("{n}: {e}")));
-        if let Some(diff) = first_difference(&a, &b) {
-            panic!("{n}: the resumed run differs from one rank's, first at {diff}");
-        }
-    }
+    let names = ["gauges.csv", "probes.csv", "particles_00008.vtp"];
+    assert_same_files(&one, &dir, &names, "resumed on 3 ranks");
     std::fs::remove_dir_all(one).unwrap();
     std::fs::remove_dir_all(dir).unwrap();
 }
@@ -489,28 +497,13 @@ fn a_block_sliding_into_water_gives_the_same_bits_on_one_and_two_ranks() {
         .unwrap()
         .replace("end = 2.5", "end = 0.3")
         .replace("interval = 0.05", "interval = 0.1");
-    let mut dirs = Vec::new();
-    for ranks in ["1", "2"] {
-        let (id, dir) = fresh(&format!("mpi-wedge-{ranks}"));
-        let scene = scene_file(&dir, &text);
-        let out = run(coupler(
-            &id,
-            &dir,
-            &[scene.to_str().unwrap(), "--fluid-ranks", ranks],
-        ));
-        assert!(out.status.success(), "{ranks} ranks: {}", stderr(&out));
-        std::fs::remove_file(&scene).unwrap();
-        dirs.push(dir);
-    }
-    let names = result_files(&dirs[0]);
+    let one = run_scene("wedge-1", &text, &[]);
+    let two = run_scene("wedge-2", &text, &["--fluid-ranks", "2"]);
+    let names = result_files(&one);
     assert!(names.iter().any(|n| n == "blocks.csv"), "{names:?}");
-    for n in &names {
-        let a = std::fs::read(dirs[0].join(n)).unwrap();
-        let b = std::fs::read(dirs[1].join(n)).unwrap();
-        if let Some(diff) = first_difference(&a, &b) {
-            panic!("{n}: 2 ranks differ from one, first at {diff}");
-        }
-    }
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    assert_same_files(&one, &two, &names, "2 ranks");
+    let dirs = [one, two];
     for d in dirs {
         std::fs::remove_dir_all(d).unwrap();
     }
@@ -519,11 +512,7 @@ fn a_block_sliding_into_water_gives_the_same_bits_on_one_and_two_ranks() {
 #[test]
 fn a_rank_killed_under_retries_restarts_from_the_checkpoint_to_the_same_bits() {
     let text = longer(0.4);
-    let (id, one) = fresh("mpi-retries-one");
-    let scene = scene_file(&one, &text);
-    let out = run(coupler(&id, &one, &[scene.to_str().unwrap()]));
-    assert!(out.status.success(), "{}", stderr(&out));
-    std::fs::remove_file(&scene).unwrap();
+    let one = run_scene("retries-one", &text, &[]);
     let (id, dir) = fresh("mpi-retries-two");
     let scene = scene_file(&dir, &text);
     let child = coupler(

@@ -83,6 +83,17 @@ fn wait<'a, D: ?Sized, S: Scope<'a>>(mut request: Request<'a, D, S>) {
 }
 
 impl MpiRanks {
+    /// `values` combined element-wise over the ranks by `op`, on every rank, napping.
+    fn all_reduce<T: Equivalence + Clone>(&self, values: &mut [T], op: SystemOperation) {
+        let mine = values.to_vec();
+        mpi::request::scope(|scope| {
+            wait(
+                self.world
+                    .immediate_all_reduce_into(scope, &mine[..], values, op),
+            );
+        });
+    }
+
     /// The next message from rank `from`, napping until it is there.
     fn receive(&self, from: usize) -> Vec<u8> {
         let source = self.world.process_at_rank(from as i32);
@@ -149,26 +160,10 @@ impl Comm for MpiRanks {
     }
 
     fn max(&self, values: &mut [f64]) {
-        let mine = values.to_vec();
-        mpi::request::scope(|scope| {
-            wait(self.world.immediate_all_reduce_into(
-                scope,
-                &mine[..],
-                values,
-                SystemOperation::max(),
-            ));
-        });
+        self.all_reduce(values, SystemOperation::max());
     }
 
     fn sum(&self, values: &mut [u64]) {
-        let mine = values.to_vec();
-        mpi::request::scope(|scope| {
-            wait(self.world.immediate_all_reduce_into(
-                scope,
-                &mine[..],
-                values,
-                SystemOperation::sum(),
-            ));
-        });
+        self.all_reduce(values, SystemOperation::sum());
     }
 }

@@ -316,30 +316,12 @@ impl Share {
         &self,
         fields: impl Fn(usize) -> [Real; N],
     ) -> Option<Vec<[Real; N]>> {
-        let mut bytes = Vec::with_capacity(8 * (N + 1) * self.owned.len());
-        for (i, _) in self.owned.iter().enumerate().filter(|(_, o)| **o) {
-            wire::put_u64(&mut bytes, [self.key[i]]);
-            wire::put_f64(&mut bytes, fields(i));
-        }
-        let all = self.comm.gather(bytes);
-        if self.rank() != 0 {
-            return None;
-        }
-        let mut items: Vec<(u64, [Real; N])> = all
-            .iter()
-            .flat_map(|b| b.chunks_exact(8 * (N + 1)))
-            .map(|c| {
-                let mut w = wire::words(c);
-                let key = u64::from_le_bytes(w.next().unwrap());
-                let mut v = [0.0; N];
-                for (v, b) in v.iter_mut().zip(w) {
-                    *v = f64::from_le_bytes(b);
-                }
-                (key, v)
-            })
+        let mine: Vec<(u64, [Real; N])> = (0..self.owned.len())
+            .filter(|&i| self.owned[i])
+            .map(|i| (self.key[i], fields(i)))
             .collect();
-        items.par_sort_unstable_by_key(|(k, _)| *k);
-        Some(items.into_iter().map(|(_, v)| v).collect())
+        let all = self.gather_items(&mine)?;
+        Some(all.into_iter().map(|(_, v)| v).collect())
     }
 
     /// Items from every rank on rank 0, sorted by their keys (each key given by one rank): the
@@ -370,7 +352,7 @@ impl Share {
                 (key, v)
             })
             .collect();
-        got.sort_unstable_by_key(|(k, _)| *k);
+        got.par_sort_unstable_by_key(|(k, _)| *k);
         Some(got)
     }
 
