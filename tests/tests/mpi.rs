@@ -16,56 +16,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// A dam break in a narrow tank, fixed walls only: 1 800 water particles at dx = 1 cm, ~1 400
-/// WCSPH steps to t = 0.2 s, 5 frames, two gauges (one wet, one reached by the front) and a
-/// probe at the toe; a few seconds per run. The tank is 0.6 m along x: 5 slabs at most.
-const DAM_BREAK: &str = r#"
-name = "ranks_dam_break"
-[time]
-end = 0.2
-dt_max = 1e-3
-[domain]
-min = [0.0, 0.0, 0.0]
-max = [0.6, 0.06, 0.3]
-[output]
-interval = 0.05
-[fluid]
-solver = "wcsph"
-dx = 0.01
-[[fluid.water]]
-shape = { type = "box", min = [0.0, 0.0, 0.0], max = [0.2, 0.06, 0.15] }
-[[gauge]]
-name = "dam"
-x = 0.1
-y = 0.03
-[[gauge]]
-name = "far"
-x = 0.5
-y = 0.03
-[[probe]]
-name = "toe"
-position = [0.3, 0.03, 0.01]
-[[block]]
-name = "floor"
-kind = "fixed"
-shape = { type = "box", min = [-0.02, -0.02, -0.02], max = [0.62, 0.08, 0.0] }
-[[block]]
-name = "left_wall"
-kind = "fixed"
-shape = { type = "box", min = [-0.02, -0.02, -0.02], max = [0.0, 0.08, 0.3] }
-[[block]]
-name = "right_wall"
-kind = "fixed"
-shape = { type = "box", min = [0.6, -0.02, -0.02], max = [0.62, 0.08, 0.3] }
-[[block]]
-name = "south_wall"
-kind = "fixed"
-shape = { type = "box", min = [-0.02, -0.02, -0.02], max = [0.62, 0.0, 0.3] }
-[[block]]
-name = "north_wall"
-kind = "fixed"
-shape = { type = "box", min = [-0.02, 0.06, -0.02], max = [0.62, 0.08, 0.3] }
-"#;
+/// The narrow dam break (`fluid_node::validation::narrow_dam_break`) to t = 0.2 s: ~1 400 WCSPH
+/// steps, 5 frames, a few seconds per run. The tank holds 5 slabs at most.
+fn dam_break_text() -> String {
+    fluid_node::validation::narrow_dam_break(0.2, 0.05)
+}
 
 /// The most ranks the dam break's tank holds: 0.6 m over slabs of at least 4 cells of
 /// 2.6 × 1.1 × 0.01 m (coupler/src/run/per_rank.rs).
@@ -116,7 +71,7 @@ fn compared_files(dir: &Path) -> Vec<String> {
 
 /// Runs the dam break with `args`; panics with its stderr unless it completes.
 fn dam_break(tag: &str, args: &[&str]) -> PathBuf {
-    run_scene(tag, DAM_BREAK, args)
+    run_scene(tag, &dam_break_text(), args)
 }
 
 /// Runs scene `text` with `args`; panics with its stderr unless it completes, or if it leaves
@@ -242,7 +197,7 @@ fn shm_entries(what: &str) -> Vec<String> {
 #[test]
 fn a_killed_rank_stops_the_run_at_once_and_leaves_nothing_behind() {
     let (id, dir) = fresh("mpi-killed-rank");
-    let scene = scene_file(&dir, DAM_BREAK);
+    let scene = scene_file(&dir, &dam_break_text());
     let vader_before = shm_entries("vader_segment");
     let timeout = STEP_TIMEOUT_S.to_string();
     let mut cmd = coupler(
@@ -358,7 +313,7 @@ fn refused_run(tag: &str, text: &str, args: &[&str]) -> String {
 fn a_missing_launcher_is_named_with_the_packages_before_anything_is_written() {
     let err = refused_run(
         "no-launcher",
-        DAM_BREAK,
+        &dam_break_text(),
         &["--fluid-ranks", "2", "--mpirun", "/nonexistent/mpirun"],
     );
     for says in [
@@ -373,7 +328,11 @@ fn a_missing_launcher_is_named_with_the_packages_before_anything_is_written() {
 #[test]
 fn more_ranks_than_the_water_fills_are_refused_naming_the_most() {
     let too_many = (MOST_RANKS + 1).to_string();
-    let err = refused_run("too-many-ranks", DAM_BREAK, &["--fluid-ranks", &too_many]);
+    let err = refused_run(
+        "too-many-ranks",
+        &dam_break_text(),
+        &["--fluid-ranks", &too_many],
+    );
     for says in [
         format!("--fluid-ranks {too_many}: more ranks than the water can fill"),
         format!("at most {MOST_RANKS} ranks"),
@@ -385,7 +344,7 @@ fn more_ranks_than_the_water_fills_are_refused_naming_the_most() {
 
 #[test]
 fn what_ranks_do_not_do_yet_is_refused_before_the_run() {
-    let muller = DAM_BREAK.replace("solver = \"wcsph\"", "solver = \"muller\"");
+    let muller = dam_break_text().replace("solver = \"wcsph\"", "solver = \"muller\"");
     let (_, dir) = fresh("mpi-muller-check");
     let scene = scene_file(&dir, &muller);
     let out = Command::new(bin("coupler"))
@@ -423,9 +382,47 @@ fn assert_same_files(a: &Path, b: &Path, names: &[&str], what: &str) {
     }
 }
 
+/// Starts scene `text` on 2 ranks with a checkpoint every 0.1 s (and `args`), and returns once
+/// the first checkpoint is written: the run's id, directory, scene file and coupler.
+fn checkpointing_on_two_ranks(
+    tag: &str,
+    text: &str,
+    args: &[&str],
+) -> (RunId, PathBuf, PathBuf, std::process::Child) {
+    let (id, dir) = fresh(&format!("mpi-{tag}"));
+    let scene = scene_file(&dir, text);
+    let all: Vec<&str> = [
+        scene.to_str().unwrap(),
+        "--fluid-ranks",
+        "2",
+        "--checkpoint-interval",
+        "0.1",
+    ]
+    .into_iter()
+    .chain(args.iter().copied())
+    .collect();
+    let mut child = coupler(&id, &dir, &all)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let checkpointed = eventually(Duration::from_secs(120), || {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "{tag}: the run ended before a checkpoint"
+        );
+        std::fs::read_dir(dir.join("checkpoints")).is_ok_and(|d| {
+            d.flatten()
+                .any(|e| e.file_name().to_string_lossy().starts_with("coupler-"))
+        })
+    });
+    assert!(checkpointed, "{tag}: no checkpoint within 120 s");
+    (id, dir, scene, child)
+}
+
 /// The dam break run to `end` seconds.
 fn longer(end: f64) -> String {
-    DAM_BREAK.replace("end = 0.2", &format!("end = {end}"))
+    fluid_node::validation::narrow_dam_break(end, 0.05)
 }
 
 #[test]
@@ -434,41 +431,7 @@ fn a_run_checkpointed_on_two_ranks_and_killed_resumes_on_three_to_the_same_bits(
     // One rank, straight through.
     let one = run_scene("resume-one", &text, &[]);
     // Two ranks, a checkpoint every 0.1 s, the coupler killed after the first.
-    let (id, dir) = fresh("mpi-resume-two");
-    let scene = scene_file(&dir, &text);
-    let mut child = coupler(
-        &id,
-        &dir,
-        &[
-            scene.to_str().unwrap(),
-            "--fluid-ranks",
-            "2",
-            "--checkpoint-interval",
-            "0.1",
-        ],
-    )
-    .stdout(Stdio::null())
-    .stderr(Stdio::null())
-    .spawn()
-    .unwrap();
-    let start = Instant::now();
-    let checkpointed = || {
-        std::fs::read_dir(dir.join("checkpoints")).is_ok_and(|d| {
-            d.flatten()
-                .any(|e| e.file_name().to_string_lossy().starts_with("coupler-"))
-        })
-    };
-    while !checkpointed() {
-        assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "no checkpoint within 120 s"
-        );
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "the run ended before a checkpoint"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let (id, dir, scene, mut child) = checkpointing_on_two_ranks("resume-two", &text, &[]);
     child.kill().unwrap();
     child.wait().unwrap();
     std::fs::remove_file(&scene).unwrap();
@@ -513,33 +476,9 @@ fn a_block_sliding_into_water_gives_the_same_bits_on_one_and_two_ranks() {
 fn a_rank_killed_under_retries_restarts_from_the_checkpoint_to_the_same_bits() {
     let text = longer(0.4);
     let one = run_scene("retries-one", &text, &[]);
-    let (id, dir) = fresh("mpi-retries-two");
-    let scene = scene_file(&dir, &text);
-    let child = coupler(
-        &id,
-        &dir,
-        &[
-            scene.to_str().unwrap(),
-            "--fluid-ranks",
-            "2",
-            "--checkpoint-interval",
-            "0.1",
-            "--retries",
-            "1",
-        ],
-    )
-    .stdout(Stdio::piped())
-    .stderr(Stdio::piped())
-    .spawn()
-    .unwrap();
+    let (id, dir, scene, child) =
+        checkpointing_on_two_ranks("retries-two", &text, &["--retries", "1"]);
     let pid = child.id();
-    let checkpointed = eventually(Duration::from_secs(120), || {
-        std::fs::read_dir(dir.join("checkpoints")).is_ok_and(|d| {
-            d.flatten()
-                .any(|e| e.file_name().to_string_lossy().starts_with("coupler-"))
-        })
-    });
-    assert!(checkpointed, "no checkpoint within 120 s");
     let launcher = children(pid)
         .into_iter()
         .find(|&c| cmdline(c).contains("mpirun"))

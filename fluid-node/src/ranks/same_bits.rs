@@ -15,35 +15,8 @@ use std::sync::Arc;
 /// front runs a tenth of the tank, the work drifts and the cuts move, and particles change
 /// owner.
 fn scene() -> Scene {
-    let text = r#"
-name = "ranks_dam_break"
-[time]
-end = 1.0
-dt_max = 1e-3
-[domain]
-min = [0.0, 0.0, 0.0]
-max = [0.6, 0.06, 0.3]
-[output]
-interval = 1.0
-[fluid]
-solver = "wcsph"
-dx = 0.01
-[[fluid.water]]
-shape = { type = "box", min = [0.0, 0.0, 0.0], max = [0.2, 0.06, 0.15] }
-[[gauge]]
-name = "dam"
-x = 0.1
-y = 0.03
-[[gauge]]
-name = "far"
-x = 0.5
-y = 0.03
-[[probe]]
-name = "toe"
-position = [0.3, 0.03, 0.01]
-"#;
-    let tank = crate::validation::tank(0.6, 0.06, 0.3, 0.02);
-    Scene::parse(&format!("{text}\n{tank}"), "ranks test").unwrap()
+    let text = crate::validation::narrow_dam_break(1.0, 1.0);
+    Scene::parse(&text, "ranks test").unwrap()
 }
 
 /// Runs `steps` steps on the ranks `comm` (one rank when None) writing into `dir`; returns

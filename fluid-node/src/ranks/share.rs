@@ -30,9 +30,11 @@ use shared::math::{Real, Vector};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// Words per particle in a hand-over: position, velocity, density, pressure, acceleration,
-/// dρ/dt, the three one-step-back arrays, and the key.
-const WORDS: usize = 3 + 3 + 1 + 1 + 3 + 1 + 3 + 3 + 1 + 1;
+/// Words of a particle's hand-over state ([`state`]).
+const STATE: usize = 3 + 3 + 1 + 1 + 3 + 1 + 3 + 3 + 1;
+
+/// Words per particle in a hand-over: its state and its key.
+const WORDS: usize = STATE + 1;
 
 /// A particle's own work in the cuts' measure, in listed pairs: WCSPH spends ~2 ns a listed
 /// pair and ~50 ns a particle in its per-particle passes (equation of state, records,
@@ -374,44 +376,21 @@ impl Share {
         p: &Particles,
         sorted_at: &[Vector],
     ) -> Option<(Particles, Vec<Vector>)> {
-        let v = |x: &Vector| [x.x, x.y, x.z];
+        // The hand-over state, then the Eq. 22 force and the position at the last sort.
         let all = self.gather(|i| {
-            let mut w = [0.0; 26];
-            let parts: [&[Real]; 11] = [
-                &v(&p.position[i]),
-                &v(&p.velocity[i]),
-                &[p.density[i], p.pressure[i]],
-                &v(&p.acceleration[i]),
-                &[p.density_rate[i]],
-                &v(&p.penalty[i]),
-                &v(&p.position0[i]),
-                &v(&p.velocity0[i]),
-                &[p.density0[i]],
-                &v(&sorted_at[i]),
-                &[],
-            ];
-            let mut k = 0;
-            for part in parts {
-                w[k..k + part.len()].copy_from_slice(part);
-                k += part.len();
-            }
+            let mut w = [0.0; STATE + 6];
+            w[..STATE].copy_from_slice(&state(p, i));
+            w[STATE..STATE + 3].copy_from_slice(p.penalty[i].as_slice());
+            w[STATE + 3..].copy_from_slice(sorted_at[i].as_slice());
             w
         })?;
         let n = all.len();
         let mut q = Particles::new(vec![Vector::zeros(); n], vec![0.0; n]);
         let mut at = vec![Vector::zeros(); n];
         for (i, w) in all.iter().enumerate() {
-            let v3 = |k: usize| Vector::new(w[k], w[k + 1], w[k + 2]);
-            q.position[i] = v3(0);
-            q.velocity[i] = v3(3);
-            (q.density[i], q.pressure[i]) = (w[6], w[7]);
-            q.acceleration[i] = v3(8);
-            q.density_rate[i] = w[11];
-            q.penalty[i] = v3(12);
-            q.position0[i] = v3(15);
-            q.velocity0[i] = v3(18);
-            q.density0[i] = w[21];
-            at[i] = v3(22);
+            set_state(&mut q, i, &w[..STATE]);
+            q.penalty[i] = Vector::from_column_slice(&w[STATE..STATE + 3]);
+            at[i] = Vector::from_column_slice(&w[STATE + 3..]);
         }
         Some((q, at))
     }
@@ -466,13 +445,12 @@ impl Share {
         let keep: Vec<usize> = (0..p.len())
             .filter(|&i| held.contains(&self.column(grid, &sorted_at[i])))
             .collect();
-        let mut bytes = Vec::with_capacity(8 * WORDS * keep.len());
-        for &i in &keep {
-            encode(p, i, i as u64, &mut bytes);
+        let mut q = Particles::new(vec![Vector::zeros(); keep.len()], vec![0.0; keep.len()]);
+        for (k, &i) in keep.iter().enumerate() {
+            set_state(&mut q, k, &state(p, i));
+            q.penalty[k] = p.penalty[i];
         }
-        let penalty: Vec<Vector> = keep.iter().map(|&i| p.penalty[i]).collect();
-        decode(p, bytes.chunks_exact(8 * WORDS));
-        p.penalty = penalty;
+        *p = q;
         *sorted_at = keep.iter().map(|&i| sorted_at[i]).collect();
         self.key = keep.iter().map(|&i| i as u64).collect();
         self.owned = sorted_at
@@ -512,17 +490,45 @@ impl Share {
     }
 }
 
-/// Appends particle i's hand-over words and its key to `out`.
+/// Particle i's hand-over state: position, velocity, density, pressure, acceleration, dρ/dt,
+/// and the three one-step-back arrays ([`STATE`] words).
+fn state(p: &Particles, i: usize) -> [Real; STATE] {
+    let mut w = [0.0; STATE];
+    let vectors = [
+        (0, &p.position[i]),
+        (3, &p.velocity[i]),
+        (8, &p.acceleration[i]),
+        (12, &p.position0[i]),
+        (15, &p.velocity0[i]),
+    ];
+    for (k, v) in vectors {
+        w[k..k + 3].copy_from_slice(v.as_slice());
+    }
+    (w[6], w[7], w[11], w[18]) = (
+        p.density[i],
+        p.pressure[i],
+        p.density_rate[i],
+        p.density0[i],
+    );
+    w
+}
+
+/// Sets particle i of `q` from its hand-over state ([`state`]).
+fn set_state(q: &mut Particles, i: usize, w: &[Real]) {
+    let v3 = |k: usize| Vector::from_column_slice(&w[k..k + 3]);
+    (q.position[i], q.velocity[i], q.acceleration[i]) = (v3(0), v3(3), v3(8));
+    (q.position0[i], q.velocity0[i]) = (v3(12), v3(15));
+    (
+        q.density[i],
+        q.pressure[i],
+        q.density_rate[i],
+        q.density0[i],
+    ) = (w[6], w[7], w[11], w[18]);
+}
+
+/// Appends particle i's hand-over state and its key to `out`.
 fn encode(p: &Particles, i: usize, key: u64, out: &mut Vec<u8>) {
-    let v = |x: &Vector| [x.x, x.y, x.z];
-    wire::put_f64(out, v(&p.position[i]));
-    wire::put_f64(out, v(&p.velocity[i]));
-    wire::put_f64(out, [p.density[i], p.pressure[i]]);
-    wire::put_f64(out, v(&p.acceleration[i]));
-    wire::put_f64(out, [p.density_rate[i]]);
-    wire::put_f64(out, v(&p.position0[i]));
-    wire::put_f64(out, v(&p.velocity0[i]));
-    wire::put_f64(out, [p.density0[i]]);
+    wire::put_f64(out, state(p, i));
     wire::put_u64(out, [key]);
 }
 
@@ -530,20 +536,12 @@ fn encode(p: &Particles, i: usize, key: u64, out: &mut Vec<u8>) {
 fn decode<'a>(p: &mut Particles, items: impl ExactSizeIterator<Item = &'a [u8]>) {
     let n = items.len();
     let mut q = Particles::new(vec![Vector::zeros(); n], vec![0.0; n]);
+    let mut w = [0.0; STATE];
     for (i, c) in items.enumerate() {
-        let mut w = [0.0; WORDS];
-        for (v, b) in w.iter_mut().zip(wire::words(c)) {
-            *v = f64::from_le_bytes(b);
+        for (v, f) in w.iter_mut().zip(wire::f64s(c)) {
+            *v = f;
         }
-        let v3 = |k: usize| Vector::new(w[k], w[k + 1], w[k + 2]);
-        q.position[i] = v3(0);
-        q.velocity[i] = v3(3);
-        (q.density[i], q.pressure[i]) = (w[6], w[7]);
-        q.acceleration[i] = v3(8);
-        q.density_rate[i] = w[11];
-        q.position0[i] = v3(12);
-        q.velocity0[i] = v3(15);
-        q.density0[i] = w[18];
+        set_state(&mut q, i, &w);
     }
     *p = q;
 }

@@ -256,28 +256,9 @@ impl FluidSystem {
             let t = self.phases.lap(Phase::Sort, t);
             self.particles
                 .permute(order, self.carried, &mut self.sorted_at);
-            if let Some(s) = &mut self.share {
-                s.after_sort(self.grid.last_order(), &self.grid, &self.sorted_at);
-            }
             let t = self.phases.lap(Phase::Permutation, t);
             self.sorts += 1;
-            let (pos, radius) = (&self.particles.position, self.grid.radius());
-            let owned = self.share.as_ref().map(|s| &s.owned[..]);
-            self.fluid_lists
-                .build_for(pos, pos, &self.grid, radius, true, owned);
-            let t = self.phases.lap(Phase::FluidLists, t);
-            self.boundary.list_fixed(pos, &self.grid, radius, owned);
-            self.phases.stop(Phase::WallLists, t);
-            if let Some(s) = &mut self.share {
-                s.measure_work(
-                    &self.fluid_lists,
-                    &self.boundary,
-                    &self.grid,
-                    &self.sorted_at,
-                );
-            }
-            self.grid_valid = true;
-            self.bodies_valid = false;
+            self.list_sorted(t);
             // The first cuts followed the particle counts: cut again by the work at once (the
             // particles have not moved: the one-rank order and every bit stay; not counted as
             // a sort of the run).
@@ -298,6 +279,14 @@ impl FluidSystem {
                 "the checkpoint's particles are not in the order of their last sort: the file is damaged or from another build".into(),
             ));
         }
+        self.list_sorted(self.phases.start());
+        Ok(())
+    }
+
+    /// After a sort (the grid's ranges and `sorted_at` are those of the sorted particles): on
+    /// several ranks the keys, ownership and halo links, then the fluid and wall lists of the
+    /// positions at the sort, and the ranks' work. `t`: the phase clock's lap start.
+    fn list_sorted(&mut self, t: Option<std::time::Instant>) {
         if let Some(s) = &mut self.share {
             s.after_sort(self.grid.last_order(), &self.grid, &self.sorted_at);
         }
@@ -305,18 +294,14 @@ impl FluidSystem {
         let owned = self.share.as_ref().map(|s| &s.owned[..]);
         self.fluid_lists
             .build_for(pos, pos, &self.grid, radius, true, owned);
+        let t = self.phases.lap(Phase::FluidLists, t);
         self.boundary.list_fixed(pos, &self.grid, radius, owned);
+        self.phases.stop(Phase::WallLists, t);
         if let Some(s) = &mut self.share {
-            s.measure_work(
-                &self.fluid_lists,
-                &self.boundary,
-                &self.grid,
-                &self.sorted_at,
-            );
+            s.measure_work(&self.fluid_lists, &self.boundary, &self.grid, pos);
         }
         self.grid_valid = true;
         self.bodies_valid = false;
-        Ok(())
     }
 
     /// [`Self::prepare`], then the fluid's neighbours among the moving blocks' boundary

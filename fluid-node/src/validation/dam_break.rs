@@ -170,3 +170,41 @@ pub fn self_convergence(runs: &[DamBreak; 3]) -> (f64, f64, f64) {
     let e2 = diff(&runs[1], &runs[2]);
     (e1, e2, (e1 / e2).log2())
 }
+
+/// A dam break in a narrow tank, fixed walls only: a column 0.2 m long and 0.15 m high at one
+/// end of a 0.6 m × 0.06 m tank, dx = 1 cm (1 800 particles), two gauges (one in the column, one
+/// the front reaches) and a probe at the toe, to `end` seconds with frames every `interval`. The
+/// runs of the fluid on several ranks use it (`crate::ranks`'s tests, tests/tests/mpi.rs): the
+/// tank's 0.6 m along x hold 5 slabs at most.
+pub fn narrow_dam_break(end: f64, interval: f64) -> String {
+    format!(
+        r#"name = "ranks_dam_break"
+[time]
+end = {end}
+dt_max = 1e-3
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.6, 0.06, 0.3]
+[output]
+interval = {interval}
+[fluid]
+solver = "wcsph"
+dx = 0.01
+[[fluid.water]]
+shape = {{ type = "box", min = [0.0, 0.0, 0.0], max = [0.2, 0.06, 0.15] }}
+[[gauge]]
+name = "dam"
+x = 0.1
+y = 0.03
+[[gauge]]
+name = "far"
+x = 0.5
+y = 0.03
+[[probe]]
+name = "toe"
+position = [0.3, 0.03, 0.01]
+
+{}"#,
+        tank(0.6, 0.06, 0.3, 0.02)
+    )
+}
