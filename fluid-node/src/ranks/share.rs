@@ -277,39 +277,58 @@ impl Share {
         self.stats.waiting += t.elapsed();
     }
 
-    /// Sends the rates of the owned particles other ranks hold and takes those of the halo
-    /// from their owners: after every evaluation of the rates.
-    pub fn share_rates(&mut self, acceleration: &mut [Vector], density_rate: &mut [Real]) {
+    /// Sends N values of each owned particle other ranks hold (`get(i)` of local particle i)
+    /// and returns those of the halo from their owners, as (local index, values): after every
+    /// pass that computed per-particle values for the owned particles only.
+    pub fn share<const N: usize>(
+        &mut self,
+        get: impl Fn(usize) -> [Real; N],
+    ) -> Vec<(u32, [Real; N])> {
         let t = Instant::now();
         let out: Vec<(usize, Vec<u8>)> = self
             .links
             .iter()
             .map(|l| {
-                let mut b = Vec::with_capacity(32 * l.send.len());
+                let mut b = Vec::with_capacity(8 * N * l.send.len());
                 for &k in &l.send {
-                    let (a, d) = (acceleration[k as usize], density_rate[k as usize]);
-                    wire::put_f64(&mut b, [a.x, a.y, a.z, d]);
+                    wire::put_f64(&mut b, get(k as usize));
                 }
                 (l.rank, b)
             })
             .collect();
         self.stats.bytes_sent += out.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
         let got = self.comm.exchange(out);
+        let mut halo = Vec::with_capacity(self.stats.halo);
         for (l, bytes) in self.links.iter().zip(got) {
             assert_eq!(
                 bytes.len(),
-                32 * l.receive.len(),
-                "rank {} sent the rates of another halo: the ranks disagree on the cuts",
+                8 * N * l.receive.len(),
+                "rank {} sent the values of another halo: the ranks disagree on the cuts",
                 l.rank
             );
             let mut w = wire::f64s(&bytes);
             for &k in &l.receive {
-                let mut next = || w.next().unwrap();
-                acceleration[k as usize] = Vector::new(next(), next(), next());
-                density_rate[k as usize] = next();
+                let mut v = [0.0; N];
+                for v in &mut v {
+                    *v = w.next().unwrap();
+                }
+                halo.push((k, v));
             }
         }
         self.stats.waiting += t.elapsed();
+        halo
+    }
+
+    /// [`Self::share`] of the rates (acceleration, dρ/dt): after every evaluation of them.
+    pub fn share_rates(&mut self, acceleration: &mut [Vector], density_rate: &mut [Real]) {
+        let halo = self.share(|k| {
+            let a = acceleration[k];
+            [a.x, a.y, a.z, density_rate[k]]
+        });
+        for (k, [x, y, z, d]) in halo {
+            acceleration[k as usize] = Vector::new(x, y, z);
+            density_rate[k as usize] = d;
+        }
     }
 
     /// The owned particles of every rank on rank 0, in one-rank order: `fields(i)` are particle
