@@ -119,21 +119,32 @@ fn the_dam_break_writes_the_same_bits_on_any_rank_count_and_over_tcp() {
     assert!(steps >= 300, "only {steps} steps");
     let gauges = std::fs::read_to_string(one.join("gauges.csv")).unwrap();
     assert!(gauges.lines().count() > 10, "gauges.csv: {gauges}");
-    let mut dirs = vec![one.clone()];
-    for (tag, args) in [
-        ("2-ranks", &["--fluid-ranks", "2"][..]),
-        ("3-ranks", &["--fluid-ranks", "3"][..]),
-        (
-            "2-ranks-tcp",
-            &[
-                "--fluid-ranks",
-                "2",
-                "--mpirun",
-                "mpirun --mca btl tcp,self",
-            ][..],
-        ),
-    ] {
-        let dir = dam_break(tag, args);
+    same_bits_as(
+        &one,
+        &dam_break_text(),
+        &[
+            ("2-ranks", &["--fluid-ranks", "2"]),
+            ("3-ranks", &["--fluid-ranks", "3"]),
+            (
+                "2-ranks-tcp",
+                &[
+                    "--fluid-ranks",
+                    "2",
+                    "--mpirun",
+                    "mpirun --mca btl tcp,self",
+                ],
+            ),
+        ],
+    );
+}
+
+/// Runs scene `text` with each of `runs` (tag, arguments): every file of the run `one` and its
+/// summary (timings and memory aside), the same bits. Removes the runs and `one`.
+fn same_bits_as(one: &Path, text: &str, runs: &[(&str, &[&str])]) {
+    let names = compared_files(one);
+    let reference = comparable_summary(one);
+    for (tag, args) in runs {
+        let dir = run_scene(tag, text, args);
         assert_eq!(compared_files(&dir), names, "{tag}: other files written");
         for n in &names {
             let a = std::fs::read(one.join(n)).unwrap();
@@ -151,11 +162,25 @@ fn the_dam_break_writes_the_same_bits_on_any_rank_count_and_over_tcp() {
             reference,
             "{tag}: summary.json (timings and memory aside)"
         );
-        dirs.push(dir);
+        std::fs::remove_dir_all(dir).unwrap();
     }
-    for d in dirs {
-        std::fs::remove_dir_all(d).unwrap();
-    }
+    std::fs::remove_dir_all(one).unwrap();
+}
+
+/// The dam break with the fluid solver `solver`.
+fn dam_break_with(solver: &str) -> String {
+    let text = dam_break_text();
+    assert!(text.contains("solver = \"wcsph\""));
+    text.replace("solver = \"wcsph\"", &format!("solver = \"{solver}\""))
+}
+
+#[test]
+fn the_paper_sph_writes_the_same_bits_on_one_and_two_ranks() {
+    let text = dam_break_with("muller");
+    let one = run_scene("muller-1-rank", &text, &[]);
+    let steps = summary(&one)["stats"]["steps"].as_u64().unwrap();
+    assert!(steps >= 100, "only {steps} steps");
+    same_bits_as(&one, &text, &[("muller-2-ranks", &["--fluid-ranks", "2"])]);
 }
 
 /// The MPI rank of a process, from the environment its launcher gave it (Open MPI's
@@ -344,9 +369,9 @@ fn more_ranks_than_the_water_fills_are_refused_naming_the_most() {
 
 #[test]
 fn what_ranks_do_not_do_yet_is_refused_before_the_run() {
-    let muller = dam_break_text().replace("solver = \"wcsph\"", "solver = \"muller\"");
-    let (_, dir) = fresh("mpi-muller-check");
-    let scene = scene_file(&dir, &muller);
+    let dfsph = dam_break_with("dfsph");
+    let (_, dir) = fresh("mpi-dfsph-check");
+    let scene = scene_file(&dir, &dfsph);
     let out = Command::new(bin("coupler"))
         .arg("check")
         .arg(&scene)
@@ -357,16 +382,16 @@ fn what_ranks_do_not_do_yet_is_refused_before_the_run() {
     let err = stderr(&out);
     assert!(!out.status.success(), "{err}");
     for says in [
-        "the fluid solver 'muller' does not run on several ranks yet",
+        "the fluid solver 'dfsph' does not run on several ranks yet",
         "wcsph",
         "or run with --fluid-ranks 1",
     ] {
         assert!(err.contains(says), "{says}: {err}");
     }
     std::fs::remove_file(scene).unwrap();
-    let err = refused_run("muller-run", &muller, &["--fluid-ranks", "2"]);
+    let err = refused_run("dfsph-run", &dfsph, &["--fluid-ranks", "2"]);
     assert!(
-        err.contains("'muller' does not run on several ranks"),
+        err.contains("'dfsph' does not run on several ranks"),
         "{err}"
     );
 }

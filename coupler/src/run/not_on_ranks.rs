@@ -70,8 +70,8 @@ mod tests {
                 assert!(msg.contains(&says), "{says}: {msg}");
             }
         }
-        s.fluid.as_mut().unwrap().solver = "muller".into();
+        s.fluid.as_mut().unwrap().solver = "dfsph".into();
         let msg = solver(&s, None, 3).unwrap_err();
-        assert!(msg.contains("'muller'"), "the scene's solver: {msg}");
+        assert!(msg.contains("'dfsph'"), "the scene's solver: {msg}");
     }
 }

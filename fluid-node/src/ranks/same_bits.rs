@@ -5,6 +5,7 @@
 use super::comm::{Comm, ThreadRanks};
 use super::share::HaloStats;
 use crate::methods::SphMethod;
+use crate::methods::muller::Muller;
 use crate::methods::wcsph::Wcsph;
 use crate::sph::Sph;
 use shared::scene::{CouplingScheme, Scene};
@@ -117,6 +118,11 @@ fn same_bits_on_one_two_and_three_ranks<S: SphMethod>(steps: usize) {
 #[test]
 fn wcsph_gives_the_same_bits_on_one_two_and_three_ranks() {
     same_bits_on_one_two_and_three_ranks::<Wcsph>(800);
+}
+
+#[test]
+fn muller_gives_the_same_bits_on_one_two_and_three_ranks() {
+    same_bits_on_one_two_and_three_ranks::<Muller>(400);
 }
 
 /// Steps `steps` steps, then returns the checkpoint (rank 0's; empty on the others).

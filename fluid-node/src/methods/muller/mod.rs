@@ -73,6 +73,16 @@ const COMPRESSION_WARNING: Real = 0.01;
 /// Steps between two repeated compression warnings.
 const WARNING_EVERY: u64 = 1000;
 
+/// Units per unit of compression in the mean compression's integer sum: exact, so the mean is
+/// the same whatever order the particles are added in, on any number of threads or ranks.
+const COMPRESSION_UNITS: Real = (1u64 << 32) as Real;
+
+/// A particle's compression max(ρ/ρ0 − 1, 0) in [`COMPRESSION_UNITS`], capped at 100 (far past
+/// any run that has not stopped), so that 4·10⁷ particles sum below 2⁶⁴.
+fn compression_count(relative: Real) -> u64 {
+    (relative.clamp(0.0, 100.0) * COMPRESSION_UNITS).round() as u64
+}
+
 #[derive(serde::Serialize, serde::Deserialize)]
 pub struct Muller {
     poly6: Poly6,
@@ -106,7 +116,8 @@ impl Muller {
     /// Eq. 12 (fluid and boundary particles both carry mass), then Eq. 17, and in the same pass
     /// the records the force loop reads (muller_pairs.rs); returns the mean compression, the
     /// average of max(ρ/ρ0 − 1, 0) over all particles (a free surface's low summed densities do
-    /// not hide compression elsewhere).
+    /// not hide compression elsewhere). On several ranks, the sums of the owned particles; the
+    /// halo's density and pressure come from their owners.
     fn density_and_pressure(&mut self, sys: &mut FluidSystem) -> Real {
         let t = sys.phases.start();
         let (m, k, rho_ref, clamp) = (sys.mass, self.stiffness, self.rest_density, self.clamp);
@@ -119,8 +130,9 @@ impl Muller {
         let p = &mut sys.particles;
         let (pos, vel) = (&p.position, &p.velocity);
         let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
+        let owned = sys.share.as_ref().map(|s| &s.owned[..]);
         self.records.resize(p.len(), Packed::default());
-        let compressed: Real = p
+        let mut compressed: u64 = p
             .density
             .par_iter_mut()
             .zip(p.pressure.par_iter_mut())
@@ -128,6 +140,9 @@ impl Muller {
             .enumerate()
             .with_max_len(tasks::PARTICLES)
             .map(|(i, ((rho, pr), rec))| {
+                if owned.is_some_and(|o| !o[i]) {
+                    return 0;
+                }
                 // The fluid neighbours' sum came with this step's lists (rebuilt every step at
                 // these positions, `Layout::poly6_sums`); the boundary's is summed here.
                 let mut sum = self_weight + c * lists.poly6_sum(i);
@@ -139,10 +154,22 @@ impl Muller {
                 let pressure = k * (*rho - rho_ref);
                 *pr = if clamp { pressure.max(0.0) } else { pressure };
                 *rec = record(&pos[i], &origin, &vel[i], *pr, *rho);
-                ((*rho - rho_ref) / rho_ref).max(0.0)
+                compression_count((*rho - rho_ref) / rho_ref)
             })
             .sum();
         let t = sys.phases.lap(Phase::Density, t);
+        if let Some(s) = &mut sys.share {
+            let halo = s.share(|i| [p.density[i], p.pressure[i]]);
+            for (i, [rho, pr]) in halo {
+                let i = i as usize;
+                (p.density[i], p.pressure[i]) = (rho, pr);
+                self.records[i] = record(&pos[i], &origin, &vel[i], pr, rho);
+            }
+            let mut total = [compressed];
+            s.comm().sum(&mut total);
+            compressed = total[0];
+        }
+        let t = sys.phases.lap(Phase::Halo, t);
         let this = &*self;
         sys.boundary
             .update(&this.poly6, &sys.particles, &sys.gravity, rho_ref, |p| {
@@ -151,7 +178,7 @@ impl Muller {
         sys.boundary
             .pack(|x, v, pw, rw| record(x, &origin, v, pw, rw));
         sys.phases.stop(Phase::WallPressures, t);
-        compressed / sys.particles.len().max(1) as Real
+        compressed as Real / COMPRESSION_UNITS / sys.global_len().max(1) as Real
     }
 
     /// The f32 constants of the pair loops.
@@ -170,11 +197,14 @@ impl Muller {
     /// force sums read the records of the density pass, never `position` or `velocity`, so a
     /// particle can move as soon as its acceleration is known: one pass over the particles.
     /// (An integration pass of its own gained nothing from a second thread:
-    /// docs/journal/2026-11-performance.md, "Inner loops, fifth round".)
+    /// docs/journal/2026-11-performance.md, "Inner loops, fifth round".) On several ranks the
+    /// owned particles move in that pass; the halo's accelerations come from their owners and
+    /// the halo moves after, by the same two lines.
     fn accelerate_and_move(&self, sys: &mut FluidSystem, dt: Real) {
         let (m, g) = (sys.mass, sys.gravity);
         let pc = self.pair_constants();
         let (lists, boundary, records) = (&sys.fluid_lists, &sys.boundary, &self.records);
+        let owned = sys.share.as_ref().map(|s| &s.owned[..]);
         let p = &mut sys.particles;
         let (rho, pen) = (&p.density, &p.penalty);
         p.acceleration
@@ -184,6 +214,9 @@ impl Muller {
             .enumerate()
             .with_max_len(tasks::PARTICLES)
             .for_each(|(i, ((a, v), x))| {
+                if owned.is_some_and(|o| !o[i]) {
+                    return;
+                }
                 let me = &records[i];
                 // Fluid neighbours: Eq. 14 with Müller's symmetric (p_i + p_j)/2, Eq. 18 with
                 // Müller's sign (it damps the velocity difference).
@@ -197,6 +230,17 @@ impl Muller {
                 *v += *a * dt;
                 *x += *v * dt;
             });
+        if let Some(s) = &mut sys.share {
+            let t = sys.phases.start();
+            let halo = s.share(|i| p.acceleration[i].into());
+            for (i, a) in halo {
+                let i = i as usize;
+                p.acceleration[i] = a.into();
+                p.velocity[i] += p.acceleration[i] * dt;
+                p.position[i] += p.velocity[i] * dt;
+            }
+            sys.phases.stop(Phase::Halo, t);
+        }
     }
 }
 
@@ -204,6 +248,7 @@ impl SphMethod for Muller {
     const NAME: &'static str = "muller";
     const DESCRIPTION: &'static str = "the paper's SPH (Müller et al. 2003): summed density, linear EOS, spiky pressure, symplectic Euler";
     const PARTICLE_STEPS_PER_SECOND: Option<f64> = Some(5.33e6);
+    const SPLITS: bool = true;
     type Params = MullerParams;
     type Kernel = Poly6;
 
@@ -323,7 +368,7 @@ impl SphMethod for Muller {
             |i, pw, rw, r, len| {
                 spiky.gradient(r, len) * (-m * m * (p.pressure[i] + pw) / (2.0 * rw * p.density[i]))
             },
-            None,
+            sys.share.as_ref().map(|s| (s, &sys.grid)),
         );
     }
 
