@@ -22,18 +22,16 @@ pub const HALO_CELLS: f64 = 2.0;
 /// Narrowest slab, in grid cells: a slab narrower than its two halos would hold more copies
 /// than particles of its own, and trade most of its water every step.
 pub const MIN_SLAB_CELLS: u32 = 4;
-/// Bytes of the fluid node's per-particle arrays (`fluid_node::core::Particles`): ten arrays of
-/// f64, six of them 3-vectors of 24 B (position, velocity, acceleration, penalty force, and
-/// position and velocity at the step's start) and four scalars of 8 B (density, pressure,
-/// density rate, density at the step's start).
-pub const PARTICLE_ARRAY_BYTES: f64 = 6.0 * 24.0 + 4.0 * 8.0;
-/// Neighbours listed per particle: ~33 within the support of a full 3D lattice at h = 1.3 dx,
-/// ~50 within the lists' reach of 1.1 supports.
-pub const NEIGHBOURS_PER_PARTICLE: f64 = 50.0;
-/// Bytes a rank spends per particle it holds, own or halo: [`PARTICLE_ARRAY_BYTES`] plus a
-/// u32 index per listed neighbour. Estimated from the arrays, not measured (the whole node's
-/// measured figure is [`crate::run::sizes::BYTES_PER_PARTICLE`]).
-pub const BYTES_PER_RANK_PARTICLE: f64 = PARTICLE_ARRAY_BYTES + 4.0 * NEIGHBOURS_PER_PARTICLE;
+/// Peak resident bytes of a rank per water particle it holds, own or halo, measured: the
+/// per-particle arrays, the WCSPH records and the neighbour lists (~100 entries within the
+/// lists' reach of 1.1 supports). From `fluid-bench --ranks 2 --threads 1 --sizes 1000000`
+/// (docs/PERFORMANCE.md, 28 Nov 2026): 737 MB for 992 319 water and ~642 000 boundary
+/// particles in one process, 464 MB on a rank holding 577 806 of the water and all the
+/// boundary; two equations, two unknowns: this and [`BYTES_PER_BOUNDARY_PARTICLE`].
+pub const BYTES_PER_RANK_PARTICLE: f64 = 660.0;
+/// Peak resident bytes per boundary (wall, terrain, block) particle, measured as above. Every
+/// rank holds every boundary particle.
+pub const BYTES_PER_BOUNDARY_PARTICLE: f64 = 90.0;
 
 /// The slabs of a scene's domain: the axis they are cut along, its length and a grid cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,10 +79,10 @@ pub struct PerRank {
     /// Halo particles a rank keeps: its own × 2 sides × [`HALO_CELLS`] cells over its slab's
     /// width, at most the water it does not own.
     pub halo: f64,
-    /// Boundary particles a rank holds: the walls' / N.
+    /// Boundary particles a rank holds: all of them.
     pub boundary: f64,
-    /// Memory of one rank [bytes]: [`BASE_BYTES`] + [`BYTES_PER_RANK_PARTICLE`] × (own + halo
-    /// + boundary particles).
+    /// Memory of one rank [bytes]: [`BASE_BYTES`] + [`BYTES_PER_RANK_PARTICLE`] × (own + halo)
+    /// + [`BYTES_PER_BOUNDARY_PARTICLE`] × boundary particles.
     pub memory: f64,
 }
 
@@ -102,14 +100,16 @@ impl PerRank {
         } else {
             0.0
         };
-        let boundary = whole.boundary_particles / n;
+        let boundary = whole.boundary_particles;
         Some(PerRank {
             ranks,
             slabs,
             particles,
             halo,
             boundary,
-            memory: BASE_BYTES + BYTES_PER_RANK_PARTICLE * (particles + halo + boundary),
+            memory: BASE_BYTES
+                + BYTES_PER_RANK_PARTICLE * (particles + halo)
+                + BYTES_PER_BOUNDARY_PARTICLE * boundary,
         })
     }
 
@@ -117,7 +117,7 @@ impl PerRank {
     pub fn describe(&self) -> String {
         let s = &self.slabs;
         format!(
-            "on {} fluid ranks: slabs of {:.3} m along {} (the domain's {:.3} m); each rank about {:.3e} water particles + {:.3e} halo ({:.0} % more: 2 × {} cells of {:.3} m) + {:.3e} boundary, about {:.0} MB of memory ({} B per particle, estimated from the particle arrays and neighbour lists)",
+            "on {} fluid ranks: slabs of {:.3} m along {} (the domain's {:.3} m); each rank about {:.3e} water particles + {:.3e} halo ({:.0} % more: 2 × {} cells of {:.3} m) + {:.3e} boundary (every rank holds them all), about {:.0} MB of memory ({} B per water and {} B per boundary particle, measured)",
             self.ranks,
             s.length / f64::from(self.ranks),
             s.axis_name(),
@@ -129,7 +129,8 @@ impl PerRank {
             s.cell,
             self.boundary,
             self.memory / 1e6,
-            BYTES_PER_RANK_PARTICLE
+            BYTES_PER_RANK_PARTICLE,
+            BYTES_PER_BOUNDARY_PARTICLE
         )
     }
 }
@@ -241,7 +242,7 @@ mod tests {
             "along x",
             "halo (24 % more",
             "MB of memory",
-            "376 B",
+            "660 B per water and 90 B per boundary particle, measured",
         ] {
             assert!(line.contains(says), "{says}: {line}");
         }

@@ -70,7 +70,7 @@ pub struct Share {
     comm: Arc<dyn Comm>,
     /// The cut axis: the domain's longest horizontal one.
     axis: usize,
-    /// None until the first sort.
+    /// The cuts: from [`Self::first_cut`] on.
     slabs: Option<Slabs>,
     /// Per local particle (sorted order): whether this rank owns it.
     pub owned: Vec<bool>,
@@ -124,7 +124,7 @@ impl Share {
 
     /// The rank owning the point `x` (instruments read where they stand).
     pub fn owner_at(&self, grid: &CellGrid, x: &Vector) -> usize {
-        let slabs = self.slabs.as_ref().expect("the first sort cut the slabs");
+        let slabs = self.slabs.as_ref().expect("the first cut made the slabs");
         slabs.owner(self.column(grid, x))
     }
 
@@ -140,31 +140,16 @@ impl Share {
     }
 
     /// Before a sort: hands every particle to the ranks that hold its column now, and leaves
-    /// this rank's in key order. The first call cuts the slabs from the particle counts (every
-    /// rank starts with every particle); later calls move the cuts when the work drifted past
-    /// [`REBALANCE`].
+    /// this rank's in key order; moves the cuts first when the work drifted past [`REBALANCE`].
     pub fn redistribute(&mut self, p: &mut Particles, grid: &CellGrid) -> Result<(), String> {
         let t = Instant::now();
         let me = self.rank();
-        let columns = grid.dims()[self.axis];
-        let first = self.slabs.is_none();
-        if first {
-            let mut counts = vec![0u64; columns];
-            for x in &p.position {
-                counts[self.column(grid, x)] += 1;
-            }
-            self.slabs = Some(Slabs::balanced(self.axis, &counts, self.comm.size())?);
-            self.key = (0..p.len() as u64).collect();
-            self.owned = vec![true; p.len()];
-        } else {
-            if self.stats.imbalance > REBALANCE {
-                self.slabs = Some(Slabs::balanced(self.axis, &self.work, self.comm.size())?);
-                self.stats.rebalances += 1;
-            }
+        if self.stats.imbalance > REBALANCE {
+            self.slabs = Some(Slabs::balanced(self.axis, &self.work, self.comm.size())?);
+            self.stats.rebalances += 1;
         }
-        let slabs = self.slabs.as_ref().unwrap();
-        // What each rank is sent of the particles this rank owns (all of them, at the start,
-        // on every rank: each keeps its own held columns and sends nothing).
+        let slabs = self.slabs.as_ref().expect("the first cut made the slabs");
+        // What each rank is sent of the particles this rank owns.
         let size = self.comm.size();
         let mut bundles: Vec<Vec<u8>> = vec![Vec::new(); size];
         for i in 0..p.len() {
@@ -173,23 +158,19 @@ impl Share {
             }
             let c = self.column(grid, &p.position[i]);
             for (q, bundle) in bundles.iter_mut().enumerate() {
-                if slabs.held(q).contains(&c) && (q == me || !first) {
+                if slabs.held(q).contains(&c) {
                     encode(p, i, self.key[i], bundle);
                 }
             }
         }
         let mine = std::mem::take(&mut bundles[me]);
-        let received = if first {
-            Vec::new()
-        } else {
-            let out: Vec<(usize, Vec<u8>)> = bundles
-                .into_iter()
-                .enumerate()
-                .filter(|(q, _)| *q != me)
-                .collect();
-            self.stats.bytes_sent += out.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
-            self.comm.exchange(out)
-        };
+        let out: Vec<(usize, Vec<u8>)> = bundles
+            .into_iter()
+            .enumerate()
+            .filter(|(q, _)| *q != me)
+            .collect();
+        self.stats.bytes_sent += out.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
+        let received = self.comm.exchange(out);
         // This rank's particles, in key order.
         let mut items: Vec<(u64, &[u8])> = std::iter::once(&mine)
             .chain(received.iter())
@@ -448,22 +429,43 @@ impl Share {
         Some(out)
     }
 
-    /// After a restore (every rank holds the whole state, in the order of the last sort):
-    /// keeps this rank's slab and halo by the positions at that sort, as the first sort would
-    /// have, and lists them anew (the sort of a sorted set is the identity).
-    pub fn restore(&mut self, p: &mut Particles, sorted_at: &mut Vec<Vector>, grid: &CellGrid) {
+    /// Before the particles exist here (every rank has the whole water, `positions` in
+    /// one-rank order: the fill's, or a checkpoint's): cuts the slabs from the particle counts
+    /// and returns the indices of the particles this rank holds (its slab and halo), in order.
+    /// Only those become particles on this rank; their indices are their keys until the first
+    /// sort (module doc), which is then the one-rank sort restricted to them.
+    pub fn first_cut(
+        &mut self,
+        grid: &CellGrid,
+        positions: &[Vector],
+    ) -> Result<Vec<usize>, String> {
         let columns = grid.dims()[self.axis];
         let mut counts = vec![0u64; columns];
-        for x in sorted_at.iter() {
+        for x in positions {
             counts[self.column(grid, x)] += 1;
         }
-        let slabs = Slabs::balanced(self.axis, &counts, self.comm.size())
-            .expect("the slabs fit the grid (checked at set-up)");
+        let slabs = Slabs::balanced(self.axis, &counts, self.comm.size())?;
         let me = self.rank();
         let (held, own) = (slabs.held(me), slabs.owned(me));
-        let keep: Vec<usize> = (0..p.len())
-            .filter(|&i| held.contains(&self.column(grid, &sorted_at[i])))
+        let keep: Vec<usize> = (0..positions.len())
+            .filter(|&i| held.contains(&self.column(grid, &positions[i])))
             .collect();
+        self.key = keep.iter().map(|&i| i as u64).collect();
+        self.owned = keep
+            .iter()
+            .map(|&i| own.contains(&self.column(grid, &positions[i])))
+            .collect();
+        self.slabs = Some(slabs);
+        Ok(keep)
+    }
+
+    /// After a restore (every rank holds the whole state, in the order of the last sort):
+    /// keeps this rank's slab and halo by the positions at that sort, as the first cut does,
+    /// to be listed anew (the sort of a sorted set is the identity).
+    pub fn restore(&mut self, p: &mut Particles, sorted_at: &mut Vec<Vector>, grid: &CellGrid) {
+        let keep = self
+            .first_cut(grid, sorted_at)
+            .expect("the slabs fit the grid (checked at set-up)");
         let mut q = Particles::new(vec![Vector::zeros(); keep.len()], vec![0.0; keep.len()]);
         for (k, &i) in keep.iter().enumerate() {
             set_state(&mut q, k, &state(p, i));
@@ -471,12 +473,6 @@ impl Share {
         }
         *p = q;
         *sorted_at = keep.iter().map(|&i| sorted_at[i]).collect();
-        self.key = keep.iter().map(|&i| i as u64).collect();
-        self.owned = sorted_at
-            .iter()
-            .map(|x| own.contains(&self.column(grid, x)))
-            .collect();
-        self.slabs = Some(slabs);
         self.started = true;
     }
 

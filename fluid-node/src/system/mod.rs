@@ -140,13 +140,25 @@ impl FluidSystem {
         let terrain = eq22.terrain(init);
         let lead = ranks.as_ref().is_none_or(|c| c.rank() == 0);
         let recorder = setup::recorder(ctx, init, lead)?;
-        let share = ranks
+        let mut share = ranks
             .map(|c| Share::new(c, &grid, init.fill.positions.len()))
             .transpose()
             .map_err(SolverError::Failed)?;
+        // On several ranks, only this rank's slab and halo of the filled water become particles.
+        let (positions, density) = match &mut share {
+            None => (init.fill.positions.clone(), density),
+            Some(s) => {
+                let all = &init.fill.positions;
+                let keep = s.first_cut(&grid, all).map_err(SolverError::Failed)?;
+                (
+                    keep.iter().map(|&i| all[i]).collect(),
+                    keep.iter().map(|&i| density[i]).collect(),
+                )
+            }
+        };
         let sys = Self {
             solver,
-            particles: Particles::new(init.fill.positions.clone(), density),
+            particles: Particles::new(positions, density),
             grid,
             fluid_lists: {
                 let mut lists = NeighborLists::default();
