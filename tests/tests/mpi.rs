@@ -283,7 +283,21 @@ fn a_killed_rank_stops_the_run_at_once_and_leaves_nothing_behind() {
         took.as_secs_f64() < STEP_TIMEOUT_S + 5.0,
         "the coupler took {took:?} to stop: {err}"
     );
-    assert!(err.contains("fluid node"), "the fluid node is named: {err}");
+    // The coupler's own error names the node and, from the launcher's word, the rank.
+    let error = err
+        .lines()
+        .find(|l| l.starts_with("coupler: error:"))
+        .unwrap_or_else(|| panic!("no error line: {err}"));
+    assert!(
+        error.contains("fluid node"),
+        "the fluid node is named: {error}"
+    );
+    if let Some(r) = rank {
+        assert!(
+            error.contains(&format!("its launcher reports: process rank {r} ")),
+            "rank {r} is named: {error}"
+        );
+    }
     // What was written stays.
     assert!(dir.join("scene.toml").is_file());
     let text = std::fs::read_to_string(&gauges).unwrap();

@@ -1,10 +1,14 @@
 //! Finding and starting the node processes, and ending them whatever happens.
 
+use crate::run::rank_report::RankReport;
 use shared::protocol::Role;
 use shared::transport::RunId;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus};
 use std::time::{Duration, Instant};
+
+/// How long a dead launcher's last words are waited for.
+const RANK_REPORT_WAIT: Duration = Duration::from_millis(500);
 
 /// How to start one node.
 #[derive(Debug, Clone)]
@@ -16,6 +20,9 @@ pub struct NodeCommand {
     /// Variables set in the process's environment besides the coupler's own (an MPI
     /// launcher's, [`crate::run::launcher`]).
     pub env: Vec<(String, String)>,
+    /// Whether the program is an MPI launcher starting the node's ranks: its standard error is
+    /// read for the rank it names when one dies ([`crate::run::rank_report`]).
+    pub launcher: bool,
 }
 
 impl NodeCommand {
@@ -30,6 +37,7 @@ impl NodeCommand {
             program,
             args: Vec::new(),
             env: Vec::new(),
+            launcher: false,
         })
     }
 
@@ -42,6 +50,7 @@ impl NodeCommand {
             program,
             args: words.collect(),
             env: Vec::new(),
+            launcher: false,
         }
     }
 
@@ -86,11 +95,14 @@ pub struct NodeProcess {
     pub program: PathBuf,
     child: Child,
     status: Option<ExitStatus>,
+    /// An MPI launcher's word on a dead rank.
+    ranks: Option<RankReport>,
 }
 
 impl NodeProcess {
     /// Starts `cmd` joining run `id` (with `transport`, the arguments that say how to reach
-    /// the coupler); the node inherits stdout and stderr, so its own messages reach the user.
+    /// the coupler); the node inherits stdout and stderr, so its own messages reach the user
+    /// (an MPI launcher's stderr passes through the coupler, which reads it for a dead rank).
     pub fn spawn(
         cmd: &NodeCommand,
         id: &RunId,
@@ -114,7 +126,10 @@ impl NodeProcess {
                 Ok(())
             });
         }
-        let child = command
+        if cmd.launcher {
+            command.stderr(std::process::Stdio::piped());
+        }
+        let mut child = command
             .args(&cmd.args)
             .arg("--prefix")
             .arg(id.as_str())
@@ -129,16 +144,30 @@ impl NodeProcess {
                     program.display()
                 )
             })?;
+        let ranks = child.stderr.take().map(RankReport::follow);
         Ok(NodeProcess {
             role: cmd.role,
             program,
             child,
             status: None,
+            ranks,
         })
     }
 
     pub fn pid(&self) -> u32 {
         self.child.id()
+    }
+
+    /// How the process ended, once it has ([`describe_exit`]); for an MPI launcher, with what
+    /// it said about the rank that died, if it named one.
+    pub fn ended_how(&mut self) -> Option<String> {
+        let how = describe_exit(self.exited()?);
+        // The launcher's last lines follow its exit by moments.
+        let said = self.ranks.as_ref().and_then(|r| r.said(RANK_REPORT_WAIT));
+        Some(match said {
+            Some(rank) => format!("{how}; its launcher reports: {rank}"),
+            None => how,
+        })
     }
 
     /// The exit status if the process has ended (never blocks).
@@ -272,6 +301,7 @@ mod tests {
                 "trap '' TERM; sleep 30 & sleep 30 & wait".into(),
             ],
             env: vec![("RW_TREE_TEST".into(), "1".into())],
+            launcher: false,
         };
         let id = RunId::parse("treekill").unwrap();
         let mut p = NodeProcess::spawn(&cmd, &id, &[]).unwrap();

@@ -82,6 +82,7 @@ impl Launcher {
             program: PathBuf::from(self.program()),
             args: Vec::new(),
             env: Vec::new(),
+            launcher: false,
         };
         probe.check().map_err(|_| {
             format!(
@@ -176,6 +177,7 @@ impl Launcher {
             program,
             args,
             env,
+            launcher: true,
         }
     }
 
@@ -219,6 +221,7 @@ mod tests {
             program: PathBuf::from("/opt/rw/fluid-node"),
             args: vec!["--threads".into(), "1".into()],
             env: Vec::new(),
+            launcher: false,
         }
     }
 

@@ -21,6 +21,7 @@ pub mod output;
 pub mod per_rank;
 pub mod povray;
 pub mod progress;
+pub mod rank_report;
 pub mod resolution;
 pub mod resume;
 pub mod scenes;

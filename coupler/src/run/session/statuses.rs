@@ -3,7 +3,6 @@
 
 use super::{Peer, SLICE, Session};
 use crate::run::error::RunError;
-use crate::run::launch::describe_exit;
 use shared::protocol::*;
 use shared::scene::CouplingScheme;
 use shared::transport::{Kind, Party};
@@ -131,7 +130,7 @@ impl Session {
                 (!run.alive(Party::from(p.role), p.pid)).then(|| run.gone_how().to_string())
             };
             let how = match p.process.as_mut() {
-                Some(proc_) => match proc_.exited().map(describe_exit) {
+                Some(proc_) => match proc_.ended_how() {
                     None if remote => gone(p),
                     how => how,
                 },
