@@ -1,6 +1,6 @@
 //! The fluid node on real MPI ranks (`--features tests/mpi`, which builds the fluid node with
 //! MPI; Debian's openmpi-bin and libopenmpi-dev): a small dam break writes byte-identical results
-//! on 1, 2 and 3 ranks and over TCP only; a rank killed mid-run stops the run at once, named,
+//! on 1, 2, 3 and 4 ranks and over TCP only; a rank killed mid-run stops the run at once, named,
 //! with what was written kept and nothing of the run left (processes, shared memory); and what
 //! ranks cannot do is refused before anything is written: a missing launcher, more ranks than
 //! the water fills, a solver that does not split. A run checkpointed on 2 ranks and killed
@@ -125,6 +125,7 @@ fn the_dam_break_writes_the_same_bits_on_any_rank_count_and_over_tcp() {
         &[
             ("2-ranks", &["--fluid-ranks", "2"]),
             ("3-ranks", &["--fluid-ranks", "3"]),
+            ("4-ranks", &["--fluid-ranks", "4"]),
             (
                 "2-ranks-tcp",
                 &[
