@@ -1,12 +1,12 @@
 //! The fluid node on real MPI ranks (`--features tests/mpi`, which builds the fluid node with
 //! MPI; Debian's openmpi-bin and libopenmpi-dev): a small dam break writes byte-identical results
-//! on 1, 2, 3 and 4 ranks and over TCP only; a rank killed mid-run stops the run at once, named,
-//! with what was written kept and nothing of the run left (processes, shared memory); and what
-//! ranks cannot do is refused before anything is written: a missing launcher, more ranks than
-//! the water fills, a solver that does not split. A run checkpointed on 2 ranks and killed
-//! resumes on 3, and a rank killed under `--retries` restarts from the checkpoint, both to the
-//! bits of an uninterrupted run on one; a block sliding into water gives the same bits on 1 and
-//! 2 ranks.
+//! on 1, 2, 3 and 4 ranks and over TCP only, and with the paper's SPH on 1 and 2; a rank killed
+//! mid-run stops the run at once and a stopped one at the step timeout, both named by rank, with
+//! what was written kept and nothing of the run left (processes, shared memory); and what ranks
+//! cannot do is refused before anything is written: a missing launcher, more ranks than the
+//! water fills, a solver that does not split. A run checkpointed on 2 ranks and killed resumes
+//! on 3, and a rank killed under `--retries` restarts from the checkpoint, both to the bits of an
+//! uninterrupted run on one; a block sliding into water gives the same bits on 1 and 2 ranks.
 #![cfg(feature = "mpi")]
 
 mod common;
@@ -220,12 +220,27 @@ fn shm_entries(what: &str) -> Vec<String> {
         .unwrap_or_default()
 }
 
-#[test]
-fn a_killed_rank_stops_the_run_at_once_and_leaves_nothing_behind() {
-    let (id, dir) = fresh("mpi-killed-rank");
+/// A run of the dam break on 3 ranks, stepping, and the follower rank chosen to be signalled.
+struct Stepping {
+    id: RunId,
+    dir: PathBuf,
+    scene: PathBuf,
+    /// The coupler, until it is waited for.
+    child: Option<std::process::Child>,
+    /// The highest rank's pid and its MPI rank (when its environment says).
+    victim: u32,
+    rank: Option<u32>,
+    shm_running: usize,
+    vader_before: Vec<String>,
+}
+
+/// Starts the dam break on 3 ranks with the coupler's `--step-timeout` `timeout` [s] and waits
+/// until it steps; picks the highest rank as the victim.
+fn three_ranks_stepping(tag: &str, timeout: f64) -> Stepping {
+    let (id, dir) = fresh(tag);
     let scene = scene_file(&dir, &dam_break_text());
     let vader_before = shm_entries("vader_segment");
-    let timeout = STEP_TIMEOUT_S.to_string();
+    let timeout = timeout.to_string();
     let mut cmd = coupler(
         &id,
         &dir,
@@ -269,66 +284,124 @@ fn a_killed_rank_stops_the_run_at_once_and_leaves_nothing_behind() {
     let rank = mpi_rank(victim);
     assert_ne!(rank, Some(0), "rank 0 is the node itself");
     let shm_running = shm_entries(id.as_str()).len();
-    let killed = Instant::now();
-    unsafe_kill(victim, 9);
-    let (out, _) = wait_output(child, Duration::from_secs_f64(STEP_TIMEOUT_S + 60.0));
-    let took = killed.elapsed();
-    let err = stderr(&out);
-    eprintln!(
-        "killed rank {rank:?} (pid {victim}); the coupler exited {:?} after {:.2} s",
-        out.status.code(),
-        took.as_secs_f64()
-    );
-    assert!(!out.status.success(), "{err}");
+    Stepping {
+        id,
+        dir,
+        scene,
+        child: Some(child),
+        victim,
+        rank,
+        shm_running,
+        vader_before,
+    }
+}
+
+impl Stepping {
+    /// Sends `signal` to the victim and waits for the coupler to end; returns its stderr's
+    /// error line and the time it took. The run must have failed.
+    fn signal_victim(&mut self, signal: i32) -> (String, Duration) {
+        let child = self.child.take().expect("signalled once");
+        let killed = Instant::now();
+        unsafe_kill(self.victim, signal);
+        let (out, _) = wait_output(child, Duration::from_secs_f64(STEP_TIMEOUT_S + 60.0));
+        let took = killed.elapsed();
+        let err = stderr(&out);
+        eprintln!(
+            "signal {signal} to rank {:?} (pid {}); the coupler exited {:?} after {:.2} s",
+            self.rank,
+            self.victim,
+            out.status.code(),
+            took.as_secs_f64()
+        );
+        assert!(!out.status.success(), "{err}");
+        let error = err
+            .lines()
+            .find(|l| l.starts_with("coupler: error:"))
+            .unwrap_or_else(|| panic!("no error line: {err}"))
+            .to_string();
+        assert!(
+            error.contains("fluid node"),
+            "the fluid node is named: {error}"
+        );
+        (error, took)
+    }
+
+    /// What was written stays, and nothing else of the run: no rank, no launcher, no shared
+    /// memory. Removes the run.
+    fn only_results_left(self) {
+        assert!(self.dir.join("scene.toml").is_file());
+        let text = std::fs::read_to_string(self.dir.join("gauges.csv")).unwrap();
+        assert!(
+            text.starts_with("time,") && text.lines().count() >= 3,
+            "gauges.csv kept: {text}"
+        );
+        assert!(self.dir.join("particles_00000.vtp").is_file());
+        let id = &self.id;
+        assert!(
+            eventually(Duration::from_secs(5), || processes_of(id).is_empty()),
+            "processes of the run left: {:?}",
+            processes_of(id)
+        );
+        assert!(leftovers(id).is_empty(), "{:?}", leftovers(id));
+        assert!(
+            shm_entries(id.as_str()).is_empty(),
+            "/dev/shm after (held {} entries of the run while it ran): {:?}",
+            self.shm_running,
+            shm_entries(id.as_str())
+        );
+        // Open MPI's shared-memory segments carry its job id, not the run's: reported, not
+        // asserted (other runs of the suite may hold theirs).
+        let vader_after = shm_entries("vader_segment");
+        let new: Vec<&String> = vader_after
+            .iter()
+            .filter(|n| !self.vader_before.contains(n))
+            .collect();
+        eprintln!(
+            "Open MPI segments in /dev/shm: {:?} before, {new:?} new after",
+            self.vader_before
+        );
+        std::fs::remove_file(&self.scene).unwrap();
+        std::fs::remove_dir_all(&self.dir).unwrap();
+    }
+}
+
+#[test]
+fn a_killed_rank_stops_the_run_at_once_named_and_leaves_nothing_behind() {
+    let mut run = three_ranks_stepping("mpi-killed-rank", STEP_TIMEOUT_S);
+    let (error, took) = run.signal_victim(9);
+    // About a second here: well within the step timeout, which is not what ended it.
     assert!(
-        took.as_secs_f64() < STEP_TIMEOUT_S + 5.0,
-        "the coupler took {took:?} to stop: {err}"
+        took.as_secs_f64() < STEP_TIMEOUT_S / 2.0,
+        "the coupler took {took:?} to stop: {error}"
     );
-    // The coupler's own error names the node and, from the launcher's word, the rank.
-    let error = err
-        .lines()
-        .find(|l| l.starts_with("coupler: error:"))
-        .unwrap_or_else(|| panic!("no error line: {err}"));
-    assert!(
-        error.contains("fluid node"),
-        "the fluid node is named: {error}"
-    );
-    if let Some(r) = rank {
+    // The launcher's word on the rank reaches the coupler's own error.
+    if let Some(r) = run.rank {
         assert!(
             error.contains(&format!("its launcher reports: process rank {r} ")),
             "rank {r} is named: {error}"
         );
     }
-    // What was written stays.
-    assert!(dir.join("scene.toml").is_file());
-    let text = std::fs::read_to_string(&gauges).unwrap();
+    run.only_results_left();
+}
+
+/// `--step-timeout` of the stopped-rank run [s]: what ends it.
+const STOPPED_TIMEOUT_S: f64 = 3.0;
+
+#[test]
+fn a_stopped_rank_ends_the_run_at_the_step_timeout_named_and_leaves_nothing_behind() {
+    let mut run = three_ranks_stepping("mpi-stopped-rank", STOPPED_TIMEOUT_S);
+    let (error, took) = run.signal_victim(19); // SIGSTOP
     assert!(
-        text.starts_with("time,") && text.lines().count() >= 3,
-        "gauges.csv kept: {text}"
+        took.as_secs_f64() < STOPPED_TIMEOUT_S + 5.0,
+        "the coupler took {took:?} to stop: {error}"
     );
-    assert!(dir.join("particles_00000.vtp").is_file());
-    // Nothing of the run is left: no rank, no launcher, no shared memory.
-    assert!(
-        eventually(Duration::from_secs(5), || processes_of(&id).is_empty()),
-        "processes of the run left: {:?}",
-        processes_of(&id)
-    );
-    assert!(leftovers(&id).is_empty(), "{:?}", leftovers(&id));
-    assert!(
-        shm_entries(id.as_str()).is_empty(),
-        "/dev/shm after (held {shm_running} entries of the run while it ran): {:?}",
-        shm_entries(id.as_str())
-    );
-    // Open MPI's shared-memory segments carry its job id, not the run's: reported, not asserted
-    // (other runs of the suite may hold theirs).
-    let vader_after = shm_entries("vader_segment");
-    let new: Vec<&String> = vader_after
-        .iter()
-        .filter(|n| !vader_before.contains(n))
-        .collect();
-    eprintln!("Open MPI segments in /dev/shm: {vader_before:?} before, {new:?} new after");
-    std::fs::remove_file(scene).unwrap();
-    std::fs::remove_dir_all(dir).unwrap();
+    assert!(error.contains("hung at step"), "{error}");
+    let who = match run.rank {
+        Some(r) => format!("stopped: rank {r} (pid {})", run.victim),
+        None => format!("stopped: pid {}", run.victim),
+    };
+    assert!(error.contains(&who), "{who}: {error}");
+    run.only_results_left();
 }
 
 /// `coupler run` of the dam break with `args` that must be refused before anything is

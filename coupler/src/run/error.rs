@@ -28,12 +28,14 @@ pub enum RunError {
         time: f64,
         how: String,
     },
-    #[error("{node} hung at step {step}, t = {time:.6} s: no answer within {waited:.1} s")]
+    #[error("{node} hung at step {step}, t = {time:.6} s: no answer within {waited:.1} s{why}")]
     Hung {
         node: String,
         step: u64,
         time: f64,
         waited: f64,
+        /// What the coupler found about the silence ("; stopped: rank 2 (pid …) …"), or empty.
+        why: String,
     },
     #[error("start-up failed: {0}")]
     Handshake(String),

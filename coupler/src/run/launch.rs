@@ -110,12 +110,18 @@ impl NodeProcess {
     ) -> Result<NodeProcess, String> {
         let program = cmd.check()?;
         let coupler = std::process::id() as libc::pid_t;
+        let launcher = cmd.launcher;
         let mut command = Command::new(&program);
         // SAFETY: the closure runs in the child between fork and exec and calls only
-        // async-signal-safe functions (prctl, getppid, _exit).
+        // async-signal-safe functions (signal, prctl, getppid, _exit).
         unsafe {
             use std::os::unix::process::CommandExt;
             command.pre_exec(move || {
+                // A launcher writes its stderr into the coupler's pipe: if the coupler dies
+                // first, its last lines must not kill it (SIGPIPE) before it has ended its ranks.
+                if launcher {
+                    libc::signal(libc::SIGPIPE, libc::SIG_IGN);
+                }
                 // A node whose coupler dies (even by SIGKILL, e.g. during start-up) gets SIGTERM
                 // at once instead of waiting out its timeouts; if the coupler is already gone
                 // the node is not started at all.
@@ -194,6 +200,21 @@ impl NodeProcess {
         }
     }
 
+    /// The node's processes (itself and, under an MPI launcher, its ranks) that are stopped
+    /// (SIGSTOP, a debugger), each named by its MPI rank where its launcher gave it one: why a
+    /// node can be silent while alive.
+    pub fn stopped(&self) -> Vec<String> {
+        let me = self.child.id() as libc::pid_t;
+        std::iter::once(me)
+            .chain(descendants(me))
+            .filter(|&pid| matches!(state(pid), Some('T' | 't')))
+            .map(|pid| match mpi_rank(pid) {
+                Some(rank) => format!("rank {rank} (pid {pid})"),
+                None => format!("pid {pid}"),
+            })
+            .collect()
+    }
+
     /// Asks the process to end (SIGTERM), waits `grace`, then kills it and every process it
     /// started. An MPI launcher forwards the SIGTERM to its ranks, but SIGKILL cannot be
     /// forwarded, and Open MPI puts each rank in a process group of its own: the ranks are
@@ -241,6 +262,35 @@ fn descendants(root: libc::pid_t) -> Vec<libc::pid_t> {
     }
     found.remove(0);
     found
+}
+
+/// The state letter of `pid` from /proc/PID/stat (`T`: stopped, `t`: stopped by a tracer).
+fn state(pid: libc::pid_t) -> Option<char> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    stat.rsplit_once(')')?
+        .1
+        .split_whitespace()
+        .next()?
+        .chars()
+        .next()
+}
+
+/// The MPI rank of `pid`, from the environment its launcher gave it: Open MPI's
+/// `OMPI_COMM_WORLD_RANK`, MPICH's `PMI_RANK`, PMIx's `PMIX_RANK`, Slurm's `SLURM_PROCID`.
+fn mpi_rank(pid: libc::pid_t) -> Option<u32> {
+    let env = std::fs::read(format!("/proc/{pid}/environ")).ok()?;
+    env.split(|&b| b == 0).find_map(|var| {
+        let var = std::str::from_utf8(var).ok()?;
+        let (name, value) = var.split_once('=')?;
+        [
+            "OMPI_COMM_WORLD_RANK",
+            "PMI_RANK",
+            "PMIX_RANK",
+            "SLURM_PROCID",
+        ]
+        .contains(&name)
+        .then(|| value.parse().ok())?
+    })
 }
 
 /// The parent of `pid` from /proc/PID/stat (the field after the command, which is in
@@ -318,5 +368,37 @@ mod tests {
             std::thread::sleep(Duration::from_millis(10));
         }
         assert!(kids.iter().all(|&k| !alive(k)), "left: {kids:?}");
+    }
+
+    /// A stopped process the node started is named, by its MPI rank when it has one.
+    #[test]
+    fn the_stopped_processes_of_a_node_are_named_by_rank() {
+        let cmd = NodeCommand {
+            role: Role::Fluid,
+            program: PathBuf::from("/bin/sh"),
+            args: vec!["-c".into(), "sleep 30 & wait".into()],
+            env: vec![("OMPI_COMM_WORLD_RANK".into(), "3".into())],
+            launcher: false,
+        };
+        let id = RunId::parse("stopped").unwrap();
+        let mut p = NodeProcess::spawn(&cmd, &id, &[]).unwrap();
+        let started = Instant::now();
+        let mut kids = Vec::new();
+        while kids.is_empty() && started.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(10));
+            kids = descendants(p.pid() as libc::pid_t);
+        }
+        assert_eq!(p.stopped(), Vec::<String>::new(), "nothing stopped yet");
+        // SAFETY: kill(2) on the sleep our child started, found an instant ago.
+        unsafe {
+            libc::kill(kids[0], libc::SIGSTOP);
+        }
+        let mut stopped = Vec::new();
+        while stopped.is_empty() && started.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(10));
+            stopped = p.stopped();
+        }
+        assert_eq!(stopped, [format!("rank 3 (pid {})", kids[0])]);
+        assert!(p.terminate(Duration::from_millis(100)).is_some());
     }
 }

@@ -107,11 +107,21 @@ impl Session {
                     .find(|p| silent.len() > 1 && !checkpoint && p.role == waited_for)
                     .or(silent.first())
                     .expect("someone has not answered");
+                let stopped = p.process.as_ref().map_or(Vec::new(), |n| n.stopped());
+                let why = if stopped.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; stopped: {} (SIGSTOP, or held by a debugger)",
+                        stopped.join(", ")
+                    )
+                };
                 return Err(RunError::Hung {
                     node: p.label(),
                     step,
                     time: self.time,
                     waited: sent.elapsed().as_secs_f64(),
+                    why,
                 });
             }
             self.listener.wait(SLICE)?;
