@@ -36,6 +36,10 @@ pub enum Cmd {
         /// and refuse more ranks than the water can fill.
         #[arg(long, value_name = "N")]
         fluid_ranks: Option<u32>,
+        /// Particle spacing [m] (overrides the scene's fluid.dx): what the scene would cost at
+        /// another resolution.
+        #[arg(long, allow_hyphen_values = true)]
+        dx: Option<f64>,
     },
     /// Remove shared memory left behind by runs whose processes were all killed: every dead
     /// run with a generated id (rw…), and the runs named here (ids given with --run-id).

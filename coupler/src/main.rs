@@ -14,11 +14,13 @@ fn main() -> ExitCode {
             slides_vtk,
             allow_long,
             fluid_ranks,
+            dx,
         } => run::check::run(
             scene.as_deref(),
             slides_vtk.as_deref(),
             allow_long,
             fluid_ranks,
+            dx,
         ),
         Cmd::Clean { run_ids } => run::clean::run(&run_ids),
         Cmd::Povray {

@@ -6,7 +6,7 @@
 mod common;
 use common::*;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
 fn fjord() -> String {
@@ -145,4 +145,39 @@ fn the_size_estimate_counts_the_terrain() {
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `coupler check --dx` estimates the scene at another spacing: half the fjord's dx holds about
+/// 8× the water (3D), and what each fluid rank would hold follows; a spacing that is no length
+/// is refused naming the flag.
+#[test]
+fn check_estimates_the_scene_at_another_dx() {
+    let scene = fjord();
+    let water = |dx: Option<&str>| {
+        let mut args = vec!["check", scene.as_str(), "--fluid-ranks", "2"];
+        args.extend(dx.map(|d| ["--dx", d]).into_iter().flatten());
+        let out = Command::new(bin("coupler")).args(&args).output().unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+        assert!(text.contains("on 2 fluid ranks"), "{text}");
+        let line = text.lines().find(|l| l.starts_with("estimate:")).unwrap();
+        line.split_whitespace()
+            .find_map(|w| w.parse::<f64>().ok())
+            .unwrap()
+    };
+    let ratio = water(Some("2")) / water(None);
+    assert!(
+        (6.0..10.0).contains(&ratio),
+        "water at dx = 2 m over 4 m: {ratio}"
+    );
+    let out = Command::new(bin("coupler"))
+        .args(["check", scene.as_str(), "--dx", "0"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("--dx 0: must be a positive length in metres"),
+        "{}",
+        stderr(&out)
+    );
 }

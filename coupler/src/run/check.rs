@@ -4,16 +4,25 @@ use std::path::Path;
 
 /// Runs `coupler check`; returns the process exit code. A run estimated to crawl
 /// ([`crate::run::sizes::crawl`]) fails the check unless `allow_long`; so do more fluid ranks
-/// (`fluid_ranks`, else the scene's) than the water can fill.
+/// (`fluid_ranks`, else the scene's) than the water can fill. `dx` overrides the scene's
+/// particle spacing, as `coupler run --dx` does.
 pub fn run(
     scene: Option<&Path>,
     slides_vtk: Option<&Path>,
     allow_long: bool,
     fluid_ranks: Option<u32>,
+    dx: Option<f64>,
 ) -> u8 {
     // The scene's checks, the summary and the estimate read the terrains once between them.
     let _once = shared::terrain::reuse::Reuse::begin();
-    let loaded = crate::run::scenes::load_as_written(scene);
+    let loaded = crate::run::scenes::load_as_written(scene)
+        .map_err(|e| e.to_string())
+        .and_then(|mut s| {
+            if let Some(dx) = dx {
+                crate::run::settings::set_dx(&mut s, dx)?;
+            }
+            Ok(s)
+        });
     match loaded {
         Ok(s) => {
             println!(

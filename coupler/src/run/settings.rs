@@ -7,6 +7,15 @@ use crate::run::resume::Resumed;
 use shared::scene::Scene;
 use shared::transport::{Endpoints, Kind};
 
+/// `--dx`: the scene's particle spacing overridden, once checked.
+pub fn set_dx(scene: &mut Scene, dx: f64) -> Result<(), String> {
+    if !(dx.is_finite() && dx > 0.0) {
+        return Err(format!("--dx {dx}: must be a positive length in metres"));
+    }
+    scene.set_dx(dx);
+    Ok(())
+}
+
 /// The scene to run (the resumed run's, the file's or the embedded default) with the command
 /// line's overrides, checked again; and where it came from, for the messages.
 pub fn scene(args: &RunArgs, resume: Option<&Resumed>) -> Result<(Scene, String), String> {
@@ -20,10 +29,7 @@ pub fn scene(args: &RunArgs, resume: Option<&Resumed>) -> Result<(Scene, String)
         (None, None) => shared::scene::DEFAULT_SCENE_ORIGIN.to_string(),
     };
     if let Some(dx) = args.dx {
-        if !(dx.is_finite() && dx > 0.0) {
-            return Err(format!("--dx {dx}: must be a positive length in metres"));
-        }
-        scene.set_dx(dx);
+        set_dx(&mut scene, dx)?;
     }
     if let Some(target) = args.target_error {
         let fits = crate::run::resolution::parse_csv(crate::run::resolution::EMBEDDED_FIT)?;
