@@ -298,14 +298,14 @@ fn dfsph_free_surface_holds_its_level_with_the_continued_density() {
 
 /// A DFSPH run gives the same bits on any number of threads: a dam break stepped on 1, 2 and 3
 /// threads ends with the same particles. Where its solves stop depends on sums over all
-/// particles (the mean errors), added in a fixed order for this (`fluid_node::core::fixed_sum`;
+/// particles (the mean errors), added exactly for this (`fluid_node::core::exact_sum`;
 /// rayon's own sums round by the split, which a mean at its tolerance's edge would show only
 /// rarely); every other pass writes each particle's own values. A reduction whose order
 /// follows the threads, in a pass that feeds the state, fails this.
 #[test]
 fn dfsph_gives_the_same_bits_on_any_number_of_threads() {
     let mut scene = dam_break_scene("dfsph", 2, 0.1, 16, None);
-    // A pressure study's stopping rule too: its Σ|Δk| / Σ|k| is the other fixed-order sum.
+    // A pressure study's stopping rule too: its Σ|Δk| / Σ|k| is the other exact sum.
     let mut table = toml::Table::new();
     table.insert("pressure_tolerance".into(), toml::Value::Float(5.0));
     scene
@@ -335,9 +335,9 @@ fn dfsph_gives_the_same_bits_on_any_number_of_threads() {
         (bits(&p.position), bits(&p.velocity))
     };
     let one = run(1);
-    // More particles than one block of the fixed-order sums.
+    // More particles than one block of the exact sums.
     assert!(
-        one.0.len() / 3 > fluid_node::core::fixed_sum::BLOCK,
+        one.0.len() / 3 > fluid_node::core::exact_sum::BLOCK,
         "{} particles",
         one.0.len() / 3
     );

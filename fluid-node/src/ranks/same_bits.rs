@@ -5,6 +5,7 @@
 use super::comm::{Comm, ThreadRanks};
 use super::share::HaloStats;
 use crate::methods::SphMethod;
+use crate::methods::dfsph::Dfsph;
 use crate::methods::wcsph::Wcsph;
 use crate::sph::Sph;
 use shared::scene::{CouplingScheme, Scene};
@@ -117,6 +118,13 @@ fn same_bits_on_one_two_and_three_ranks<S: SphMethod>(steps: usize) {
 #[test]
 fn wcsph_gives_the_same_bits_on_one_two_and_three_ranks() {
     same_bits_on_one_two_and_three_ranks::<Wcsph>(800);
+}
+
+/// DFSPH's steps are capped at the scene's 1 ms (its CFL step is longer): 150 steps run the
+/// front as far as WCSPH's 800.
+#[test]
+fn dfsph_gives_the_same_bits_on_one_two_and_three_ranks() {
+    same_bits_on_one_two_and_three_ranks::<Dfsph>(150);
 }
 
 /// Steps `steps` steps, then returns the checkpoint (rank 0's; empty on the others).
