@@ -128,7 +128,7 @@ fn dfsph_gives_the_same_bits_on_one_two_and_three_ranks() {
 }
 
 /// Steps `steps` steps, then returns the checkpoint (rank 0's; empty on the others).
-fn steps_then_save(s: &mut Sph<Wcsph>, steps: usize) -> Vec<u8> {
+fn steps_then_save<S: SphMethod>(s: &mut Sph<S>, steps: usize) -> Vec<u8> {
     for _ in 0..steps {
         let dt = s.dt_proposal().min(1e-3);
         s.advance(dt).unwrap();
@@ -137,7 +137,7 @@ fn steps_then_save(s: &mut Sph<Wcsph>, steps: usize) -> Vec<u8> {
 }
 
 /// The whole state of rank 0 (one-rank order), as bits.
-fn whole(s: &Sph<Wcsph>) -> Option<Vec<[u64; 8]>> {
+fn whole<S: SphMethod>(s: &Sph<S>) -> Option<Vec<[u64; 8]>> {
     let p = &s.sys.particles;
     let bits = |i: usize| {
         let (x, v) = (p.position[i], p.velocity[i]);
@@ -171,8 +171,9 @@ fn on_threads<T: Send>(
     })
 }
 
-#[test]
-fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
+/// `before` steps of the dam break with the method `S` on 2 ranks save the checkpoint one rank
+/// saves, and 3 ranks resume from it to the bits of the one-rank run `after` steps on.
+fn checkpoint_on_two_ranks_resumes_on_three<S: SphMethod>(before: usize, after: usize) {
     let scene = scene();
     fn ctx<'a>(scene: &'a Scene, dir: &'a Path) -> SetupContext<'a> {
         SetupContext {
@@ -182,17 +183,16 @@ fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
             peer_present: false,
         }
     }
-    let (before, after) = (300, 200);
     // One rank, straight through, saving halfway.
     let one = tempfile::tempdir().unwrap();
-    let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, one.path()), None).unwrap();
+    let mut s = Sph::<S>::on_ranks(&ctx(&scene, one.path()), None).unwrap();
     let saved = steps_then_save(&mut s, before);
     steps_then_save(&mut s, after);
     let reference = whole(&s).unwrap();
     // Two ranks save the same bytes.
     let dirs: Vec<_> = (0..3).map(|_| tempfile::tempdir().unwrap()).collect();
     let on_two = on_threads(2, &dirs[..2], |c, d| {
-        let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
+        let mut s = Sph::<S>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
         steps_then_save(&mut s, before)
     });
     assert!(
@@ -204,7 +204,7 @@ fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
         std::fs::copy(one.path().join(f), dirs[0].path().join(f)).unwrap();
     }
     let resumed = on_threads(3, &dirs, |c, d| {
-        let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
+        let mut s = Sph::<S>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
         s.restore_state(&saved, d).unwrap();
         steps_then_save(&mut s, after);
         whole(&s)
@@ -216,4 +216,14 @@ fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
         "resumed on 3 ranks: the first particle that differs"
     );
     assert_eq!(resumed.len(), reference.len());
+}
+
+#[test]
+fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
+    checkpoint_on_two_ranks_resumes_on_three::<Wcsph>(300, 200);
+}
+
+#[test]
+fn a_dfsph_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
+    checkpoint_on_two_ranks_resumes_on_three::<Dfsph>(60, 40);
 }
