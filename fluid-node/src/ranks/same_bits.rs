@@ -17,7 +17,12 @@ use std::sync::Arc;
 /// front runs a tenth of the tank, the work drifts and the cuts move, and particles change
 /// owner.
 fn scene() -> Scene {
-    let text = crate::validation::narrow_dam_break(1.0, 1.0);
+    scene_with("")
+}
+
+/// [`scene`] with `extra` TOML appended (a method's table).
+fn scene_with(extra: &str) -> Scene {
+    let text = crate::validation::narrow_dam_break(1.0, 1.0) + extra;
     Scene::parse(&text, "ranks test").unwrap()
 }
 
@@ -61,9 +66,13 @@ fn run<S: SphMethod>(
 /// `steps` steps of the dam break with the method `S` on 1, 2 and 3 ranks: the same bits in
 /// every particle and every file.
 fn same_bits_on_one_two_and_three_ranks<S: SphMethod>(steps: usize) {
-    let scene = scene();
+    same_bits_in::<S>(&scene(), steps);
+}
+
+/// [`same_bits_on_one_two_and_three_ranks`] in `scene`.
+fn same_bits_in<S: SphMethod>(scene: &Scene, steps: usize) {
     let one = tempfile::tempdir().unwrap();
-    let (reference, sorts, _) = run::<S>(&scene, one.path(), None, steps);
+    let (reference, sorts, _) = run::<S>(scene, one.path(), None, steps);
     let reference = reference.unwrap();
     assert!(sorts > 20, "the lists were rebuilt {sorts} times only");
     for n in [2, 3] {
@@ -74,7 +83,6 @@ fn same_bits_on_one_two_and_three_ranks<S: SphMethod>(steps: usize) {
                 .into_iter()
                 .zip(&dirs)
                 .map(|(c, d)| {
-                    let scene = &scene;
                     // Not on rayon's pool (`on_pool`): a rank waiting for another would hold
                     // one of its two workers, and the other rank might never get one.
                     s.spawn(move || run::<S>(scene, d.path(), Some(c), steps))
@@ -125,6 +133,17 @@ fn wcsph_gives_the_same_bits_on_one_two_and_three_ranks() {
 #[test]
 fn dfsph_gives_the_same_bits_on_one_two_and_three_ranks() {
     same_bits_on_one_two_and_three_ranks::<Dfsph>(150);
+}
+
+/// DFSPH's other options on ranks: the pressure-change stop (its second exact sum), the walls'
+/// pressure extrapolated from the water's (which reads the halo's densities) and the continued
+/// surface density.
+#[test]
+fn dfsph_options_give_the_same_bits_on_one_two_and_three_ranks() {
+    let scene = scene_with(
+        "\n[fluid.dfsph]\npressure_tolerance = 5.0\nwall_pressure = \"extrapolated\"\ncontinued_surface = true\n",
+    );
+    same_bits_in::<Dfsph>(&scene, 150);
 }
 
 /// Steps `steps` steps, then returns the checkpoint (rank 0's; empty on the others).
