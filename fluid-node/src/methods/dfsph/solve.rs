@@ -64,7 +64,7 @@ impl Dfsph {
         };
         if warm {
             self.apply(sys, &dk, dt);
-            self.share_velocities(sys, blocks);
+            self.share_velocities(sys, blocks && self.mirrored);
             if blocks {
                 let kbar = std::mem::take(&mut self.kbar);
                 // The walls' k̄_i (zero unless mirrored) is the second half of each pair.
@@ -110,7 +110,7 @@ impl Dfsph {
                 change = if all > 0.0 { moved / all } else { 0.0 };
             }
             self.apply(sys, &dk, dt);
-            self.share_velocities(sys, blocks);
+            self.share_velocities(sys, blocks && self.mirrored);
             if blocks {
                 let kbar = std::mem::take(&mut self.kbar);
                 block_left = self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + kbar[i]);
@@ -126,14 +126,15 @@ impl Dfsph {
 
 impl Dfsph {
     /// After [`Self::apply`] on several ranks: the halo's velocities (the next pass reads them
-    /// of the neighbours) and, with blocks in the solve, the mirrored walls' k̄ (the blocks read
-    /// it of the particles next to them, [`Self::move_blocks`]).
-    fn share_velocities(&mut self, sys: &mut FluidSystem, blocks: bool) {
+    /// of the neighbours) and, with `kbar` (blocks in the solve, mirrored walls), the walls' k̄
+    /// (the blocks read it of the particles next to them, [`Self::move_blocks`]; zero
+    /// otherwise).
+    fn share_velocities(&mut self, sys: &mut FluidSystem, kbar: bool) {
         let Some(s) = &mut sys.share else {
             return;
         };
         let v = &mut sys.particles.velocity;
-        if blocks {
+        if kbar {
             let kbar = &mut self.kbar;
             for (i, [x, y, z, kb]) in s.share(|i| [v[i].x, v[i].y, v[i].z, kbar[i]]) {
                 v[i as usize] = Vector::new(x, y, z);
