@@ -145,9 +145,9 @@ impl ExactSum {
         if negative { -magnitude } else { magnitude }
     }
 
-    /// The accumulator as [`WORDS`] u64 words (after a [`Self::merge`] or from
-    /// [`exact_sums`]: carried, so that a wrapping sum of the words of many accumulators is
-    /// their exact sum).
+    /// The accumulator as [`WORDS`] u64 words: the limbs in two's complement, so that the
+    /// wrapping sum of the words of several accumulators is the accumulator of all their terms
+    /// (exact while no limb passes i64's range: 2³¹ terms in all).
     pub fn to_words(&self, out: &mut [u64]) {
         for (o, l) in out.iter_mut().zip(&self.limbs) {
             *o = *l as u64;
