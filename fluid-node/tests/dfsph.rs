@@ -2,6 +2,8 @@
 //! Martin & Moyce fronts with self-convergence, the steps it saves over WCSPH, its parameter
 //! checks and its convergence warning.
 
+mod common;
+
 use fluid_node::REGISTRY;
 use fluid_node::methods::dfsph::Dfsph;
 use fluid_node::sph::Sph;
@@ -298,14 +300,14 @@ fn dfsph_free_surface_holds_its_level_with_the_continued_density() {
 
 /// A DFSPH run gives the same bits on any number of threads: a dam break stepped on 1, 2 and 3
 /// threads ends with the same particles. Where its solves stop depends on sums over all
-/// particles (the mean errors), added in a fixed order for this (`fluid_node::core::fixed_sum`;
+/// particles (the mean errors), added exactly for this (`fluid_node::core::exact_sum`;
 /// rayon's own sums round by the split, which a mean at its tolerance's edge would show only
 /// rarely); every other pass writes each particle's own values. A reduction whose order
 /// follows the threads, in a pass that feeds the state, fails this.
 #[test]
 fn dfsph_gives_the_same_bits_on_any_number_of_threads() {
     let mut scene = dam_break_scene("dfsph", 2, 0.1, 16, None);
-    // A pressure study's stopping rule too: its Σ|Δk| / Σ|k| is the other fixed-order sum.
+    // A pressure study's stopping rule too: its Σ|Δk| / Σ|k| is the other exact sum.
     let mut table = toml::Table::new();
     table.insert("pressure_tolerance".into(), toml::Value::Float(5.0));
     scene
@@ -335,9 +337,9 @@ fn dfsph_gives_the_same_bits_on_any_number_of_threads() {
         (bits(&p.position), bits(&p.velocity))
     };
     let one = run(1);
-    // More particles than one block of the fixed-order sums.
+    // More particles than one block of the exact sums.
     assert!(
-        one.0.len() / 3 > fluid_node::core::fixed_sum::BLOCK,
+        one.0.len() / 3 > fluid_node::core::exact_sum::BLOCK,
         "{} particles",
         one.0.len() / 3
     );
@@ -351,5 +353,71 @@ fn dfsph_gives_the_same_bits_on_any_number_of_threads() {
             run(threads) == one,
             "{threads} threads gave other bits than 1"
         );
+    }
+}
+
+/// DFSPH moving a free block inside its solves (its default) gives the same bits on 1, 2 and
+/// 3 ranks (threads of this test, `fluid_node::ranks::comm::ThreadRanks`): every particle and
+/// the loads the block was moved with. The coarse default scene's wedge, set free (1/m, I⁻¹
+/// and its weight, as a solid node sends them) and held at its pose at every step, as
+/// [`common::wedge_steps`] drives it.
+#[test]
+fn dfsph_moves_a_free_block_to_the_same_bits_on_one_two_and_three_ranks() {
+    use fluid_node::ranks::comm::{Comm, ThreadRanks};
+    use std::sync::Arc;
+    let (scene, mut state) = common::wedge_scene();
+    // Across the cuts of 2 and of 3 ranks (x ≈ 2.9 and 2.3 m): the blocks' sums read the
+    // halo's values.
+    state.centroid[0] = 2.6;
+    let mass = 200.0;
+    state.inverse_mass = 1.0 / mass;
+    state.inverse_inertia = [1.0 / 20.0, 1.0 / 20.0, 1.0 / 20.0, 0.0, 0.0, 0.0];
+    state.other_force = [0.0, 0.0, -9.81 * mass];
+    let run = |comm: Option<Arc<dyn Comm>>| {
+        let dir = TempRunDir::new("dfsph-ranks-block").unwrap();
+        let ctx = ctx_for(&scene, &dir);
+        let mut s = Sph::<Dfsph>::on_ranks(&ctx, comm).unwrap();
+        let steps = common::wedge_steps(&mut s, state, scene.time.dt_max, 12);
+        let p = &s.sys.particles;
+        let values = |i: usize| {
+            let (x, v) = (p.position[i], p.velocity[i]);
+            [x.x, x.y, x.z, v.x, v.y, v.z, p.density[i], p.pressure[i]]
+        };
+        let all: Option<Vec<[f64; 8]>> = match &s.sys.share {
+            None => Some((0..p.len()).map(values).collect()),
+            Some(share) => share.gather(values),
+        };
+        let loads: Vec<[u64; 3]> = steps
+            .iter()
+            .map(|(_, l)| l.force.map(f64::to_bits))
+            .collect();
+        (
+            all.map(|a| a.iter().map(|v| v.map(f64::to_bits)).collect::<Vec<_>>()),
+            loads,
+        )
+    };
+    let (one, loads) = run(None);
+    let one = one.unwrap();
+    assert!(
+        loads.iter().any(|l| f64::from_bits(l[2]) > 0.0),
+        "the water never pushed the block"
+    );
+    for n in [2, 3] {
+        let results: Vec<_> = std::thread::scope(|sc| {
+            let handles: Vec<_> = ThreadRanks::handles(n)
+                .into_iter()
+                .map(|c| {
+                    let run = &run;
+                    sc.spawn(move || run(Some(c)))
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        let (got, got_loads) = &results[0];
+        let got = got.as_ref().expect("rank 0 gathers");
+        assert_eq!(got.len(), one.len(), "{n} ranks: particle count");
+        let first = got.iter().zip(&one).position(|(a, b)| a != b);
+        assert_eq!(first, None, "{n} ranks: the first particle that differs");
+        assert_eq!(got_loads, &loads, "{n} ranks: the block's loads");
     }
 }

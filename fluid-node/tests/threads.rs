@@ -1,7 +1,7 @@
 //! Every solver takes the same steps to the bit on any number of threads. The passes are cut
 //! into tasks of a few hundred particles (`fluid_node::core::tasks`) and rayon hands them to whichever
 //! thread is free; each particle's values are still computed by one task, in its own order, and
-//! the totals a step depends on are added in a fixed order (`fluid_node::core::fixed_sum`). A pass
+//! the totals a step depends on are added exactly (`fluid_node::core::exact_sum`). A pass
 //! whose result followed the cut or the schedule fails this.
 
 mod common;

@@ -14,7 +14,7 @@
 //!
 //! The limits are on the tasks, not on the results: every particle is computed as before and
 //! written by one task, so a run is the same to the bit with any cut (the sums that must not
-//! depend on the cut are in [`crate::core::fixed_sum`]). Scatters through an index list cut
+//! depend on the cut are in [`crate::core::exact_sum`]). Scatters through an index list cut
 //! themselves by their own rule ([`crate::core::scatter`]).
 
 /// Particles per task, at most, in a pass whose work per particle varies (pair loops, Eq. 22,
@@ -25,5 +25,5 @@
 pub const PARTICLES: usize = 256;
 
 /// Chunks per task, at most, where a pass runs over chunks of particles (the neighbour lists'
-/// chunks, the survey's, `fixed_sum`'s blocks): each chunk is its own task.
+/// chunks, the survey's, `exact_sum`'s blocks): each chunk is its own task.
 pub const CHUNKS: usize = 1;

@@ -24,7 +24,8 @@ pub trait Comm: Send + Sync {
     fn broadcast(&self, bytes: &mut Vec<u8>);
     /// The element-wise maximum over the ranks, on every rank (exact: a maximum does not round).
     fn max(&self, values: &mut [f64]);
-    /// The element-wise sum over the ranks, on every rank (exact: integers).
+    /// The element-wise sum over the ranks, on every rank (exact: integers, wrapping: two's
+    /// complement words add as signed ones, `crate::core::exact_sum`).
     fn sum(&self, values: &mut [u64]);
 }
 
@@ -197,7 +198,7 @@ impl Comm for ThreadRanks {
                 b
             },
             |b| wire::u64s(b).collect(),
-            |a, b| a + b,
+            u64::wrapping_add,
         );
     }
 }
@@ -227,7 +228,8 @@ mod tests {
                         c.broadcast(&mut b);
                         let mut m = [me as f64, -(me as f64)];
                         c.max(&mut m);
-                        let mut n = [me as u64 + 1];
+                        // A negative word (two's complement) sums as a signed one.
+                        let mut n = [me as u64 + 1, (me as u64).wrapping_neg()];
                         c.sum(&mut n);
                         (me, got, all, b, m, n)
                     })
@@ -244,7 +246,7 @@ mod tests {
             assert_eq!(all.len(), if me == 0 { 3 } else { 0 });
             assert_eq!(b, vec![7, 8]);
             assert_eq!(m, [2.0, 0.0]);
-            assert_eq!(n, [6]);
+            assert_eq!(n, [6, 3u64.wrapping_neg()]);
         }
     }
 }

@@ -1,10 +1,12 @@
 //! The decomposition's promise, checked on ranks that are threads of the test: a dam break
-//! against walls with gauges and a probe gives the same bits on 1, 2 and 3 ranks, particle by
-//! particle, in the gauges' file and in the frame.
+//! against walls with gauges and a probe gives the same bits on 1, 2, 3 and 4 ranks with every
+//! SPH method, particle by particle, in the gauges' file and in the frame; a checkpoint of 2
+//! ranks is the one-rank file and resumes on 3.
 
 use super::comm::{Comm, ThreadRanks};
 use super::share::HaloStats;
 use crate::methods::SphMethod;
+use crate::methods::dfsph::Dfsph;
 use crate::methods::muller::Muller;
 use crate::methods::wcsph::Wcsph;
 use crate::sph::Sph;
@@ -17,7 +19,12 @@ use std::sync::Arc;
 /// front runs a tenth of the tank, the work drifts and the cuts move, and particles change
 /// owner.
 fn scene() -> Scene {
-    let text = crate::validation::narrow_dam_break(1.0, 1.0);
+    scene_with("")
+}
+
+/// [`scene`] with `extra` TOML appended (a method's table).
+fn scene_with(extra: &str) -> Scene {
+    let text = crate::validation::narrow_dam_break(1.0, 1.0) + extra;
     Scene::parse(&text, "ranks test").unwrap()
 }
 
@@ -61,9 +68,13 @@ fn run<S: SphMethod>(
 /// `steps` steps of the dam break with the method `S` on 1, 2, 3 and 4 ranks: the same bits in
 /// every particle and every file.
 fn same_bits_on_one_to_four_ranks<S: SphMethod>(steps: usize) {
-    let scene = scene();
+    same_bits_in::<S>(&scene(), steps);
+}
+
+/// [`same_bits_on_one_to_four_ranks`] in `scene`.
+fn same_bits_in<S: SphMethod>(scene: &Scene, steps: usize) {
     let one = tempfile::tempdir().unwrap();
-    let (reference, sorts, _) = run::<S>(&scene, one.path(), None, steps);
+    let (reference, sorts, _) = run::<S>(scene, one.path(), None, steps);
     let reference = reference.unwrap();
     assert!(sorts > 20, "the lists were rebuilt {sorts} times only");
     for n in [2, 3, 4] {
@@ -74,7 +85,6 @@ fn same_bits_on_one_to_four_ranks<S: SphMethod>(steps: usize) {
                 .into_iter()
                 .zip(&dirs)
                 .map(|(c, d)| {
-                    let scene = &scene;
                     // Not on rayon's pool (`on_pool`): a rank waiting for another would hold
                     // one of its two workers, and the other rank might never get one.
                     s.spawn(move || run::<S>(scene, d.path(), Some(c), steps))
@@ -125,8 +135,26 @@ fn muller_gives_the_same_bits_on_one_to_four_ranks() {
     same_bits_on_one_to_four_ranks::<Muller>(400);
 }
 
+/// DFSPH's steps are capped at the scene's 1 ms (its CFL step is longer): 150 steps run the
+/// front as far as WCSPH's 800.
+#[test]
+fn dfsph_gives_the_same_bits_on_one_to_four_ranks() {
+    same_bits_on_one_to_four_ranks::<Dfsph>(150);
+}
+
+/// DFSPH's other options on ranks: the pressure-change stop (its second exact sum), the walls'
+/// pressure extrapolated from the water's (which reads the halo's densities) and the continued
+/// surface density.
+#[test]
+fn dfsph_options_give_the_same_bits_on_one_to_four_ranks() {
+    let scene = scene_with(
+        "\n[fluid.dfsph]\npressure_tolerance = 5.0\nwall_pressure = \"extrapolated\"\ncontinued_surface = true\n",
+    );
+    same_bits_in::<Dfsph>(&scene, 150);
+}
+
 /// Steps `steps` steps, then returns the checkpoint (rank 0's; empty on the others).
-fn steps_then_save(s: &mut Sph<Wcsph>, steps: usize) -> Vec<u8> {
+fn steps_then_save<S: SphMethod>(s: &mut Sph<S>, steps: usize) -> Vec<u8> {
     for _ in 0..steps {
         let dt = s.dt_proposal().min(1e-3);
         s.advance(dt).unwrap();
@@ -135,7 +163,7 @@ fn steps_then_save(s: &mut Sph<Wcsph>, steps: usize) -> Vec<u8> {
 }
 
 /// The whole state of rank 0 (one-rank order), as bits.
-fn whole(s: &Sph<Wcsph>) -> Option<Vec<[u64; 8]>> {
+fn whole<S: SphMethod>(s: &Sph<S>) -> Option<Vec<[u64; 8]>> {
     let p = &s.sys.particles;
     let bits = |i: usize| {
         let (x, v) = (p.position[i], p.velocity[i]);
@@ -169,8 +197,9 @@ fn on_threads<T: Send>(
     })
 }
 
-#[test]
-fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
+/// `before` steps of the dam break with the method `S` on 2 ranks save the checkpoint one rank
+/// saves, and 3 ranks resume from it to the bits of the one-rank run `after` steps on.
+fn checkpoint_on_two_ranks_resumes_on_three<S: SphMethod>(before: usize, after: usize) {
     let scene = scene();
     fn ctx<'a>(scene: &'a Scene, dir: &'a Path) -> SetupContext<'a> {
         SetupContext {
@@ -180,17 +209,16 @@ fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
             peer_present: false,
         }
     }
-    let (before, after) = (300, 200);
     // One rank, straight through, saving halfway.
     let one = tempfile::tempdir().unwrap();
-    let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, one.path()), None).unwrap();
+    let mut s = Sph::<S>::on_ranks(&ctx(&scene, one.path()), None).unwrap();
     let saved = steps_then_save(&mut s, before);
     steps_then_save(&mut s, after);
     let reference = whole(&s).unwrap();
     // Two ranks save the same bytes.
     let dirs: Vec<_> = (0..3).map(|_| tempfile::tempdir().unwrap()).collect();
     let on_two = on_threads(2, &dirs[..2], |c, d| {
-        let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
+        let mut s = Sph::<S>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
         steps_then_save(&mut s, before)
     });
     assert!(
@@ -202,7 +230,7 @@ fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
         std::fs::copy(one.path().join(f), dirs[0].path().join(f)).unwrap();
     }
     let resumed = on_threads(3, &dirs, |c, d| {
-        let mut s = Sph::<Wcsph>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
+        let mut s = Sph::<S>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
         s.restore_state(&saved, d).unwrap();
         steps_then_save(&mut s, after);
         whole(&s)
@@ -214,4 +242,14 @@ fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
         "resumed on 3 ranks: the first particle that differs"
     );
     assert_eq!(resumed.len(), reference.len());
+}
+
+#[test]
+fn a_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
+    checkpoint_on_two_ranks_resumes_on_three::<Wcsph>(300, 200);
+}
+
+#[test]
+fn a_dfsph_checkpoint_on_two_ranks_is_the_one_rank_file_and_resumes_on_three() {
+    checkpoint_on_two_ranks_resumes_on_three::<Dfsph>(60, 40);
 }

@@ -3,7 +3,10 @@
 //! forces, and the damping of the Jacobi increments next to them.
 
 use super::{BLOCK_TOLERANCE, Dfsph};
+use crate::core::exact_sum::{ExactSum, combine};
 use crate::kernels::Kernel;
+use crate::ranks::comm::wire;
+use crate::ranks::share::Share;
 use crate::system::FluidSystem;
 use rayon::prelude::*;
 use shared::geometry::strain::Strain;
@@ -43,28 +46,37 @@ impl Dfsph {
         k: impl Fn(usize, Real, Real, &Vector) -> Real + Sync,
     ) -> Real {
         let (m, kernel) = (sys.mass, &self.kernel);
+        // On several ranks rank 0 sums the loads in one-rank order (`BodyParticles::react`).
+        let split = sys.share.as_ref().map(|s| (s, &sys.grid));
         sys.boundary.react(
             &sys.particles.position,
             kernel.support(),
             |i, pw, rw, r, len| r * (-m * m * k(i, pw, rw, r) * kernel.gradient_factor(len)),
-            // DFSPH does not split over ranks (`SphMethod::SPLITS`).
-            None,
+            split,
         );
         let g = sys.gravity.norm().max(Real::MIN_POSITIVE);
         let Some(bodies) = sys.boundary.bodies_mut() else {
             return 0.0;
         };
-        let mut left: Real = 0.0;
-        let n = bodies.rigid.len();
-        self.motion.resize(n, (Vector::zeros(), Vector::zeros()));
-        self.loads.resize(n, BlockLoad::default());
-        for (kb, ((f, t, e), rigid)) in bodies.loads.iter().zip(&bodies.rigid).enumerate() {
+        self.block_loads.clear();
+        for (kb, (f, t, e)) in bodies.loads.iter().enumerate() {
             let (mut f, mut t, mut e) = (*f, *t, *e);
             if explicit && let Some(p) = sys.penalty_loads.get(kb) {
                 f += Vector::from(p.force);
                 t += Vector::from(p.torque);
                 e += Strain::from(p.strain_load);
             }
+            self.block_loads.push((f, t, e));
+        }
+        if let Some(s) = &sys.share {
+            // Rank 0's sums (the others' are partial) move the blocks on every rank alike.
+            broadcast_loads(s, &mut self.block_loads);
+        }
+        let mut left: Real = 0.0;
+        let n = bodies.rigid.len();
+        self.motion.resize(n, (Vector::zeros(), Vector::zeros()));
+        self.loads.resize(n, BlockLoad::default());
+        for (kb, (&(f, t, e), rigid)) in self.block_loads.iter().zip(&bodies.rigid).enumerate() {
             let load = &mut self.loads[kb];
             load.force = (Vector::from(load.force) + f).into();
             load.torque = (Vector::from(load.torque) + t).into();
@@ -111,7 +123,13 @@ impl Dfsph {
         let owner = &bodies.owner_sorted;
         // A coherent increment pushes a block through both halves of a mirrored pair.
         let mu = 1.0 + self.mirror();
+        // On several ranks the owned particles only (the halo's damping is not read).
+        let owned = sys.owned();
         self.near.par_iter_mut().enumerate().for_each(|(i, near)| {
+            if owned.is_some_and(|o| !o[i]) {
+                *near = (u32::MAX, 0.0);
+                return;
+            }
             let xi = pos[i];
             let (mut first, mut a, mut c) = (u32::MAX, Vector::zeros(), Vector::zeros());
             boundary.for_each_moving_neighbor(i, |b| {
@@ -137,14 +155,18 @@ impl Dfsph {
                 (first, s)
             };
         });
-        self.mobility.clear();
-        self.mobility.resize(rigid.len(), 0.0);
-        // In particle order: the sums are the same on any number of threads.
+        // Exact sums: the same on any number of threads and ranks.
+        let mut sums = vec![ExactSum::default(); rigid.len()];
         for &(o, s) in &self.near {
             if o != u32::MAX {
-                self.mobility[o as usize] += s;
+                sums[o as usize].add(s);
             }
         }
+        if let Some(s) = &sys.share {
+            combine(&mut sums, |w| s.comm().sum(w));
+        }
+        self.mobility.clear();
+        self.mobility.extend(sums.iter().map(ExactSum::value));
         let mobility = &self.mobility;
         self.damping
             .par_iter_mut()
@@ -156,5 +178,25 @@ impl Dfsph {
                     1.0 / (1.0 + mobility[o as usize])
                 };
             });
+    }
+}
+
+/// Rank 0's `loads` (force, torque, strain load per block) on every rank.
+fn broadcast_loads(share: &Share, loads: &mut [(Vector, Vector, Strain)]) {
+    let mut bytes = Vec::new();
+    if share.rank() == 0 {
+        for (f, t, e) in loads.iter() {
+            wire::put_f64(
+                &mut bytes,
+                f.iter().chain(t.iter()).chain(e.iter()).copied(),
+            );
+        }
+    }
+    share.comm().broadcast(&mut bytes);
+    let mut w = wire::f64s(&bytes);
+    for (f, t, e) in loads.iter_mut() {
+        for c in f.iter_mut().chain(t.iter_mut()).chain(e.iter_mut()) {
+            *c = w.next().expect("rank 0 sent every block's load");
+        }
     }
 }

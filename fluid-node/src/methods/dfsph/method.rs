@@ -5,8 +5,8 @@
 use super::{
     ABSURD_DENSITY_ERROR, BLOCKS_IN_SOLVE, DEFAULT_CFL, DEFICIENT_FRACTION, Dfsph, DfsphConstants,
     DfsphParams, MIRROR, PRESSURE_STUDY, SURFACE_FRACTION, SolveStats, WALL_PRESSURE,
-    blocks_in_solve, density_stiffness, divergence_stiffness, hydrostatic, lattice_neighbours,
-    stiffnesses,
+    blocks_in_solve, density_stiffness, divergence_stiffness, halo, hydrostatic,
+    lattice_neighbours, stiffnesses,
 };
 use crate::core::neighbors::PairValues;
 use crate::core::particles::Particles;
@@ -26,6 +26,7 @@ impl SphMethod for Dfsph {
     const NAME: &'static str = "dfsph";
     const DESCRIPTION: &'static str = "divergence-free SPH (Bender & Koschier 2015/2017): summed density, implicit constant-density and divergence-free solves, CFL step on the flow speed";
     const PARTICLE_STEPS_PER_SECOND: Option<f64> = Some(6.24e5);
+    const SPLITS: bool = true;
     type Params = DfsphParams;
     type Kernel = WendlandC2;
 
@@ -95,8 +96,7 @@ impl SphMethod for Dfsph {
             dk: Vec::new(),
             v_old: Vec::new(),
             pairs: PairValues::default(),
-            partials: Vec::new(),
-            partials2: Vec::new(),
+            block_loads: Vec::new(),
             stats: SolveStats::default(),
             blocks_in_solve: spec.blocks_in_solve.unwrap_or(BLOCKS_IN_SOLVE),
             mirrored: spec.wall_pressure.as_deref().unwrap_or(WALL_PRESSURE[0]) == "mirrored",
@@ -231,6 +231,11 @@ impl SphMethod for Dfsph {
                 *pr = (kd + kv) * *r * *r;
                 *r = *pred;
             });
+        // The halo's ρ* (the step's survey reads every particle held).
+        let predicted = &self.predicted;
+        for (i, [r]) in halo(&mut sys.share, |i| [predicted[i]]) {
+            density[i as usize] = r;
+        }
         sys.phases.stop(Phase::Integration, t);
         self.stats = SolveStats {
             density_iterations: it,
@@ -278,6 +283,7 @@ impl SphMethod for Dfsph {
         }
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
         let (kd, kv) = stiffnesses(p);
+        let split = sys.share.as_ref().map(|s| (s, &sys.grid));
         sys.boundary.react(
             &p.position,
             kernel.support(),
@@ -290,7 +296,7 @@ impl SphMethod for Dfsph {
                 };
                 r * (-m * m * k * kernel.gradient_factor(len))
             },
-            None,
+            split,
         );
     }
 

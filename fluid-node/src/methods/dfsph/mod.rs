@@ -138,6 +138,20 @@
 //! Speed: the kernel gradients and values of a step's fluid pairs are computed once, in f32,
 //! and streamed by every later pass (the `pairs` field), instead of once per pass.
 //!
+//! On several ranks ([`crate::ranks`]; the same bits as on one): every pass that sums over a
+//! particle's neighbours (densities and factors, the increments and their velocity change, the
+//! predictions, the non-pressure forces, the blocks' damping) runs for the rank's own particles
+//! only, and the halo then takes from their owners what a later pass reads of a neighbour or
+//! what the step's survey reads: after the densities the density (XSPH, the extrapolated walls),
+//! after the non-pressure forces v* and the acceleration, every iteration the increments dk
+//! (each rank adds them to the halo's k) and after each velocity change the velocities (with
+//! blocks in the solve also k̄, which the blocks read of the particles next to them), and at the
+//! step's end ρ*: 8 + 48 + 32 (+ 8) per iteration + 8 bytes per halo particle and step. β, G_i,
+//! the walls' flux and the errors are read of particle i alone and stay unshared. The solves
+//! stop on exact sums ([`crate::core::exact_sum`]) over the owned particles of all ranks, and
+//! every rank moves the free blocks by rank 0's loads, summed in one-rank order
+//! ([`crate::boundary::bodies::BodyParticles::react`]).
+//!
 //! State across steps: the per-particle warm-start stiffnesses must follow the system's sort, so
 //! they live in two [`Particles`] arrays this method does not otherwise use: `density0` holds
 //! k of the density solve and `density_rate` k of the divergence solve. This method's files
@@ -154,10 +168,14 @@ mod params;
 mod passes;
 mod solve;
 
+use crate::core::exact_sum::{ExactSum, combine, exact_sums};
 use crate::core::neighbors::PairValues;
 use crate::core::particles::Particles;
 use crate::kernels::WendlandC2;
 use crate::methods::SphMethod;
+use crate::ranks::share::Share;
+use crate::system::FluidSystem;
+use shared::geometry::strain::Strain;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
 
@@ -283,12 +301,16 @@ pub struct Dfsph {
     mass: Real,
     penalty_stiffness: Real,
     /// β_i = α_i/ρ_i (the Jacobi diagonal's inverse for k_i).
+    #[serde(skip)]
     beta: Vec<Real>,
     /// G_i = m(Σ_f ∇W_ij + Σ_b ∇W_ib).
+    #[serde(skip)]
     grad: Vec<Vector>,
     /// m Σ_b v_b·∇W_ib: the boundary's (constant) part of Dρ_i/Dt.
+    #[serde(skip)]
     wall_flux: Vec<Real>,
     /// Whether a particle has too few neighbours for the divergence solve ([`DEFICIENT_FRACTION`]).
+    #[serde(skip)]
     deficient: Vec<bool>,
     /// Neighbours (fluid and boundary, within the support) below which a particle is deficient.
     deficient_below: usize,
@@ -297,12 +319,16 @@ pub struct Dfsph {
     #[serde(default)]
     surface_below: usize,
     /// ρ*_i − ρ0 or Dρ_i/Dt, clamped at zero.
+    #[serde(skip)]
     error: Vec<Real>,
     /// ρ*_i of the last density prediction.
+    #[serde(skip)]
     predicted: Vec<Real>,
     /// Stiffness increment of the current iteration.
+    #[serde(skip)]
     dk: Vec<Real>,
     /// Velocities before the non-pressure forces (XSPH reads the old neighbours).
+    #[serde(skip)]
     v_old: Vec<Vector>,
     /// ∇W_ij (x, y, z) and W_ij of every listed fluid pair at this step's positions (zero past
     /// the support), in list order. The positions do not move during the solves, so the dozen
@@ -312,12 +338,10 @@ pub struct Dfsph {
     /// forces still conserve momentum. Recomputed at the start of every step: not checkpointed.
     #[serde(skip)]
     pairs: PairValues<[f32; 4]>,
-    /// Scratch of the solves' fixed-order sums ([`crate::core::fixed_sum`]): the mean errors, and
-    /// the pressure change with its total.
+    /// Each free block's load of the last [`Dfsph::move_blocks`] (scratch, rank 0's on every
+    /// rank).
     #[serde(skip)]
-    partials: Vec<[Real; 1]>,
-    #[serde(skip)]
-    partials2: Vec<[Real; 2]>,
+    block_loads: Vec<(Vector, Vector, Strain)>,
     pub stats: SolveStats,
     /// Whether free blocks move inside the solves (`blocks_in_solve`).
     #[serde(default)]
@@ -377,6 +401,36 @@ pub fn lattice_neighbours(support: Real, dx: Real) -> usize {
 #[inline(always)]
 fn gradient(o: &[f32; 4]) -> Vector {
     Vector::new(o[0] as Real, o[1] as Real, o[2] as Real)
+}
+
+/// On several ranks, the values `get(i)` of the halo's particles from their owners, as (local
+/// index, values); empty on one rank. After a pass that computed them for the owned particles
+/// only (module doc, "On several ranks").
+fn halo<const N: usize>(
+    share: &mut Option<Share>,
+    get: impl Fn(usize) -> [Real; N],
+) -> Vec<(u32, [Real; N])> {
+    share.as_mut().map_or_else(Vec::new, |s| s.share(get))
+}
+
+/// Σ term(i) over the particles this rank owns, summed over the ranks, exactly
+/// ([`crate::core::exact_sum`]): the same bits on any number of threads and ranks.
+fn total<const N: usize>(
+    sys: &FluidSystem,
+    term: impl Fn(usize) -> [Real; N] + Sync + Send,
+) -> [Real; N] {
+    let owned = sys.owned();
+    let mut sums = exact_sums(sys.len(), |i| {
+        if owned.is_some_and(|o| !o[i]) {
+            [0.0; N]
+        } else {
+            term(i)
+        }
+    });
+    if let Some(s) = &sys.share {
+        combine(&mut sums, |w| s.comm().sum(w));
+    }
+    sums.map(|s: ExactSum| s.value())
 }
 
 impl Dfsph {

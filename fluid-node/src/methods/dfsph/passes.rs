@@ -2,8 +2,7 @@
 //! change of a stiffness increment, the predicted density change, the moving boundary's flux,
 //! and the non-pressure forces (2017 Algorithm 1).
 
-use super::{Dfsph, gradient, hydrostatic};
-use crate::core::fixed_sum::fixed_sum;
+use super::{Dfsph, gradient, halo, hydrostatic, total};
 use crate::core::tasks;
 use crate::kernels::Kernel;
 use crate::system::FluidSystem;
@@ -32,6 +31,7 @@ impl Dfsph {
         let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
         let (deficient_below, surface_below) = (self.deficient_below, self.surface_below);
         let mirror = self.mirror();
+        let owned = sys.share.as_ref().map(|s| &s.owned[..]);
         let p = &mut sys.particles;
         let pos = &p.position;
         lists.fill_pairs(&mut self.pairs, |i, js, out| {
@@ -62,6 +62,11 @@ impl Dfsph {
             .with_max_len(tasks::PARTICLES)
             .for_each(
                 |(i, (((rho, beta), (grad, wall_grad)), (flux, deficient)))| {
+                    // On several ranks, a rank's own particles only (module doc, "On
+                    // several ranks").
+                    if owned.is_some_and(|o| !o[i]) {
+                        return;
+                    }
                     let xi = pos[i];
                     let mut sum_w = w0;
                     let mut bs = Vector::zeros();
@@ -115,6 +120,12 @@ impl Dfsph {
                     *flux = m * fl;
                 },
             );
+        // What a neighbour's pass reads of the halo: its density (XSPH; the walls'
+        // extrapolated pressure).
+        let density = &mut sys.particles.density;
+        for (k, [r]) in halo(&mut sys.share, |i| [density[i]]) {
+            density[k as usize] = r;
+        }
     }
 
     /// v_i −= dt (dk_i G_i + dk̄_i B_i + m Σ_f dk_j ∇W_ij): the pressure velocity change of
@@ -123,6 +134,7 @@ impl Dfsph {
     pub(super) fn apply(&mut self, sys: &mut FluidSystem, dk: &[Real], dt: Real) {
         let m = sys.mass;
         let (lists, pairs) = (&sys.fluid_lists, &self.pairs);
+        let owned = sys.share.as_ref().map(|s| &s.owned[..]);
         let p = &mut sys.particles;
         let (grad, wall_grad) = (&self.grad, &self.wall_grad);
         let mirrored = self.mirrored;
@@ -133,6 +145,9 @@ impl Dfsph {
             .enumerate()
             .with_max_len(tasks::PARTICLES)
             .for_each(|(i, (v, kbar))| {
+                if owned.is_some_and(|o| !o[i]) {
+                    return;
+                }
                 let mut acc = grad[i] * dk[i];
                 let mut sum = Vector::zeros();
                 let (js, gs) = lists.with_values(pairs, i);
@@ -166,11 +181,15 @@ impl Dfsph {
         let (m, kernel) = (sys.mass, &self.kernel);
         let s2 = kernel.support().powi(2);
         let (boundary, pos) = (&sys.boundary, &sys.particles.position);
+        let owned = sys.owned();
         self.wall_flux
             .par_iter_mut()
             .enumerate()
             .with_max_len(tasks::PARTICLES)
             .for_each(|(i, flux)| {
+                if owned.is_some_and(|o| !o[i]) {
+                    return;
+                }
                 let xi = pos[i];
                 let mut fl = 0.0;
                 boundary.for_each_moving_neighbor(i, |b| {
@@ -195,12 +214,16 @@ impl Dfsph {
         let p = &sys.particles;
         let (vel, rho) = (&p.velocity, &p.density);
         let (grad, flux, deficient) = (&self.grad, &self.wall_flux, &self.deficient);
+        let owned = sys.owned();
         self.error
             .par_iter_mut()
             .zip(self.predicted.par_iter_mut())
             .enumerate()
             .with_max_len(tasks::PARTICLES)
             .for_each(|(i, (e, pred))| {
+                if owned.is_some_and(|o| !o[i]) {
+                    return;
+                }
                 let mut d = 0.0;
                 let (js, gs) = lists.with_values(pairs, i);
                 for (&j, o) in js.iter().zip(gs) {
@@ -217,11 +240,11 @@ impl Dfsph {
                     *e = div.max(0.0);
                 }
             });
-        // The solves stop on this mean: summed in a fixed order (`fixed_sum`), so that where
-        // they stop does not depend on the threads.
+        // The solves stop on this mean: summed exactly over the owned particles of every
+        // rank, so that where they stop depends neither on the threads nor on the ranks.
         let error = &self.error;
-        let [sum] = fixed_sum(p.len(), &mut self.partials, |i| [error[i]]);
-        let mean = sum / p.len().max(1) as Real / rho0;
+        let [sum] = total(sys, |i| [error[i]]);
+        let mean = sum / sys.global_len().max(1) as Real / rho0;
         if density { mean } else { mean * dt }
     }
 
@@ -235,6 +258,7 @@ impl Dfsph {
         let kernel = &self.kernel;
         let s2 = kernel.support().powi(2);
         let (lists, boundary, pairs) = (&sys.fluid_lists, &sys.boundary, &self.pairs);
+        let owned = sys.share.as_ref().map(|s| &s.owned[..]);
         let p = &mut sys.particles;
         // In parallel: a serial copy left the second thread idle long enough to fall asleep
         // (tasks.rs).
@@ -249,6 +273,9 @@ impl Dfsph {
             .enumerate()
             .with_max_len(tasks::PARTICLES)
             .for_each(|(i, (v, a))| {
+                if owned.is_some_and(|o| !o[i]) {
+                    return;
+                }
                 let (xi, vi) = (pos[i], v_old[i]);
                 let mut xsph = Vector::zeros();
                 if eps > 0.0 {
@@ -276,5 +303,15 @@ impl Dfsph {
                 *a = g + pen[i] / m;
                 *v = vi + (*a + wall) * dt + xsph * eps;
             });
+        // The halo's v* (its owned neighbours' passes read it) and acceleration (the step's
+        // survey reads every particle held; a halo particle's Eq. 22 force is its owner's).
+        let (vel, acc) = (&mut p.velocity, &mut p.acceleration);
+        for (k, [vx, vy, vz, ax, ay, az]) in halo(&mut sys.share, |i| {
+            let (v, a) = (vel[i], acc[i]);
+            [v.x, v.y, v.z, a.x, a.y, a.z]
+        }) {
+            vel[k as usize] = Vector::new(vx, vy, vz);
+            acc[k as usize] = Vector::new(ax, ay, az);
+        }
     }
 }

@@ -1,11 +1,10 @@
 //! One implicit solve of DFSPH: the divergence solve (2017 Algorithm 2) or the constant-density
 //! solve (Algorithm 3), warm-started Jacobi iterations on the stiffness.
 
-use super::{Dfsph, WARM_START};
-use crate::core::fixed_sum::fixed_sum;
+use super::{Dfsph, WARM_START, halo, total};
 use crate::system::FluidSystem;
 use rayon::prelude::*;
-use shared::math::Real;
+use shared::math::{Real, Vector};
 
 impl Dfsph {
     /// One implicit solve, 2017 Algorithm 2 (divergence, `density` false) or Algorithm 3
@@ -38,10 +37,15 @@ impl Dfsph {
         let blocks = self.moves_blocks(sys);
         self.predict(sys, dt, density);
         let mut dk = std::mem::take(&mut self.dk);
+        let owned = sys.owned();
         dk.par_iter_mut()
             .zip(k.par_iter_mut())
             .zip(self.error.par_iter())
-            .for_each(|((d, k), &e)| {
+            .enumerate()
+            .for_each(|(i, ((d, k), &e))| {
+                if owned.is_some_and(|o| !o[i]) {
+                    return;
+                }
                 *k = if e > 0.0 {
                     WARM_START * k.max(0.0)
                 } else {
@@ -49,8 +53,18 @@ impl Dfsph {
                 };
                 *d = *k;
             });
-        if dk.par_iter().any(|&d| d != 0.0) {
+        for (i, [d]) in halo(&mut sys.share, |i| [dk[i]]) {
+            (dk[i as usize], k[i as usize]) = (d, d);
+        }
+        let warm = dk.par_iter().any(|&d| d != 0.0);
+        // Every rank applies it or none (each applies and shares alike).
+        let warm = match &sys.share {
+            Some(s) => crate::ranks::any(s.comm(), warm),
+            None => warm,
+        };
+        if warm {
             self.apply(sys, &dk, dt);
+            self.share_velocities(sys, blocks && self.mirrored);
             if blocks {
                 let kbar = std::mem::take(&mut self.kbar);
                 // The walls' k̄_i (zero unless mirrored) is the second half of each pair.
@@ -72,21 +86,31 @@ impl Dfsph {
             // divided by ρ_i: k_i = error_i·β_i·scale.
             // Damped next to a free block in the solve (`block_damping`).
             let damping = blocks.then_some(&self.damping[..]);
+            let owned = sys.owned();
             dk.par_iter_mut()
                 .zip(k.par_iter_mut())
                 .zip(self.error.par_iter().zip(self.beta.par_iter()))
                 .enumerate()
                 .for_each(|(i, ((d, k), (&e, &b)))| {
+                    if owned.is_some_and(|o| !o[i]) {
+                        return;
+                    }
                     *d = e * b * scale * damping.map_or(1.0, |w| w[i]);
                     *k += *d;
                 });
+            // The halo's increments: `apply` reads them of the neighbours, the blocks of
+            // the particles next to them.
+            for (i, [d]) in halo(&mut sys.share, |i| [dk[i]]) {
+                dk[i as usize] = d;
+                k[i as usize] += d;
+            }
             if pressure_tolerance.is_finite() {
                 // Σ|Δk| / Σ|k|: how much this iteration still moved the pressure field.
-                let [moved, total] =
-                    fixed_sum(k.len(), &mut self.partials2, |i| [dk[i].abs(), k[i].abs()]);
-                change = if total > 0.0 { moved / total } else { 0.0 };
+                let [moved, all] = total(sys, |i| [dk[i].abs(), k[i].abs()]);
+                change = if all > 0.0 { moved / all } else { 0.0 };
             }
             self.apply(sys, &dk, dt);
+            self.share_velocities(sys, blocks && self.mirrored);
             if blocks {
                 let kbar = std::mem::take(&mut self.kbar);
                 block_left = self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + kbar[i]);
@@ -97,5 +121,29 @@ impl Dfsph {
         }
         self.dk = dk;
         (it, err, k)
+    }
+}
+
+impl Dfsph {
+    /// After [`Self::apply`] on several ranks: the halo's velocities (the next pass reads them
+    /// of the neighbours) and, with `kbar` (blocks in the solve, mirrored walls), the walls' k̄
+    /// (the blocks read it of the particles next to them, [`Self::move_blocks`]; zero
+    /// otherwise).
+    fn share_velocities(&mut self, sys: &mut FluidSystem, kbar: bool) {
+        let Some(s) = &mut sys.share else {
+            return;
+        };
+        let v = &mut sys.particles.velocity;
+        if kbar {
+            let kbar = &mut self.kbar;
+            for (i, [x, y, z, kb]) in s.share(|i| [v[i].x, v[i].y, v[i].z, kbar[i]]) {
+                v[i as usize] = Vector::new(x, y, z);
+                kbar[i as usize] = kb;
+            }
+        } else {
+            for (i, [x, y, z]) in s.share(|i| [v[i].x, v[i].y, v[i].z]) {
+                v[i as usize] = Vector::new(x, y, z);
+            }
+        }
     }
 }
