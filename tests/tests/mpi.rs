@@ -1,10 +1,10 @@
 //! The fluid node on real MPI ranks (`--features tests/mpi`, which builds the fluid node with
 //! MPI; Debian's openmpi-bin and libopenmpi-dev): a small dam break writes byte-identical results
-//! on 1, 2, 3 and 4 ranks and over TCP only, and with the paper's SPH on 1 and 2; a rank killed
+//! on 1, 2, 3 and 4 ranks and over TCP only, and with Müller's and DFSPH on 1 and 2; a rank killed
 //! mid-run stops the run at once and a stopped one at the step timeout, both named by rank, with
 //! what was written kept and nothing of the run left (processes, shared memory); and what ranks
 //! cannot do is refused before anything is written: a missing launcher, more ranks than the
-//! water fills, a solver that does not split. A run checkpointed on 2 ranks and killed resumes
+//! water fills. A run checkpointed on 2 ranks and killed resumes
 //! on 3, and a rank killed under `--retries` restarts from the checkpoint, both to the bits of an
 //! uninterrupted run on one; a block sliding into water gives the same bits on 1 and 2 ranks.
 #![cfg(feature = "mpi")]
@@ -176,12 +176,15 @@ fn dam_break_with(solver: &str) -> String {
 }
 
 #[test]
-fn the_paper_sph_writes_the_same_bits_on_one_and_two_ranks() {
-    let text = dam_break_with("muller");
-    let one = run_scene("muller-1-rank", &text, &[]);
-    let steps = summary(&one)["stats"]["steps"].as_u64().unwrap();
-    assert!(steps >= 100, "only {steps} steps");
-    same_bits_as(&one, &text, &[("muller-2-ranks", &["--fluid-ranks", "2"])]);
+fn the_paper_sph_and_dfsph_write_the_same_bits_on_one_and_two_ranks() {
+    for solver in ["muller", "dfsph"] {
+        let text = dam_break_with(solver);
+        let one = run_scene(&format!("{solver}-1-rank"), &text, &[]);
+        let steps = summary(&one)["stats"]["steps"].as_u64().unwrap();
+        assert!(steps >= 100, "{solver}: only {steps} steps");
+        let two = format!("{solver}-2-ranks");
+        same_bits_as(&one, &text, &[(two.as_str(), &["--fluid-ranks", "2"])]);
+    }
 }
 
 /// The MPI rank of a process, from the environment its launcher gave it (Open MPI's
@@ -453,35 +456,6 @@ fn more_ranks_than_the_water_fills_are_refused_naming_the_most() {
     ] {
         assert!(err.contains(&says), "{says}: {err}");
     }
-}
-
-#[test]
-fn what_ranks_do_not_do_yet_is_refused_before_the_run() {
-    let dfsph = dam_break_with("dfsph");
-    let (_, dir) = fresh("mpi-dfsph-check");
-    let scene = scene_file(&dir, &dfsph);
-    let out = Command::new(bin("coupler"))
-        .arg("check")
-        .arg(&scene)
-        .args(["--fluid-ranks", "2"])
-        .stdin(Stdio::null())
-        .output()
-        .unwrap();
-    let err = stderr(&out);
-    assert!(!out.status.success(), "{err}");
-    for says in [
-        "the fluid solver 'dfsph' does not run on several ranks yet",
-        "wcsph",
-        "or run with --fluid-ranks 1",
-    ] {
-        assert!(err.contains(says), "{says}: {err}");
-    }
-    std::fs::remove_file(scene).unwrap();
-    let err = refused_run("dfsph-run", &dfsph, &["--fluid-ranks", "2"]);
-    assert!(
-        err.contains("'dfsph' does not run on several ranks"),
-        "{err}"
-    );
 }
 
 /// Panics unless `names` in `b` equal those in `a` to the byte, naming the first difference.

@@ -9,9 +9,10 @@
 //! ([`mpi`], cargo feature `mpi`), or threads of one process in the tests.
 //!
 //! The outputs are byte-identical on any number of ranks and to one rank ([`share`]'s module
-//! doc says why). On several ranks today: WCSPH with fixed and moving blocks, walls and
-//! terrain, gauges and probes, frames and checkpoints (resumed on any number of ranks); solvers
-//! that are not [`crate::methods::SphMethod::SPLITS`] are refused with a message.
+//! doc says why). On several ranks: every built-in method (WCSPH, Müller, DFSPH), with fixed,
+//! moving and free blocks, walls and terrain, gauges and probes, frames and checkpoints
+//! (resumed on any number of ranks); a method that is not
+//! [`crate::methods::SphMethod::SPLITS`] is refused with a message.
 
 pub mod comm;
 pub mod leader;
