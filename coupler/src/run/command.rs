@@ -62,13 +62,41 @@ fn run_inner(args: RunArgs) -> Result<u8, String> {
     warn(&scene, solvers.fluid.as_deref(), solvers.scheme);
     let scheme = solvers.scheme;
     // The run directory's lock (the resumed run's, or the new one's) is held until the end.
-    let (checkpoint, _dir_lock) = match resume {
+    let (checkpoint, mut dir_lock) = match resume {
         Some(r) => (Some(r.checkpoint), Some(r.lock)),
         None => (None, fresh_lock),
     };
+    if let Some(lock) = &mut dir_lock {
+        if let Some(old) = lock.previous_run() {
+            remove_interrupted(&old);
+        }
+        lock.name_run(&run_id)?;
+    }
     let opts = options(&args, &scene, solvers, nodes, &run_id, checked, checkpoint);
     let (stats, outcome) = Session::execute(opts, &mut dir);
     Ok(finish(&dir, &scene, &run_id, &stats, outcome, scheme, &out))
+}
+
+/// How long the nodes of a run whose coupler was killed are given to leave before a resume
+/// removes what they left.
+const INTERRUPTED_GRACE: Duration = Duration::from_secs(5);
+
+/// The run `old` whose coupler died in this run directory (a resume): once its nodes are gone,
+/// its shared memory goes too. Its nodes tidy up when they find the coupler dead, but an MPI
+/// launcher may kill a rank before it has (its own grace after forwarding SIGTERM is short);
+/// the sweep of dead runs at every start only takes files a minute old.
+fn remove_interrupted(old: &RunId) {
+    let start = std::time::Instant::now();
+    while shared::transport::run_has_live_nodes(old) {
+        if start.elapsed() > INTERRUPTED_GRACE {
+            return; // still alive: they will tidy up themselves
+        }
+        // Processes leaving have no event to wait on; they take moments.
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    if shared::transport::remove_run_files(old) > 0 {
+        eprintln!("coupler: removed shared memory left by the interrupted run {old}");
+    }
 }
 
 /// Takes the run id (given or fresh) for this coupler, and clears what dead runs left.

@@ -27,6 +27,9 @@ const BUSY_GRACE: Duration = Duration::from_secs(1);
 pub struct RunLock {
     path: PathBuf,
     file: File,
+    /// What the file said before this coupler took it: a dead coupler's pid and, in a run
+    /// directory, the run id it ran ([`Self::name_run`]).
+    previous: String,
 }
 
 impl RunLock {
@@ -78,17 +81,18 @@ impl RunLock {
                 // A holder that names no live process is a sweep testing the lock (it holds it
                 // for microseconds) or a coupler between taking it and writing its pid; ask
                 // again shortly rather than refuse a free id. A live holder is refused at once.
-                let live = holder
+                let pid = holder.lines().next().unwrap_or_default();
+                let live = pid
                     .parse::<u32>()
                     .is_ok_and(shared::transport::process_alive);
                 if !live && busy_since.get_or_insert_with(Instant::now).elapsed() < BUSY_GRACE {
                     std::thread::sleep(Duration::from_millis(5));
                     continue;
                 }
-                return Err(busy(&if holder.is_empty() {
+                return Err(busy(&if pid.is_empty() {
                     String::new()
                 } else {
-                    format!(" (pid {holder})")
+                    format!(" (pid {pid})")
                 }));
             }
             // The previous holder may have removed the file between our open and our lock:
@@ -101,12 +105,39 @@ impl RunLock {
             if !same {
                 continue;
             }
-            file.set_len(0)
-                .and_then(|_| file.rewind())
-                .and_then(|_| writeln!(file, "{}", std::process::id()))
-                .map_err(|e| format!("cannot write the run lock '{}': {e}", path.display()))?;
-            return Ok(RunLock { path, file });
+            let mut previous = String::new();
+            let _ = file.read_to_string(&mut previous);
+            let mut lock = RunLock {
+                path,
+                file,
+                previous,
+            };
+            lock.write(&std::process::id().to_string())?;
+            return Ok(lock);
         }
+    }
+}
+
+impl RunLock {
+    /// Replaces the file's text with `text` (a line).
+    fn write(&mut self, text: &str) -> Result<(), String> {
+        self.file
+            .set_len(0)
+            .and_then(|_| self.file.rewind())
+            .and_then(|_| writeln!(self.file, "{text}"))
+            .map_err(|e| format!("cannot write the run lock '{}': {e}", self.path.display()))
+    }
+
+    /// Notes the run id this coupler runs in its directory's lock, under its pid: a coupler
+    /// that takes the directory after this one dies knows whose files to remove.
+    pub fn name_run(&mut self, id: &RunId) -> Result<(), String> {
+        self.write(&format!("{}\n{id}", std::process::id()))
+    }
+
+    /// The run id the directory's previous coupler noted ([`Self::name_run`]), if it died
+    /// holding the lock (a coupler that ends removes the file).
+    pub fn previous_run(&self) -> Option<RunId> {
+        RunId::parse(self.previous.lines().nth(1)?.trim()).ok()
     }
 }
 
@@ -225,6 +256,29 @@ mod tests {
         let gone = dir.path().join("none");
         let err = RunLock::directory(&gone).err().unwrap();
         assert!(err.contains("none"), "{err}");
+    }
+
+    /// A coupler notes its run id in its directory's lock; the coupler that takes the
+    /// directory after it died (a resume) reads it.
+    #[test]
+    fn the_next_coupler_of_a_directory_learns_the_dead_one_s_run() {
+        let dir = tempfile::tempdir().unwrap();
+        let id = RunId::fresh();
+        let mut lock = RunLock::directory(dir.path()).unwrap();
+        assert_eq!(lock.previous_run(), None, "a new directory");
+        lock.name_run(&id).unwrap();
+        let text = std::fs::read_to_string(dir.path().join(DIR_LOCK)).unwrap();
+        assert_eq!(text, format!("{}\n{id}\n", std::process::id()));
+        let err = RunLock::directory(dir.path()).err().unwrap();
+        assert!(
+            err.contains(&format!("(pid {})", std::process::id())),
+            "{err}"
+        );
+        drop(lock);
+        // A coupler killed by SIGKILL leaves its file (the kernel drops its flock).
+        std::fs::write(dir.path().join(DIR_LOCK), format!("999999999\n{id}\n")).unwrap();
+        let next = RunLock::directory(dir.path()).unwrap();
+        assert_eq!(next.previous_run(), Some(id));
     }
 
     #[test]

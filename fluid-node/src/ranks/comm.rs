@@ -67,6 +67,9 @@ pub mod wire {
 struct Mailboxes {
     size: usize,
     queues: Vec<(Mutex<VecDeque<Vec<u8>>>, Condvar)>,
+    /// A rank that panicked (its handle dropped while unwinding): the others stop waiting for
+    /// it and panic too, so a failing test fails instead of hanging.
+    dead: Mutex<Option<usize>>,
 }
 
 impl Mailboxes {
@@ -76,7 +79,8 @@ impl Mailboxes {
         ready.notify_one();
     }
 
-    /// Blocks (no spinning) until a message from `from` to `to` is there.
+    /// Blocks (no spinning) until a message from `from` to `to` is there; panics if a rank
+    /// died meanwhile.
     fn take(&self, from: usize, to: usize) -> Vec<u8> {
         let (queue, ready) = &self.queues[from * self.size + to];
         let mut q = queue.lock().expect("a rank panicked");
@@ -84,7 +88,24 @@ impl Mailboxes {
             if let Some(m) = q.pop_front() {
                 return m;
             }
+            let dead = *self.dead.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some(r) = dead {
+                panic!("rank {r} panicked: rank {to} stops waiting for rank {from}");
+            }
             q = ready.wait(q).expect("a rank panicked");
+        }
+    }
+
+    /// Rank `rank` is gone: every waiting rank wakes and panics.
+    fn bury(&self, rank: usize) {
+        self.dead
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get_or_insert(rank);
+        for (queue, ready) in &self.queues {
+            // Taken and released so a rank between its check and its wait is not missed.
+            drop(queue.lock());
+            ready.notify_all();
         }
     }
 }
@@ -102,6 +123,7 @@ impl ThreadRanks {
         let boxes = Arc::new(Mailboxes {
             size,
             queues: (0..size * size).map(|_| Default::default()).collect(),
+            dead: Mutex::new(None),
         });
         (0..size)
             .map(|rank| {
@@ -133,6 +155,14 @@ impl ThreadRanks {
         }
         self.broadcast(&mut out);
         values.copy_from_slice(&decode(&out));
+    }
+}
+
+impl Drop for ThreadRanks {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.boxes.bury(self.rank);
+        }
     }
 }
 
@@ -208,6 +238,26 @@ mod tests {
     use super::*;
 
     /// Three thread ranks exchange, gather, broadcast and reduce as MPI ranks would.
+    /// A rank that panics (a failing assertion on one rank of a test) makes the ranks waiting
+    /// for it panic too: the test fails instead of hanging.
+    #[test]
+    fn a_rank_that_panics_wakes_the_others() {
+        let mut ranks = ThreadRanks::handles(2);
+        let (one, zero) = (ranks.pop().unwrap(), ranks.pop().unwrap());
+        let (waiter, dier) = std::thread::scope(|s| {
+            let waiter = s.spawn(move || zero.gather(vec![1]));
+            let dier = s.spawn(move || {
+                let _held = one;
+                panic!("rank 1 fails");
+            });
+            (waiter.join(), dier.join())
+        });
+        assert!(dier.is_err());
+        let msg = waiter.unwrap_err();
+        let msg = msg.downcast_ref::<String>().unwrap();
+        assert!(msg.contains("rank 1 panicked"), "{msg}");
+    }
+
     #[test]
     fn thread_ranks_do_what_mpi_ranks_do() {
         let ranks = ThreadRanks::handles(3);

@@ -43,30 +43,38 @@ impl MpiRanks {
 /// Longest nap between two looks at a pending message.
 const MAX_NAP: Duration = Duration::from_micros(500);
 
+/// Shortest nap (in practice Linux's timer slack, ~55 µs by default).
+const MIN_NAP: Duration = Duration::from_micros(5);
+
 /// How long a rank looks again at once (yielding its core between looks) before it naps.
 const EAGER: Duration = Duration::from_micros(30);
+
+/// A nap is this fraction of the wait so far: a message is taken at most an eighth of the
+/// wait (plus the timer slack) after it came.
+const NAP_OF_WAIT: u32 = 8;
 
 /// Naps between looks at a pending message. MPI's own blocking calls poll (Open MPI's
 /// shared-memory transport spins a core while it waits), and the ranks share their cores with
 /// the coupler and the solid node: a rank that waits must sleep. Within a step the other ranks'
-/// messages mostly come within tens of µs, less than the shortest sleep Linux gives (~55 µs
-/// with its default timer slack): for [`EAGER`] a rank yields its core between looks, then
-/// naps 5 µs (in practice the timer slack), twice as long each time up to [`MAX_NAP`]. A rank
-/// waiting for the coupler's next step sleeps 2000 times a second.
-struct Naps(Option<std::time::Instant>, Duration);
+/// messages mostly come within tens of µs, less than the shortest sleep Linux gives: for
+/// [`EAGER`] a rank yields its core between looks, then naps an eighth of the time it has
+/// waited ([`NAP_OF_WAIT`]), from [`MIN_NAP`] to [`MAX_NAP`]. Naps that doubled each time
+/// overslept a wait by up to its own length: at 10⁵ particles, where a step takes ~20 ms and a
+/// rank waits several times in it, that was a few per cent of the step. A rank waiting for the
+/// coupler's next step sleeps 2000 times a second.
+struct Naps(Option<std::time::Instant>);
 
 impl Naps {
     fn new() -> Self {
-        Self(None, Duration::from_micros(5))
+        Self(None)
     }
     fn take(&mut self) {
-        let since = *self.0.get_or_insert_with(std::time::Instant::now);
-        if since.elapsed() < EAGER {
+        let waited = self.0.get_or_insert_with(std::time::Instant::now).elapsed();
+        if waited < EAGER {
             std::thread::yield_now();
             return;
         }
-        std::thread::sleep(self.1);
-        self.1 = (self.1 * 2).min(MAX_NAP);
+        std::thread::sleep((waited / NAP_OF_WAIT).clamp(MIN_NAP, MAX_NAP));
     }
 }
 

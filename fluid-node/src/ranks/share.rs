@@ -139,31 +139,45 @@ impl Share {
         self.owned.iter().filter(|&&o| o).count()
     }
 
-    /// Before a sort: hands every particle to the ranks that hold its column now, and leaves
-    /// this rank's in key order; moves the cuts first when the work drifted past [`REBALANCE`].
-    pub fn redistribute(&mut self, p: &mut Particles, grid: &CellGrid) -> Result<(), String> {
+    /// Before a sort: hands each particle to the ranks that hold its column now and did not
+    /// hold it at the last sort (its position then: `sorted_at`, or its position now before the
+    /// first sort), drops the particles whose column this rank no longer holds, and leaves the
+    /// rest in key order; moves the cuts first when the work drifted past [`REBALANCE`]. A
+    /// particle a rank kept is its owner's copy to the last bit (module doc): only what enters
+    /// a rank's columns travels.
+    pub fn redistribute(
+        &mut self,
+        p: &mut Particles,
+        grid: &CellGrid,
+        sorted_at: &[Vector],
+    ) -> Result<(), String> {
         let t = Instant::now();
         let me = self.rank();
+        let before = self.slabs.clone().expect("the first cut made the slabs");
         if self.stats.imbalance > REBALANCE {
             self.slabs = Some(Slabs::balanced(self.axis, &self.work, self.comm.size())?);
             self.stats.rebalances += 1;
         }
-        let slabs = self.slabs.as_ref().expect("the first cut made the slabs");
-        // What each rank is sent of the particles this rank owns.
-        let size = self.comm.size();
+        let after = self.slabs.as_ref().unwrap();
+        let (size, held) = (self.comm.size(), after.held(me));
         let mut bundles: Vec<Vec<u8>> = vec![Vec::new(); size];
+        let mut kept: Vec<u32> = Vec::with_capacity(p.len());
         for i in 0..p.len() {
+            let now = self.column(grid, &p.position[i]);
+            if held.contains(&now) {
+                kept.push(i as u32);
+            }
             if !self.owned[i] {
                 continue;
             }
-            let c = self.column(grid, &p.position[i]);
+            // The rank that owned the particle at the last sort sends it where it is new.
+            let then = sorted_at.get(i).map_or(now, |x| self.column(grid, x));
             for (q, bundle) in bundles.iter_mut().enumerate() {
-                if slabs.held(q).contains(&c) {
+                if q != me && after.held(q).contains(&now) && !before.held(q).contains(&then) {
                     encode(p, i, self.key[i], bundle);
                 }
             }
         }
-        let mine = std::mem::take(&mut bundles[me]);
         let out: Vec<(usize, Vec<u8>)> = bundles
             .into_iter()
             .enumerate()
@@ -171,21 +185,41 @@ impl Share {
             .collect();
         self.stats.bytes_sent += out.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
         let received = self.comm.exchange(out);
-        // This rank's particles, in key order.
-        let mut items: Vec<(u64, &[u8])> = std::iter::once(&mine)
-            .chain(received.iter())
+        let arrived: Vec<&[u8]> = received
+            .iter()
             .flat_map(|b| b.chunks_exact(8 * WORDS))
-            .map(|c| {
-                (
-                    u64::from_le_bytes(c[8 * (WORDS - 1)..].try_into().unwrap()),
-                    c,
-                )
-            })
             .collect();
-        items.par_sort_unstable_by_key(|(k, _)| *k);
-        decode(p, items.iter().map(|(_, c)| *c));
-        self.key = items.iter().map(|(k, _)| *k).collect();
-        let own = slabs.owned(me);
+        if arrived.is_empty() && kept.len() == p.len() {
+            // Nothing came or went: the particles are in key order already.
+        } else {
+            // This rank's particles, kept and arrived, in key order: `Ok` a kept particle's
+            // index, `Err` an arrived one's words.
+            let mut items: Vec<(u64, Result<u32, &[u8]>)> = kept
+                .iter()
+                .map(|&i| (self.key[i as usize], Ok(i)))
+                .chain(arrived.iter().map(|c| {
+                    let key = u64::from_le_bytes(c[8 * (WORDS - 1)..].try_into().unwrap());
+                    (key, Err(*c))
+                }))
+                .collect();
+            items.par_sort_unstable_by_key(|(k, _)| *k);
+            let mut q = Particles::new(vec![Vector::zeros(); items.len()], vec![0.0; items.len()]);
+            let mut w = [0.0; STATE];
+            for (k, (_, from)) in items.iter().enumerate() {
+                match from {
+                    Ok(i) => set_state(&mut q, k, &state(p, *i as usize)),
+                    Err(c) => {
+                        for (v, f) in w.iter_mut().zip(wire::f64s(c)) {
+                            *v = f;
+                        }
+                        set_state(&mut q, k, &w);
+                    }
+                }
+            }
+            *p = q;
+            self.key = items.iter().map(|(k, _)| *k).collect();
+        }
+        let own = after.owned(me);
         self.owned = p
             .position
             .iter()
@@ -545,18 +579,4 @@ fn set_state(q: &mut Particles, i: usize, w: &[Real]) {
 fn encode(p: &Particles, i: usize, key: u64, out: &mut Vec<u8>) {
     wire::put_f64(out, state(p, i));
     wire::put_u64(out, [key]);
-}
-
-/// Replaces `p`'s particles with those of `items` (hand-over words, [`encode`]), in order.
-fn decode<'a>(p: &mut Particles, items: impl ExactSizeIterator<Item = &'a [u8]>) {
-    let n = items.len();
-    let mut q = Particles::new(vec![Vector::zeros(); n], vec![0.0; n]);
-    let mut w = [0.0; STATE];
-    for (i, c) in items.enumerate() {
-        for (v, f) in w.iter_mut().zip(wire::f64s(c)) {
-            *v = f;
-        }
-        set_state(&mut q, i, &w);
-    }
-    *p = q;
 }

@@ -260,7 +260,7 @@ impl FluidSystem {
             let t = self.phases.start();
             if let Some(s) = &mut self.share {
                 // The cuts were checked at set-up: a failure here is a broken invariant.
-                s.redistribute(&mut self.particles, &self.grid)
+                s.redistribute(&mut self.particles, &self.grid, &self.sorted_at)
                     .expect("the slabs fit the grid");
             }
             let t = self.phases.lap(Phase::Halo, t);
