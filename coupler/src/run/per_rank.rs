@@ -32,6 +32,11 @@ pub const BYTES_PER_RANK_PARTICLE: f64 = 660.0;
 /// Peak resident bytes per boundary (wall, terrain, block) particle, measured as above. Every
 /// rank holds every boundary particle.
 pub const BYTES_PER_BOUNDARY_PARTICLE: f64 = 90.0;
+/// Rank 0's peak resident bytes on top of its own share, per water particle of the whole run:
+/// it gathers every particle to write a checkpoint (the one-rank file) and a frame. Measured on
+/// `scenes/fjord.toml --dx 1.3333333333333333 --fluid-ranks 2` (28 Nov 2026): rank 0 peaked at
+/// 739 MiB against 232 MB for its share by the figures above, with 534 348 water particles.
+pub const LEAD_BYTES_PER_PARTICLE: f64 = 1000.0;
 
 /// The slabs of a scene's domain: the axis they are cut along, its length and a grid cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,6 +89,9 @@ pub struct PerRank {
     /// Memory of one rank [bytes]: [`BASE_BYTES`] + [`BYTES_PER_RANK_PARTICLE`] × (own + halo)
     /// + [`BYTES_PER_BOUNDARY_PARTICLE`] × boundary particles.
     pub memory: f64,
+    /// Memory of rank 0 [bytes]: [`Self::memory`] + [`LEAD_BYTES_PER_PARTICLE`] × the whole
+    /// water (on one rank, the node's own estimate holds).
+    pub lead_memory: f64,
 }
 
 impl PerRank {
@@ -101,15 +109,17 @@ impl PerRank {
             0.0
         };
         let boundary = whole.boundary_particles;
+        let memory = BASE_BYTES
+            + BYTES_PER_RANK_PARTICLE * (particles + halo)
+            + BYTES_PER_BOUNDARY_PARTICLE * boundary;
         Some(PerRank {
             ranks,
             slabs,
             particles,
             halo,
             boundary,
-            memory: BASE_BYTES
-                + BYTES_PER_RANK_PARTICLE * (particles + halo)
-                + BYTES_PER_BOUNDARY_PARTICLE * boundary,
+            memory,
+            lead_memory: memory + LEAD_BYTES_PER_PARTICLE * whole.fluid_particles,
         })
     }
 
@@ -117,7 +127,7 @@ impl PerRank {
     pub fn describe(&self) -> String {
         let s = &self.slabs;
         format!(
-            "on {} fluid ranks: slabs of {:.3} m along {} (the domain's {:.3} m); each rank about {:.3e} water particles + {:.3e} halo ({:.0} % more: 2 × {} cells of {:.3} m) + {:.3e} boundary (every rank holds them all), about {:.0} MB of memory ({} B per water and {} B per boundary particle, measured)",
+            "on {} fluid ranks: slabs of {:.3} m along {} (the domain's {:.3} m); each rank about {:.3e} water particles + {:.3e} halo ({:.0} % more: 2 × {} cells of {:.3} m) + {:.3e} boundary (every rank holds them all), about {:.0} MB of memory ({} B per water and {} B per boundary particle, measured), rank 0 about {:.0} MB (it gathers the whole water for checkpoints and frames)",
             self.ranks,
             s.length / f64::from(self.ranks),
             s.axis_name(),
@@ -130,7 +140,8 @@ impl PerRank {
             self.boundary,
             self.memory / 1e6,
             BYTES_PER_RANK_PARTICLE,
-            BYTES_PER_BOUNDARY_PARTICLE
+            BYTES_PER_BOUNDARY_PARTICLE,
+            self.lead_memory / 1e6
         )
     }
 }
@@ -236,13 +247,14 @@ mod tests {
             "{three:?}"
         );
         assert!(three.memory < one.memory);
+        assert!(three.lead_memory > three.memory);
         let line = three.describe();
         for says in [
             "on 3 fluid ranks",
             "along x",
             "halo (24 % more",
             "MB of memory",
-            "660 B per water and 90 B per boundary particle, measured",
+            "660 B per water and 90 B per boundary particle, measured), rank 0 about",
         ] {
             assert!(line.contains(says), "{says}: {line}");
         }
