@@ -378,23 +378,11 @@ fn dfsph_moves_a_free_block_to_the_same_bits_on_one_two_and_three_ranks() {
         let ctx = ctx_for(&scene, &dir);
         let mut s = Sph::<Dfsph>::on_ranks(&ctx, comm).unwrap();
         let steps = common::wedge_steps(&mut s, state, scene.time.dt_max, 12);
-        let p = &s.sys.particles;
-        let values = |i: usize| {
-            let (x, v) = (p.position[i], p.velocity[i]);
-            [x.x, x.y, x.z, v.x, v.y, v.z, p.density[i], p.pressure[i]]
-        };
-        let all: Option<Vec<[f64; 8]>> = match &s.sys.share {
-            None => Some((0..p.len()).map(values).collect()),
-            Some(share) => share.gather(values),
-        };
         let loads: Vec<[u64; 3]> = steps
             .iter()
             .map(|(_, l)| l.force.map(f64::to_bits))
             .collect();
-        (
-            all.map(|a| a.iter().map(|v| v.map(f64::to_bits)).collect::<Vec<_>>()),
-            loads,
-        )
+        (s.sys.gathered_bits(), loads)
     };
     let (one, loads) = run(None);
     let one = one.unwrap();

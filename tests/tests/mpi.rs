@@ -74,17 +74,28 @@ fn dam_break(tag: &str, args: &[&str]) -> PathBuf {
     run_scene(tag, &dam_break_text(), args)
 }
 
-/// Runs scene `text` with `args`; panics with its stderr unless it completes, or if it leaves
-/// shared memory behind.
-fn run_scene(tag: &str, text: &str, args: &[&str]) -> PathBuf {
+/// `coupler run` of scene `text` (written beside a fresh run directory named for `tag`) with
+/// `args`, to its end: the run's id, directory, scene file and output.
+fn run_tagged(
+    tag: &str,
+    text: &str,
+    args: &[&str],
+) -> (RunId, PathBuf, PathBuf, std::process::Output) {
     let (id, dir) = fresh(&format!("mpi-{tag}"));
     let scene = scene_file(&dir, text);
     let all: Vec<&str> = [scene.to_str().unwrap()]
         .into_iter()
         .chain(args.iter().copied())
         .collect();
-    let start = Instant::now();
     let out = run(coupler(&id, &dir, &all));
+    (id, dir, scene, out)
+}
+
+/// Runs scene `text` with `args`; panics with its stderr unless it completes, or if it leaves
+/// shared memory behind.
+fn run_scene(tag: &str, text: &str, args: &[&str]) -> PathBuf {
+    let start = Instant::now();
+    let (id, dir, scene, out) = run_tagged(tag, text, args);
     assert!(
         out.status.success(),
         "{tag} failed after {:?}: {}",
@@ -410,13 +421,7 @@ fn a_stopped_rank_ends_the_run_at_the_step_timeout_named_and_leaves_nothing_behi
 /// `coupler run` of the dam break with `args` that must be refused before anything is
 /// written; returns its stderr.
 fn refused_run(tag: &str, text: &str, args: &[&str]) -> String {
-    let (id, dir) = fresh(&format!("mpi-{tag}"));
-    let scene = scene_file(&dir, text);
-    let all: Vec<&str> = [scene.to_str().unwrap()]
-        .into_iter()
-        .chain(args.iter().copied())
-        .collect();
-    let out = run(coupler(&id, &dir, &all));
+    let (id, dir, scene, out) = run_tagged(tag, text, args);
     let err = stderr(&out);
     assert!(!out.status.success(), "{tag}: {err}");
     assert!(!dir.exists(), "{tag}: {} was written: {err}", dir.display());

@@ -339,6 +339,18 @@ mod tests {
             .unwrap_or(false)
     }
 
+    /// The `n` processes `p` started, once they are there (within 5 s).
+    fn started_by(p: &NodeProcess, n: usize) -> Vec<libc::pid_t> {
+        let started = Instant::now();
+        let mut kids = Vec::new();
+        while kids.len() < n && started.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(10));
+            kids = descendants(p.pid() as libc::pid_t);
+        }
+        assert_eq!(kids.len(), n, "{kids:?}");
+        kids
+    }
+
     /// A process that ignores SIGTERM is killed with everything it started, as an MPI
     /// launcher's ranks (each in a process group of its own) must be.
     #[test]
@@ -355,13 +367,7 @@ mod tests {
         };
         let id = RunId::parse("treekill").unwrap();
         let mut p = NodeProcess::spawn(&cmd, &id, &[]).unwrap();
-        let started = Instant::now();
-        let mut kids = Vec::new();
-        while kids.len() < 2 && started.elapsed() < Duration::from_secs(5) {
-            std::thread::sleep(Duration::from_millis(10));
-            kids = descendants(p.pid() as libc::pid_t);
-        }
-        assert_eq!(kids.len(), 2, "{kids:?}");
+        let kids = started_by(&p, 2);
         assert!(p.terminate(Duration::from_millis(100)).is_some());
         let gone = Instant::now();
         while kids.iter().any(|&k| alive(k)) && gone.elapsed() < Duration::from_secs(2) {
@@ -382,12 +388,8 @@ mod tests {
         };
         let id = RunId::parse("stopped").unwrap();
         let mut p = NodeProcess::spawn(&cmd, &id, &[]).unwrap();
+        let kids = started_by(&p, 1);
         let started = Instant::now();
-        let mut kids = Vec::new();
-        while kids.is_empty() && started.elapsed() < Duration::from_secs(5) {
-            std::thread::sleep(Duration::from_millis(10));
-            kids = descendants(p.pid() as libc::pid_t);
-        }
         assert_eq!(p.stopped(), Vec::<String>::new(), "nothing stopped yet");
         // SAFETY: kill(2) on the sleep our child started, found an instant ago.
         unsafe {

@@ -49,17 +49,8 @@ fn run<S: SphMethod>(
     }
     s.write_frame(1, s.sys.time).unwrap();
     s.finish().unwrap();
-    let p = &s.sys.particles;
-    let bits = |i: usize| {
-        let (x, v) = (p.position[i], p.velocity[i]);
-        [x.x, x.y, x.z, v.x, v.y, v.z, p.density[i], p.pressure[i]]
-    };
-    let all: Option<Vec<[f64; 8]>> = match &s.sys.share {
-        None => Some((0..p.len()).map(bits).collect()),
-        Some(share) => share.gather(bits),
-    };
     (
-        all.map(|all| all.iter().map(|a| a.map(f64::to_bits)).collect()),
+        s.sys.gathered_bits(),
         s.sys.sorts,
         s.sys.share.as_ref().map(|s| s.stats),
     )
@@ -162,20 +153,6 @@ fn steps_then_save<S: SphMethod>(s: &mut Sph<S>, steps: usize) -> Vec<u8> {
     s.save_state().unwrap()
 }
 
-/// The whole state of rank 0 (one-rank order), as bits.
-fn whole<S: SphMethod>(s: &Sph<S>) -> Option<Vec<[u64; 8]>> {
-    let p = &s.sys.particles;
-    let bits = |i: usize| {
-        let (x, v) = (p.position[i], p.velocity[i]);
-        [x.x, x.y, x.z, v.x, v.y, v.z, p.density[i], p.pressure[i]]
-    };
-    let all: Vec<[f64; 8]> = match &s.sys.share {
-        None => (0..p.len()).map(bits).collect(),
-        Some(share) => share.gather(bits)?,
-    };
-    Some(all.iter().map(|a| a.map(f64::to_bits)).collect())
-}
-
 /// Runs `f` on `n` thread ranks, each with its own run directory; returns rank 0's result.
 fn on_threads<T: Send>(
     n: usize,
@@ -214,7 +191,7 @@ fn checkpoint_on_two_ranks_resumes_on_three<S: SphMethod>(before: usize, after: 
     let mut s = Sph::<S>::on_ranks(&ctx(&scene, one.path()), None).unwrap();
     let saved = steps_then_save(&mut s, before);
     steps_then_save(&mut s, after);
-    let reference = whole(&s).unwrap();
+    let reference = s.sys.gathered_bits().unwrap();
     // Two ranks save the same bytes.
     let dirs: Vec<_> = (0..3).map(|_| tempfile::tempdir().unwrap()).collect();
     let on_two = on_threads(2, &dirs[..2], |c, d| {
@@ -233,7 +210,7 @@ fn checkpoint_on_two_ranks_resumes_on_three<S: SphMethod>(before: usize, after: 
         let mut s = Sph::<S>::on_ranks(&ctx(&scene, d), Some(c)).unwrap();
         s.restore_state(&saved, d).unwrap();
         steps_then_save(&mut s, after);
-        whole(&s)
+        s.sys.gathered_bits()
     });
     let resumed = resumed.expect("rank 0 gathers");
     let first = resumed.iter().zip(&reference).position(|(a, b)| a != b);

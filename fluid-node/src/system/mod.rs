@@ -215,6 +215,21 @@ impl FluidSystem {
             .map_or(self.particles.len(), |s| s.global_len)
     }
 
+    /// Every particle's position, velocity, density and pressure as bits, in one-rank order,
+    /// on rank 0 (None on the others; every rank must call it): what the rank tests compare.
+    pub fn gathered_bits(&self) -> Option<Vec<[u64; 8]>> {
+        let p = &self.particles;
+        let values = |i: usize| {
+            let (x, v) = (p.position[i], p.velocity[i]);
+            [x.x, x.y, x.z, v.x, v.y, v.z, p.density[i], p.pressure[i]]
+        };
+        let all: Vec<[Real; 8]> = match &self.share {
+            None => (0..p.len()).map(values).collect(),
+            Some(share) => share.gather(values)?,
+        };
+        Some(all.iter().map(|a| a.map(f64::to_bits)).collect())
+    }
+
     /// Which particles this rank computes the rates of: None on one rank (all of them).
     pub fn owned(&self) -> Option<&[bool]> {
         self.share.as_ref().map(|s| &s.owned[..])
