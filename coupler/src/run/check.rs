@@ -141,15 +141,19 @@ mod tests {
     /// `coupler check` refuses on ranks what `coupler run` would: solvers that do not split;
     /// moving blocks and checkpoints run on ranks.
     #[test]
-    fn check_refuses_what_ranks_do_not_do_yet() {
-        let mut muller = fixed_only();
-        muller.fluid.as_mut().unwrap().solver = "muller".into();
-        let msg = per_rank_lines(&muller, Some(2)).unwrap_err();
-        assert!(
-            msg.contains("the fluid solver 'muller' does not run on several ranks yet"),
-            "{msg}"
-        );
-        assert_eq!(per_rank_lines(&muller, Some(1)), Ok(vec![]));
+    fn check_says_what_each_rank_holds_for_every_solver() {
+        for solver in ["wcsph", "muller", "dfsph"] {
+            let mut scene = fixed_only();
+            scene.fluid.as_mut().unwrap().solver = solver.into();
+            assert_eq!(
+                per_rank_lines(&scene, Some(2)).map(|l| l.len()),
+                Ok(1),
+                "{solver}"
+            );
+            assert_eq!(per_rank_lines(&scene, Some(1)), Ok(vec![]), "{solver}");
+        }
+        let msg = per_rank_lines(&fixed_only(), Some(4096)).unwrap_err();
+        assert!(msg.contains("more ranks than the water can fill"), "{msg}");
         let mut moving = Scene::default_scene();
         moving.fluid.as_mut().unwrap().solver = "wcsph".into();
         assert_eq!(per_rank_lines(&moving, Some(2)).map(|l| l.len()), Ok(1));
