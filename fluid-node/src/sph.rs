@@ -56,7 +56,7 @@ impl<S: SphMethod> Sph<S> {
             && !S::SPLITS
         {
             return Err(SolverError::Failed(format!(
-                "the fluid solver '{}' does not run on several ranks yet ({} ranks asked): use a solver that does (wcsph, muller, dfsph), or one rank",
+                "the fluid solver '{}' does not run on several ranks yet ({} ranks asked): use a solver that does (every built-in one), or one rank",
                 S::NAME,
                 c.size()
             )));

@@ -390,8 +390,8 @@ mod tests {
     }
 
     /// On several fluid ranks a long run gets its default checkpoints as on one (rank 0 writes
-    /// the one-rank file), the checkpoint flags are taken, and a solver that does not split is
-    /// refused before the run starts.
+    /// the one-rank file), the checkpoint flags are taken, and every built-in fluid solver is
+    /// let through.
     #[test]
     fn runs_on_ranks_checkpoint_as_on_one() {
         let mut long = Scene::default_scene();
