@@ -34,6 +34,9 @@
 //! for loops with no serial part (the `ceiling` module), the yardstick for the solvers' own
 //! 2 ÷ 1 ratios.
 
+/// One solver stepping in its own pool, what every row times.
+#[path = "fluid_bench/bench.rs"]
+mod bench;
 #[path = "fluid_bench/ceiling.rs"]
 mod ceiling;
 #[path = "fluid_bench/paired.rs"]
@@ -47,12 +50,8 @@ mod ranks;
 #[path = "fluid_bench/scene.rs"]
 mod scene;
 
-use fluid_node::sph::SphSolver;
-use fluid_node::validation::{self, TempRunDir, build};
+use bench::{Bench, default_steps};
 use scene::scene;
-use shared::coupling::step::StepRule;
-use shared::protocol::BlockLoad;
-use std::time::Instant;
 
 /// VmHWM from /proc/self/status (Linux), in MB.
 /// Voluntary context switches of the process's threads so far (Linux: the sum over
@@ -170,75 +169,44 @@ fn main() {
     for solver in &solvers {
         for &n in &sizes {
             for &t in &threads {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(t)
-                    .build()
-                    .expect("thread pool");
-                pool.install(|| {
-                    let sc = scene(solver, n, &params);
-                    let dir = TempRunDir::new("bench").expect("temp dir");
-                    let mut s: Box<dyn SphSolver> =
-                        build(solver, &sc, dir.path()).unwrap_or_else(|e| {
-                            eprintln!("fluid-bench: {solver}: {e}");
-                            std::process::exit(2)
-                        });
-                    let count = s.system().len();
-                    let mut loads: Vec<BlockLoad> = Vec::new();
-                    // Granted as the coupler grants it, towards the scene's end (never reached).
-                    let rule = StepRule::new(sc.time.dt_max, sc.time.dt_min);
-                    let mut time = 0.0;
-                    let mut step = |s: &mut Box<dyn SphSolver>| {
-                        time = validation::step(s.as_mut(), &rule, time, sc.time.end, &mut loads)
-                            .expect("stable")
-                            .0;
-                    };
-                    for _ in 0..3 {
-                        step(&mut s);
-                    }
-                    while s.system().time < from {
-                        step(&mut s);
-                    }
-                    let sorts = s.system().sorts;
-                    // About 3·10⁶ particle-steps per measurement, at least 3 steps.
-                    let steps = timed.unwrap_or((3_000_000 / count).clamp(3, 200));
-                    // The timed steps alone (the clock was off until now).
-                    s.phases_mut().reset();
-                    s.phases_mut().set_enabled(phases);
-                    let sleeps = thread_sleeps();
-                    let start = Instant::now();
-                    for _ in 0..steps {
-                        step(&mut s);
-                    }
-                    let secs = start.elapsed().as_secs_f64();
-                    let sleeps = sleeps
-                        .zip(thread_sleeps())
-                        .map_or("–".into(), |(a, b)| {
-                            format!("{:.2}", b.saturating_sub(a) as f64 / steps as f64)
-                        });
-                    if phases {
-                        timed_phases.push(phase_table::Timed {
-                            solver: solver.clone(),
-                            particles: count,
-                            threads: t,
-                            steps,
-                            secs,
-                            clock: s.system().phases.clone(),
-                        });
-                    }
-                    let rate = (count * steps) as f64 / secs;
-                    let (fluid, boundary) = s.system().listed_pairs();
-                    let per = |p: usize| p as f64 / count as f64;
-                    let rebuilds = (s.system().sorts - sorts) as f64 / steps as f64;
-                    println!(
-                        "| {solver} | {count} | {t} | {from} | {steps} | {:.4} | {:.3e} | {:.2} | {rebuilds:.2} | {:.1} + {:.1} | {sleeps} | {} |",
-                        secs / steps as f64,
-                        rate,
-                        1e6 / rate,
-                        per(fluid),
-                        per(boundary),
-                        peak_rss_mb().map_or("–".into(), |m| format!("{m:.0}"))
-                    );
+                let sc = scene(solver, n, &params);
+                let mut bench = Bench::new(t, solver, &sc);
+                bench.warm_up(from);
+                let count = bench.solver.system().len();
+                let sorts = bench.solver.system().sorts;
+                let steps = timed.unwrap_or_else(|| default_steps(count));
+                // The timed steps alone (the clock was off until now).
+                bench.solver.phases_mut().reset();
+                bench.solver.phases_mut().set_enabled(phases);
+                let sleeps = thread_sleeps();
+                let secs = bench.run(steps);
+                let sys = bench.solver.system();
+                let sleeps = sleeps.zip(thread_sleeps()).map_or("–".into(), |(a, b)| {
+                    format!("{:.2}", b.saturating_sub(a) as f64 / steps as f64)
                 });
+                if phases {
+                    timed_phases.push(phase_table::Timed {
+                        solver: solver.clone(),
+                        particles: count,
+                        threads: t,
+                        steps,
+                        secs,
+                        clock: sys.phases.clone(),
+                    });
+                }
+                let rate = (count * steps) as f64 / secs;
+                let (fluid, boundary) = sys.listed_pairs();
+                let per = |p: usize| p as f64 / count as f64;
+                let rebuilds = (sys.sorts - sorts) as f64 / steps as f64;
+                println!(
+                    "| {solver} | {count} | {t} | {from} | {steps} | {:.4} | {:.3e} | {:.2} | {rebuilds:.2} | {:.1} + {:.1} | {sleeps} | {} |",
+                    secs / steps as f64,
+                    rate,
+                    1e6 / rate,
+                    per(fluid),
+                    per(boundary),
+                    peak_rss_mb().map_or("–".into(), |m| format!("{m:.0}"))
+                );
             }
         }
     }

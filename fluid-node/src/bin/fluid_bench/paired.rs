@@ -9,74 +9,9 @@
 //! both sides of a pair. Reported per solver: both throughputs over all timed steps, their
 //! ratio, and the median and range of the per-pair ratios.
 
+use super::bench::{Bench, default_steps};
 use super::ceiling::median;
 use super::scene::scene;
-use fluid_node::sph::SphSolver;
-use fluid_node::validation::{self, TempRunDir, build};
-use rayon::ThreadPool;
-use shared::coupling::step::StepRule;
-use shared::protocol::BlockLoad;
-use shared::scene::Scene;
-use std::time::Instant;
-
-/// One copy of the solver in its own pool, and where it stands.
-struct Side {
-    pool: ThreadPool,
-    solver: Box<dyn SphSolver>,
-    rule: StepRule,
-    end: f64,
-    time: f64,
-    loads: Vec<BlockLoad>,
-    /// The run directory (removed when dropped).
-    _dir: TempRunDir,
-}
-
-impl Side {
-    fn new(threads: usize, name: &str, sc: &Scene) -> Self {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("thread pool");
-        let dir = TempRunDir::new("bench").expect("temp dir");
-        let solver = pool
-            .install(|| build(name, sc, dir.path()))
-            .unwrap_or_else(|e| {
-                eprintln!("fluid-bench: {name}: {e}");
-                std::process::exit(2)
-            });
-        Self {
-            pool,
-            solver,
-            rule: StepRule::new(sc.time.dt_max, sc.time.dt_min),
-            end: sc.time.end,
-            time: 0.0,
-            loads: Vec::new(),
-            _dir: dir,
-        }
-    }
-
-    /// Takes `steps` steps on a worker of its pool (as the node does); returns their seconds.
-    fn run(&mut self, steps: usize) -> f64 {
-        let Self {
-            pool,
-            solver,
-            rule,
-            end,
-            time,
-            loads,
-            ..
-        } = self;
-        pool.install(|| {
-            let start = Instant::now();
-            for _ in 0..steps {
-                *time = validation::step(solver.as_mut(), rule, *time, *end, loads)
-                    .expect("stable")
-                    .0;
-            }
-            start.elapsed().as_secs_f64()
-        })
-    }
-}
 
 /// Prints a row per solver and size: 1 and 2 threads in alternating blocks of `block` steps,
 /// `steps` timed steps on each side, after `from` simulated seconds (and 3 warm-up steps).
@@ -95,18 +30,15 @@ pub fn run(
     for name in solvers {
         for &n in sizes {
             let sc = scene(name, n, params);
-            let mut one = Side::new(1, name, &sc);
-            let mut two = Side::new(2, name, &sc);
+            let mut one = Bench::new(1, name, &sc);
+            let mut two = Bench::new(2, name, &sc);
             let count = one.solver.system().len();
             for side in [&mut one, &mut two] {
-                side.run(3);
-                while side.solver.system().time < from {
-                    side.run(1);
-                }
+                side.warm_up(from);
             }
             let block = block.max(1);
             let pairs = steps
-                .unwrap_or((3_000_000 / count).clamp(3, 200))
+                .unwrap_or_else(|| default_steps(count))
                 .div_ceil(block)
                 .max(1);
             let (mut t1, mut t2, mut ratios) = (0.0, 0.0, Vec::with_capacity(pairs));

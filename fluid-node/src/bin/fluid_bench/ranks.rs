@@ -6,13 +6,9 @@
 //! it spent in messages (waiting included) per step, the imbalance of the work, and its peak
 //! resident memory.
 
+use super::bench::{Bench, default_steps};
 use fluid_node::ranks::{self, comm::Comm};
-use fluid_node::sph::SphSolver;
-use fluid_node::validation::{self, TempRunDir, build};
-use shared::coupling::step::StepRule;
-use shared::protocol::BlockLoad;
 use std::sync::Arc;
-use std::time::Instant;
 
 /// Starts the bench again as `ranks` MPI ranks (this process is not one), and returns its exit
 /// status.
@@ -76,81 +72,47 @@ pub fn run(
     }
     let mut per_rank = Vec::new();
     for &n in sizes {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("thread pool");
-        pool.install(|| {
-            let sc = super::scene::scene(solver, n, params);
-            let dir = TempRunDir::new("bench").expect("temp dir");
-            let mut s: Box<dyn SphSolver> = build(solver, &sc, dir.path()).unwrap_or_else(|e| {
-                eprintln!("fluid-bench rank {rank}: {solver}: {e}");
-                std::process::exit(2)
-            });
-            let count = s.system().global_len();
-            let mut loads: Vec<BlockLoad> = Vec::new();
-            let rule = StepRule::new(sc.time.dt_max, sc.time.dt_min);
-            let mut time = 0.0;
-            let mut step = |s: &mut Box<dyn SphSolver>| {
-                time = validation::step(s.as_mut(), &rule, time, sc.time.end, &mut loads)
-                    .expect("stable")
-                    .0;
-            };
-            for _ in 0..3 {
-                step(&mut s);
-            }
-            while s.system().time < from {
-                step(&mut s);
-            }
-            let steps = timed.unwrap_or((3_000_000 / count).clamp(3, 200));
-            let before = s
-                .system()
-                .share
-                .as_ref()
-                .map(|x| x.stats)
-                .unwrap_or_default();
-            // Every rank starts the clock together.
-            comm.max(&mut [0.0]);
-            let start = Instant::now();
-            for _ in 0..steps {
-                step(&mut s);
-            }
-            let mut secs = [start.elapsed().as_secs_f64()];
-            comm.max(&mut secs);
-            let after = s
-                .system()
-                .share
-                .as_ref()
-                .map(|x| x.stats)
-                .unwrap_or_default();
-            let owned = s
-                .system()
-                .owned()
-                .map_or(count, |o| o.iter().filter(|&&x| x).count());
-            let mine = [
-                owned as f64,
-                after.halo as f64,
-                (after.bytes_sent - before.bytes_sent) as f64 / steps as f64,
-                (after.waiting - before.waiting).as_secs_f64() / steps as f64,
-                after.imbalance,
-                after.rebalances as f64,
-                super::peak_rss_mb().unwrap_or(f64::NAN),
-            ];
-            let all = comm.gather(words(&mine));
-            if rank == 0 {
-                let secs = secs[0];
-                println!(
-                    "| {solver} | {count} | {} × {threads} | {steps} | {:.4} | {:.3e} |",
-                    comm.size(),
-                    secs / steps as f64,
-                    (count * steps) as f64 / secs
-                );
-                for (r, b) in all.iter().enumerate() {
-                    let v: Vec<f64> = b
-                        .chunks_exact(8)
-                        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
-                        .collect();
-                    per_rank.push(format!(
+        let sc = super::scene::scene(solver, n, params);
+        let mut bench = Bench::new(threads, solver, &sc);
+        bench.warm_up(from);
+        let count = bench.solver.system().global_len();
+        let steps = timed.unwrap_or_else(|| default_steps(count));
+        let stats = |b: &Bench| b.solver.system().share.as_ref().map(|x| x.stats);
+        let before = stats(&bench).unwrap_or_default();
+        // Every rank starts the clock together.
+        comm.max(&mut [0.0]);
+        let mut secs = [bench.run(steps)];
+        comm.max(&mut secs);
+        let after = stats(&bench).unwrap_or_default();
+        let owned = bench
+            .solver
+            .system()
+            .owned()
+            .map_or(count, |o| o.iter().filter(|&&x| x).count());
+        let mine = [
+            owned as f64,
+            after.halo as f64,
+            (after.bytes_sent - before.bytes_sent) as f64 / steps as f64,
+            (after.waiting - before.waiting).as_secs_f64() / steps as f64,
+            after.imbalance,
+            after.rebalances as f64,
+            super::peak_rss_mb().unwrap_or(f64::NAN),
+        ];
+        let all = comm.gather(words(&mine));
+        if rank == 0 {
+            let secs = secs[0];
+            println!(
+                "| {solver} | {count} | {} × {threads} | {steps} | {:.4} | {:.3e} |",
+                comm.size(),
+                secs / steps as f64,
+                (count * steps) as f64 / secs
+            );
+            for (r, b) in all.iter().enumerate() {
+                let v: Vec<f64> = b
+                    .chunks_exact(8)
+                    .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+                    .collect();
+                per_rank.push(format!(
                         "| {count} | {r} | {:.0} | {:.0} | {:.0} | {:.1} | {:.1} | {:.3} | {:.0} | {:.0} |",
                         v[0],
                         v[1],
@@ -161,9 +123,8 @@ pub fn run(
                         v[5],
                         v[6]
                     ));
-                }
             }
-        });
+        }
     }
     if rank == 0 {
         println!();
