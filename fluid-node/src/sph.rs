@@ -116,6 +116,7 @@ impl<S: SphMethod> Solver for Sph<S> {
     }
 
     fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
+        let busy = self.sys.begin_busy();
         if !self.sys.is_prepared() {
             self.prepare_step();
         }
@@ -125,6 +126,9 @@ impl<S: SphMethod> Solver for Sph<S> {
             .sys
             .end_step(dt, self.method.kernel(), low, reference)?;
         self.dt_next = self.method.dt_proposal(v, a);
+        if busy {
+            self.sys.end_busy();
+        }
         if let Some(w) = self.sys.take_warning() {
             report.warning = Some(match report.warning {
                 Some(own) => format!("{own}; {w}"),
@@ -167,6 +171,7 @@ impl<S: SphMethod> FluidSolver for Sph<S> {
     }
 
     fn prepare_step(&mut self) {
+        let busy = self.sys.begin_busy();
         self.sys.prepare_bodies();
         if !self.method.loads_follow_step(&self.sys) {
             // The water's pressure on the moving blocks' boundary particles at the current
@@ -177,6 +182,9 @@ impl<S: SphMethod> FluidSolver for Sph<S> {
             self.sys.phases.stop(Phase::BlockLoads, t);
         }
         self.sys.apply_coupling_forces();
+        if busy {
+            self.sys.end_busy();
+        }
     }
 
     fn write_loads(&mut self, loads: &mut [BlockLoad]) {

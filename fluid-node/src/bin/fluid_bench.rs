@@ -126,7 +126,7 @@ struct Args {
     phases: bool,
     /// Instead of the rows per thread count: each size on this many MPI ranks of the first
     /// `--threads` threads each, of the first solver (needs `--features mpi`).
-    #[arg(long, allow_hyphen_values = true, conflicts_with_all = ["ceiling", "paired", "phases"])]
+    #[arg(long, allow_hyphen_values = true, conflicts_with_all = ["ceiling", "paired"])]
     ranks: Option<usize>,
 }
 
@@ -158,7 +158,16 @@ fn main() {
         return;
     }
     if let Some(n) = args.ranks {
-        on_ranks(n, &solvers[0], &sizes, threads[0], &params, from, timed);
+        let rows = Rows {
+            solver: &solvers[0],
+            sizes: &sizes,
+            threads: threads[0],
+            params: &params,
+            from,
+            timed,
+            phases,
+        };
+        on_ranks(n, &rows);
         return;
     }
     println!(
@@ -189,6 +198,7 @@ fn main() {
                         solver: solver.clone(),
                         particles: count,
                         threads: t,
+                        rank: None,
                         steps,
                         secs,
                         clock: sys.phases.clone(),
@@ -213,17 +223,22 @@ fn main() {
     phase_table::print(&timed_phases);
 }
 
-/// `--ranks N`: started again under MPI, or, as one of the ranks, the rows.
-#[cfg(feature = "mpi")]
-fn on_ranks(
-    n: usize,
-    solver: &str,
-    sizes: &[usize],
+/// What `--ranks` measures: the first solver, each size, the first thread count.
+#[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+struct Rows<'a> {
+    solver: &'a str,
+    sizes: &'a [usize],
     threads: usize,
-    params: &[String],
+    params: &'a [String],
     from: f64,
     timed: Option<usize>,
-) {
+    /// Also a phase table per size, a column per rank.
+    phases: bool,
+}
+
+/// `--ranks N`: started again under MPI, or, as one of the ranks, the rows.
+#[cfg(feature = "mpi")]
+fn on_ranks(n: usize, rows: &Rows) {
     if fluid_node::ranks::launched_ranks().is_none() {
         std::process::exit(if ranks::launch(n) == std::process::ExitCode::SUCCESS {
             0
@@ -235,19 +250,11 @@ fn on_ranks(
         eprintln!("fluid-bench: {e}");
         std::process::exit(2)
     });
-    ranks::run(
-        std::sync::Arc::new(comm),
-        solver,
-        sizes,
-        threads,
-        params,
-        from,
-        timed,
-    );
+    ranks::run(std::sync::Arc::new(comm), rows);
 }
 
 #[cfg(not(feature = "mpi"))]
-fn on_ranks(_: usize, _: &str, _: &[usize], _: usize, _: &[String], _: f64, _: Option<usize>) {
+fn on_ranks(_: usize, _: &Rows) {
     eprintln!(
         "fluid-bench: --ranks needs MPI: build with `cargo build --release --features fluid-node/mpi` (Debian packages libopenmpi-dev openmpi-bin libclang-dev)"
     );

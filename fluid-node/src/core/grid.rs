@@ -139,6 +139,16 @@ impl CellGrid {
         c
     }
 
+    /// Which of `parts` equal parts of the grid's extent along `axis` a point is in (clamped):
+    /// with `parts` a power of two times the cells along `axis`, the part divided by
+    /// `parts / dims[axis]` is the point's cell coordinate [`Self::coords`] exactly.
+    #[inline]
+    pub fn part(&self, p: &Vector, axis: usize, parts: usize) -> usize {
+        let per_cell = (parts / self.dims[axis]) as Real;
+        let f = (p[axis] - self.origin[axis]) * self.inv_cell * per_cell;
+        (f.max(0.0) as usize).min(parts - 1)
+    }
+
     /// The index of the cell of a point (clamped into the grid).
     #[inline]
     pub fn cell_index(&self, p: &Vector) -> usize {

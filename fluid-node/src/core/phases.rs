@@ -188,6 +188,24 @@ impl PhaseClock {
     pub fn sum(&self) -> Duration {
         self.total.iter().sum()
     }
+
+    /// The sums as words, phase by phase (seconds, calls): another rank's clock for rank 0.
+    pub fn to_words(&self) -> Vec<f64> {
+        Phase::ALL
+            .iter()
+            .flat_map(|&p| [self.total(p).as_secs_f64(), self.calls(p) as f64])
+            .collect()
+    }
+
+    /// A clock with the sums of [`Self::to_words`] (off).
+    pub fn from_words(words: &[f64]) -> Self {
+        let mut clock = Self::default();
+        for (k, w) in words.chunks_exact(2).take(Phase::COUNT).enumerate() {
+            clock.total[k] = Duration::from_secs_f64(w[0]);
+            clock.calls[k] = w[1] as u64;
+        }
+        clock
+    }
 }
 
 #[cfg(test)]

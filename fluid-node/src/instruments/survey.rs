@@ -71,7 +71,9 @@ impl Survey {
     }
 
     /// The pass over particles with `position`, `velocity`, `acceleration`, `density`, and their
-    /// positions at the last sort `sorted_at`.
+    /// positions at the last sort `sorted_at`; on several ranks over the `owned` ones only (a
+    /// halo particle is its owner's copy to the bit: its owner surveys it, and the maxima
+    /// over the ranks are those of one rank).
     ///
     /// In chunks: a branch-free scan of a chunk takes the maxima and the skin test, and only a
     /// chunk where some particle breaks a rule is scanned again particle by particle to name
@@ -82,6 +84,7 @@ impl Survey {
         acceleration: &[Vector],
         density: &[Real],
         sorted_at: &[Vector],
+        owned: Option<&[bool]>,
         rules: &Rules,
     ) -> Self {
         const CHUNK: usize = 2048;
@@ -91,6 +94,7 @@ impl Survey {
             acceleration,
             density,
             sorted_at,
+            owned,
             rules,
         };
         let n = position.len();
@@ -120,12 +124,16 @@ struct State<'a> {
     acceleration: &'a [Vector],
     density: &'a [Real],
     sorted_at: &'a [Vector],
+    owned: Option<&'a [bool]>,
     rules: &'a Rules,
 }
 
 impl State<'_> {
     /// Particle `i` into the partial survey `s` (speeds and accelerations squared).
     fn visit(&self, mut s: Survey, i: usize) -> Survey {
+        if self.owned.is_some_and(|o| !o[i]) {
+            return s;
+        }
         let rules = self.rules;
         let (lo, hi) = rules.domain;
         let (x, v, rho) = (&self.position[i], &self.velocity[i], self.density[i]);
@@ -177,7 +185,11 @@ impl State<'_> {
         let (bound, low) = (rules.density_bound, rules.check_low_density);
         let (mut v2max, mut a2max, mut bad) = (0.0 as Real, 0.0 as Real, false);
         let (open, mut aloft) = (rules.open_top, 0usize);
+        let owned = |i: usize| self.owned.is_none_or(|o| o[i]);
         for i in range.clone() {
+            if !owned(i) {
+                continue;
+            }
             let (x, v, rho) = (&self.position[i], &self.velocity[i], self.density[i]);
             // Zero times the sum is zero unless some term is infinite or NaN.
             let finite = (x.x + x.y + x.z + v.x + v.y + v.z + rho) * 0.0 == 0.0;
@@ -200,7 +212,8 @@ impl State<'_> {
         if bad {
             return None;
         }
-        let moved = rules.reach <= 0.0 || range.into_iter().any(|i| self.may_pass_skin(i));
+        let moved =
+            rules.reach <= 0.0 || range.into_iter().any(|i| owned(i) && self.may_pass_skin(i));
         Some(Survey {
             v_max: v2max,
             a_max: a2max,
@@ -249,6 +262,7 @@ mod tests {
                 acceleration: &acceleration,
                 density: rho,
                 sorted_at: &sorted_at,
+                owned: None,
                 rules: r,
             };
             let plain = (0..n).fold(Survey::EMPTY, |s, i| state.visit(s, i));
@@ -257,7 +271,7 @@ mod tests {
                 a_max: plain.a_max.sqrt(),
                 ..plain
             };
-            let fast = Survey::of(x, v, &acceleration, rho, &sorted_at, r);
+            let fast = Survey::of(x, v, &acceleration, rho, &sorted_at, None, r);
             assert_eq!(fast, plain);
             fast
         };
@@ -301,5 +315,40 @@ mod tests {
             check(&position, &velocity, &rho, &lenient).density,
             Some(2100)
         );
+    }
+
+    /// On several ranks the halo is left to its owners: a broken or the fastest particle in the
+    /// halo is not this rank's to report.
+    #[test]
+    fn the_halo_is_left_to_its_owners() {
+        let n = 3000;
+        let position: Vec<Vector> = (0..n)
+            .map(|i| Vector::new(0.5, 0.5, i as Real / n as Real))
+            .collect();
+        let mut velocity = vec![Vector::zeros(); n];
+        let (acceleration, density) = (vec![Vector::zeros(); n], vec![1000.0; n]);
+        let rules = Rules {
+            domain: (Vector::repeat(-0.1), Vector::repeat(1.1)),
+            open_top: false,
+            density_bound: 1.2,
+            reference_density: 1000.0,
+            check_low_density: true,
+            reach: 1e-3,
+            dt: 1e-4,
+        };
+        // The second half is halo; in it one particle is fast and one is outside.
+        let owned: Vec<bool> = (0..n).map(|i| i < n / 2).collect();
+        velocity[10].x = 2.0;
+        velocity[2500].x = 5.0;
+        let mut x = position.clone();
+        x[2600].x = 7.0;
+        let of = |x: &[Vector], o| {
+            Survey::of(x, &velocity, &acceleration, &density, &position, o, &rules)
+        };
+        let (mine, all) = (of(&x, Some(&owned)), of(&x, None));
+        assert_eq!((mine.v_max, mine.outside, mine.moved), (2.0, None, false));
+        assert_eq!((all.v_max, all.outside, all.moved), (5.0, Some(2600), true));
+        x[20].y = -1.0;
+        assert_eq!(of(&x, Some(&owned)).outside, Some(20));
     }
 }

@@ -1,9 +1,9 @@
 //! The fluid on several ranks: domain decomposition with the same bits on any rank count.
 //!
 //! `fluid-node` started as N ranks (an MPI job: `coupler run --fluid-ranks N`) splits the water
-//! into slabs of whole grid columns along the domain's longest horizontal axis
-//! ([`slabs`]), one per rank, each with a halo two columns deep; the cuts follow the measured
-//! work (listed pairs) and move when it drifts. Rank 0 is the node the coupler sees; the others
+//! into slabs along the domain's longest horizontal axis ([`slabs`]), one per rank, cut at an
+//! eighth of a grid column, each held with whole columns and a halo two columns deep; the cuts
+//! follow the measured work (listed pairs) and move when it drifts. Rank 0 is the node the coupler sees; the others
 //! follow its calls ([`leader`]). What one rank holds and the messages that keep its halo exact
 //! are in [`share`]; the messages themselves go through [`comm::Comm`]: MPI between processes
 //! ([`mpi`], cargo feature `mpi`), or threads of one process in the tests.
@@ -14,6 +14,7 @@
 //! (resumed on any number of ranks); a method that is not
 //! [`crate::methods::SphMethod::SPLITS`] is refused with a message.
 
+pub mod clocked;
 pub mod comm;
 pub mod leader;
 #[cfg(feature = "mpi")]

@@ -94,6 +94,12 @@ fn same_bits_in<S: SphMethod>(scene: &Scene, steps: usize) {
                 stats.rebalances > 0,
                 "{n} ranks, rank {r}: the cuts never moved"
             );
+            // Judged by the ranks' compute times too (which move them or not by the
+            // machine's timing: the bits must not care).
+            assert!(
+                stats.time_imbalance > 0.0,
+                "{n} ranks, rank {r}: the cuts were never judged by time"
+            );
         }
         let got = results[0].0.as_ref().expect("rank 0 gathers");
         assert_eq!(got.len(), reference.len(), "{n} ranks: particle count");

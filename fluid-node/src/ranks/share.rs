@@ -19,8 +19,9 @@
 //! sort ([`Share::redistribute`]) each owner sends each of its particles to every rank whose
 //! held columns contain it: the new owners and the new halos at once.
 
+use super::clocked::Clocked;
 use super::comm::{Comm, wire};
-use super::slabs::{REBALANCE, Slabs};
+use super::slabs::{BINS, REBALANCE, Slabs};
 use crate::boundary::Boundary;
 use crate::core::grid::CellGrid;
 use crate::core::neighbors::NeighborLists;
@@ -36,10 +37,17 @@ const STATE: usize = 3 + 3 + 1 + 1 + 3 + 1 + 3 + 3 + 1;
 /// Words per particle in a hand-over: its state and its key.
 const WORDS: usize = STATE + 1;
 
-/// A particle's own work in the cuts' measure, in listed pairs: WCSPH spends ~2 ns a listed
-/// pair and ~50 ns a particle in its per-particle passes (equation of state, records,
-/// integration, survey) on this machine's core, so a particle weighs as 25 pairs.
-const PARTICLE_WORK: usize = 25;
+/// The cuts' measure of work is in listed fluid pairs. WCSPH's phases on this machine's core
+/// (`fluid-bench --threads 1 --phases` at 10⁵ particles) give ~2.4 ns a listed pair in the
+/// force pass, ~7 ns a listed wall pair in the wall particles' Adami extrapolation, and ~45 ns
+/// a particle in the per-particle passes (equation of state, records, integration, survey):
+/// a particle weighs as 20 pairs. A wall pair's force term costs more than a fluid pair's too:
+/// on 2 ranks (`fluid-bench --ranks 2 --phases`), a weight of 4 left the rank with the tank's
+/// end wall ~1 ms a step (6 %) busier, 8 the other rank; 6 is between.
+const WALL_PAIR_WORK: usize = 6;
+
+/// See [`WALL_PAIR_WORK`].
+const PARTICLE_WORK: usize = 20;
 
 /// What the halo costs, for `fluid-bench --ranks`.
 #[derive(Debug, Clone, Copy, Default)]
@@ -52,6 +60,9 @@ pub struct HaloStats {
     pub waiting: Duration,
     /// The work of the busiest rank over the mean, at the last sort.
     pub imbalance: f64,
+    /// The compute time of the busiest rank over the mean, at the last time the cuts were
+    /// judged by time (0 before).
+    pub time_imbalance: f64,
     /// Times the cuts moved.
     pub rebalances: u64,
 }
@@ -67,7 +78,8 @@ struct Link {
 
 /// This rank's share of the particles.
 pub struct Share {
-    comm: Arc<dyn Comm>,
+    /// The ranks, with the time spent in messages counted.
+    comm: Clocked,
     /// The cut axis: the domain's longest horizontal one.
     axis: usize,
     /// The cuts: from [`Self::first_cut`] on.
@@ -77,13 +89,35 @@ pub struct Share {
     /// Per local particle: its key (module doc).
     key: Vec<u64>,
     links: Vec<Link>,
-    /// Each column's work (listed pairs plus particles) at the last sort, over all ranks.
+    /// Each part's work (listed pairs plus particles; [`BINS`] parts a column) at the last
+    /// sort, over all ranks.
     work: Vec<u64>,
     /// Particles on all ranks.
     pub global_len: usize,
     pub stats: HaloStats,
     /// Whether the first sort is done ([`Self::recut_at_start`]).
     started: bool,
+    /// The cuts the next sort moves to, if they move.
+    next: Option<Slabs>,
+    /// This rank's own work at the last measure.
+    my_work: u64,
+    /// This rank's compute since the cuts were last judged by time.
+    window: Window,
+    /// The start of the step this rank is computing: the clock, and the time in messages then.
+    busy_from: Option<(Instant, Duration)>,
+}
+
+/// Steps after which the cuts are judged by the ranks' compute times (at the next sort).
+const WINDOW: u32 = 20;
+
+/// A rank's compute since the cuts were last judged by time.
+#[derive(Debug, Default, Clone, Copy)]
+struct Window {
+    /// Time in its steps outside messages.
+    busy: Duration,
+    /// Its work ([`Share::measure_work`]) summed over the steps.
+    work: u64,
+    steps: u32,
 }
 
 impl Share {
@@ -93,9 +127,9 @@ impl Share {
     pub fn new(comm: Arc<dyn Comm>, grid: &CellGrid, global_len: usize) -> Result<Self, String> {
         let dims = grid.dims();
         let axis = if dims[1] > dims[0] { 1 } else { 0 };
-        Slabs::balanced(axis, &vec![0; dims[axis]], comm.size())?;
+        Slabs::balanced(axis, &vec![0; BINS * dims[axis]], comm.size())?;
         Ok(Self {
-            comm,
+            comm: Clocked::new(comm),
             axis,
             slabs: None,
             owned: Vec::new(),
@@ -105,11 +139,39 @@ impl Share {
             global_len,
             stats: HaloStats::default(),
             started: false,
+            next: None,
+            my_work: 0,
+            window: Window::default(),
+            busy_from: None,
         })
     }
 
     pub fn comm(&self) -> &dyn Comm {
-        &*self.comm
+        &self.comm
+    }
+
+    /// The start of this rank's part of a step (every rank's solver calls it as it starts a
+    /// step's work); false if a step is started already (a nested call).
+    pub fn begin_busy(&mut self) -> bool {
+        if self.busy_from.is_some() {
+            return false;
+        }
+        self.busy_from = Some((Instant::now(), self.comm.waited()));
+        true
+    }
+
+    /// The end of the work [`Self::begin_busy`] began: its time outside messages counts.
+    pub fn end_busy(&mut self) {
+        if let Some((t, waited)) = self.busy_from.take() {
+            let messages = self.comm.waited().saturating_sub(waited);
+            self.window.busy += t.elapsed().saturating_sub(messages);
+        }
+    }
+
+    /// After each step: the step's work counts in the window the cuts are judged by.
+    pub fn step_done(&mut self) {
+        self.window.work += self.my_work;
+        self.window.steps += 1;
     }
 
     pub fn rank(&self) -> usize {
@@ -122,16 +184,23 @@ impl Share {
         grid.coords(x)[self.axis]
     }
 
+    /// The part of a column ([`BINS`] a column) along the cut axis of a point: the cuts fall
+    /// between parts.
+    #[inline]
+    fn part(&self, grid: &CellGrid, x: &Vector) -> usize {
+        grid.part(x, self.axis, BINS * grid.dims()[self.axis])
+    }
+
     /// The rank owning the point `x` (instruments read where they stand).
     pub fn owner_at(&self, grid: &CellGrid, x: &Vector) -> usize {
         let slabs = self.slabs.as_ref().expect("the first cut made the slabs");
-        slabs.owner(self.column(grid, x))
+        slabs.owner(self.part(grid, x))
     }
 
     /// After the first sort, once: whether the cuts should move at once (the particle counts
     /// the first cuts followed were far from the work), for the system to sort again.
     pub fn recut_at_start(&mut self) -> bool {
-        !std::mem::replace(&mut self.started, true) && self.stats.imbalance > REBALANCE
+        !std::mem::replace(&mut self.started, true) && self.next.is_some()
     }
 
     /// Particles this rank owns.
@@ -142,7 +211,7 @@ impl Share {
     /// Before a sort: hands each particle to the ranks that hold its column now and did not
     /// hold it at the last sort (its position then: `sorted_at`, or its position now before the
     /// first sort), drops the particles whose column this rank no longer holds, and leaves the
-    /// rest in key order; moves the cuts first when the work drifted past [`REBALANCE`]. A
+    /// rest in key order; moves the cuts first if the last measure said so. A
     /// particle a rank kept is its owner's copy to the last bit (module doc): only what enters
     /// a rank's columns travels.
     pub fn redistribute(
@@ -154,8 +223,8 @@ impl Share {
         let t = Instant::now();
         let me = self.rank();
         let before = self.slabs.clone().expect("the first cut made the slabs");
-        if self.stats.imbalance > REBALANCE {
-            self.slabs = Some(Slabs::balanced(self.axis, &self.work, self.comm.size())?);
+        if let Some(next) = self.next.take() {
+            self.slabs = Some(next);
             self.stats.rebalances += 1;
         }
         let after = self.slabs.as_ref().unwrap();
@@ -223,7 +292,7 @@ impl Share {
         self.owned = p
             .position
             .iter()
-            .map(|x| own.contains(&self.column(grid, x)))
+            .map(|x| own.contains(&self.part(grid, x)))
             .collect();
         self.stats.waiting += t.elapsed();
         Ok(())
@@ -253,10 +322,9 @@ impl Share {
                 ..Link::default()
             };
             for (k, x) in sorted_at.iter().enumerate() {
-                let c = self.column(grid, x);
-                if self.owned[k] && held.contains(&c) {
+                if self.owned[k] && held.contains(&self.column(grid, x)) {
                     link.send.push(k as u32);
-                } else if !self.owned[k] && own.contains(&c) {
+                } else if !self.owned[k] && own.contains(&self.part(grid, x)) {
                     link.receive.push(k as u32);
                 }
             }
@@ -267,29 +335,60 @@ impl Share {
         self.stats.halo = self.owned.iter().filter(|&&o| !o).count();
     }
 
-    /// Measures each column's work from the lists just built (a particle's listed fluid and
-    /// wall pairs plus [`PARTICLE_WORK`]) and sums it over the ranks: the next sort's cuts
-    /// follow it.
+    /// Measures each part's work from the lists just built (a particle's listed fluid and
+    /// wall pairs, weighed, plus [`PARTICLE_WORK`]) and sums it over the ranks, and decides
+    /// whether the next sort moves the cuts: at the first sort when the work is unbalanced
+    /// past [`REBALANCE`] (the first cuts followed the particle counts); later, every
+    /// [`WINDOW`] steps, by the ranks' compute times ([`Slabs::retimed`]). The
+    /// measure's weights are one machine's and one method's, and a rank's cost also depends on
+    /// its walls, its cache and what else runs on its core: the new cuts weigh each rank's
+    /// parts by the time a unit of its work took. The outputs are the same bits on any cuts.
     pub fn measure_work(
         &mut self,
         lists: &NeighborLists,
         walls: &Boundary,
         grid: &CellGrid,
         sorted_at: &[Vector],
-    ) {
+    ) -> Result<(), String> {
         let t = Instant::now();
-        let columns = grid.dims()[self.axis];
+        let parts = BINS * grid.dims()[self.axis];
         self.work.clear();
-        self.work.resize(columns, 0);
+        self.work.resize(parts, 0);
         for (k, x) in sorted_at.iter().enumerate() {
             if self.owned[k] {
-                let c = self.column(grid, x);
-                self.work[c] += (lists.of(k).len() + walls.fixed_listed(k) + PARTICLE_WORK) as u64;
+                let b = self.part(grid, x);
+                self.work[b] += (lists.of(k).len()
+                    + WALL_PAIR_WORK * walls.fixed_listed(k)
+                    + PARTICLE_WORK) as u64;
             }
         }
+        self.my_work = self.work.iter().sum();
+        // Every rank counts the same steps: they judge together. The ranks' times and work
+        // ride in the same sum, each in its own slot.
+        let (size, me) = (self.comm.size(), self.rank());
+        let judge = self.started && self.window.steps >= WINDOW;
+        if judge {
+            self.work.resize(parts + 2 * size, 0);
+            self.work[parts + me] = self.window.busy.as_nanos() as u64;
+            self.work[parts + size + me] = self.window.work;
+        }
         self.comm.sum(&mut self.work);
-        self.stats.imbalance = self.slabs.as_ref().unwrap().imbalance(&self.work);
+        let timing = self.work.split_off(parts);
+        let slabs = self.slabs.as_ref().unwrap();
+        self.stats.imbalance = slabs.imbalance(&self.work);
+        self.next = None;
+        if !self.started && self.stats.imbalance > REBALANCE {
+            self.next = Some(Slabs::balanced(self.axis, &self.work, size)?);
+        } else if judge {
+            self.window = Window::default();
+            let (busy, done) = timing.split_at(size);
+            if let Some((imbalance, cut)) = slabs.retimed(&self.work, busy, done)? {
+                self.stats.time_imbalance = imbalance;
+                self.next = cut;
+            }
+        }
         self.stats.waiting += t.elapsed();
+        Ok(())
     }
 
     /// Sends N values of each owned particle other ranks hold (`get(i)` of local particle i)
@@ -299,21 +398,38 @@ impl Share {
         &mut self,
         get: impl Fn(usize) -> [Real; N],
     ) -> Vec<(u32, [Real; N])> {
+        let got = self.trade(get);
+        let mut halo = Vec::with_capacity(self.stats.halo);
+        self.read_halo(&got, |k, v| halo.push((k as u32, v)));
+        halo
+    }
+
+    /// The messages of [`Self::share`]: each link's values, sent; the owners' values of this
+    /// rank's halo, received (one message per link, in the links' order).
+    fn trade<const N: usize>(&mut self, get: impl Fn(usize) -> [Real; N]) -> Vec<Vec<u8>> {
         let t = Instant::now();
         let out: Vec<(usize, Vec<u8>)> = self
             .links
             .iter()
             .map(|l| {
-                let mut b = Vec::with_capacity(8 * N * l.send.len());
-                for &k in &l.send {
-                    wire::put_f64(&mut b, get(k as usize));
+                let mut b = vec![0u8; 8 * N * l.send.len()];
+                for (c, &k) in b.chunks_exact_mut(8 * N).zip(&l.send) {
+                    for (w, v) in c.chunks_exact_mut(8).zip(get(k as usize)) {
+                        w.copy_from_slice(&v.to_le_bytes());
+                    }
                 }
                 (l.rank, b)
             })
             .collect();
         self.stats.bytes_sent += out.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
         let got = self.comm.exchange(out);
-        let mut halo = Vec::with_capacity(self.stats.halo);
+        self.stats.waiting += t.elapsed();
+        got
+    }
+
+    /// Hands each halo particle's values in `got` ([`Self::trade`]) to `set(local index,
+    /// values)`.
+    fn read_halo<const N: usize>(&self, got: &[Vec<u8>], mut set: impl FnMut(usize, [Real; N])) {
         for (l, bytes) in self.links.iter().zip(got) {
             assert_eq!(
                 bytes.len(),
@@ -321,29 +437,26 @@ impl Share {
                 "rank {} sent the values of another halo: the ranks disagree on the cuts",
                 l.rank
             );
-            let mut w = wire::f64s(&bytes);
-            for &k in &l.receive {
+            for (c, &k) in bytes.chunks_exact(8 * N).zip(&l.receive) {
                 let mut v = [0.0; N];
-                for v in &mut v {
-                    *v = w.next().unwrap();
+                for (v, w) in v.iter_mut().zip(c.chunks_exact(8)) {
+                    *v = Real::from_le_bytes(w.try_into().unwrap());
                 }
-                halo.push((k, v));
+                set(k as usize, v);
             }
         }
-        self.stats.waiting += t.elapsed();
-        halo
     }
 
     /// [`Self::share`] of the rates (acceleration, dρ/dt): after every evaluation of them.
     pub fn share_rates(&mut self, acceleration: &mut [Vector], density_rate: &mut [Real]) {
-        let halo = self.share(|k| {
+        let got = self.trade(|k| {
             let a = acceleration[k];
             [a.x, a.y, a.z, density_rate[k]]
         });
-        for (k, [x, y, z, d]) in halo {
-            acceleration[k as usize] = Vector::new(x, y, z);
-            density_rate[k as usize] = d;
-        }
+        self.read_halo(&got, |k, [x, y, z, d]| {
+            acceleration[k] = Vector::new(x, y, z);
+            density_rate[k] = d;
+        });
     }
 
     /// The owned particles of every rank on rank 0, in one-rank order: `fields(i)` are particle
@@ -473,10 +586,9 @@ impl Share {
         grid: &CellGrid,
         positions: &[Vector],
     ) -> Result<Vec<usize>, String> {
-        let columns = grid.dims()[self.axis];
-        let mut counts = vec![0u64; columns];
+        let mut counts = vec![0u64; BINS * grid.dims()[self.axis]];
         for x in positions {
-            counts[self.column(grid, x)] += 1;
+            counts[self.part(grid, x)] += 1;
         }
         let slabs = Slabs::balanced(self.axis, &counts, self.comm.size())?;
         let me = self.rank();
@@ -487,7 +599,7 @@ impl Share {
         self.key = keep.iter().map(|&i| i as u64).collect();
         self.owned = keep
             .iter()
-            .map(|&i| own.contains(&self.column(grid, &positions[i])))
+            .map(|&i| own.contains(&self.part(grid, &positions[i])))
             .collect();
         self.slabs = Some(slabs);
         Ok(keep)
@@ -508,6 +620,7 @@ impl Share {
         *p = q;
         *sorted_at = keep.iter().map(|&i| sorted_at[i]).collect();
         self.started = true;
+        self.window = Window::default();
     }
 
     /// Fills each entry of `row` (on rank 0) with the value its owner computed: `owners[k]` is

@@ -1,5 +1,7 @@
-//! The cuts: each rank owns a slab of whole grid columns along one axis (the domain's longest
-//! horizontal one), cut where the measured work of the columns divides evenly.
+//! The cuts: each rank owns a slab along one axis (the domain's longest horizontal one), cut
+//! where the measured work divides evenly. A cut falls between two of the [`BINS`] parts of a
+//! grid column, so the slabs balance to an eighth of a column; a rank holds whole columns
+//! (its own, the one a cut splits, and [`HALO`] beyond on each side).
 
 use std::ops::Range;
 
@@ -10,42 +12,67 @@ use std::ops::Range;
 /// as on one rank, so no pressure needs a message of its own.
 pub const HALO: usize = 2;
 
-/// Imbalance (the busiest rank's work over the mean) past which the cuts move at the next sort.
-pub const REBALANCE: f64 = 1.05;
+/// The parts of a grid column a cut may fall between: a power of two, so a point's part
+/// (its column coordinate times `BINS`, truncated) divided by `BINS` is its column exactly.
+pub const BINS: usize = 8;
 
-/// Where the slabs of `size` ranks begin and end, in grid columns along `axis`.
+/// Imbalance (the busiest rank's work over the mean) past which the cuts move at the next sort:
+/// an eighth of a column is ~1 % of a slab of 13 columns, so 2 % is within the cuts' reach, and
+/// moving them costs one hand-over of the parts that change hands.
+pub const REBALANCE: f64 = 1.02;
+
+/// Time imbalance (the busiest rank's compute time over the mean) past which the cuts move
+/// ([`Slabs::retimed`]): above the few per cent a window's time varies by on a quiet machine.
+pub const RETIME: f64 = 1.015;
+
+/// Where the slabs of `size` ranks begin and end, in parts of grid columns ([`BINS`] a column)
+/// along `axis`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Slabs {
     pub axis: usize,
-    /// `cuts[r]..cuts[r + 1]` are rank r's columns; `cuts[0] = 0`, the last is the column count.
+    /// `cuts[r]..cuts[r + 1]` are rank r's parts; `cuts[0] = 0`, the last is the part count.
     cuts: Vec<usize>,
 }
 
 impl Slabs {
-    /// Cuts `work` (per column along `axis`) into `size` slabs of about equal work, each at least
-    /// one column wide: rank r's slab ends where the running total comes closest to
-    /// (r + 1)/size of the whole (a column goes to the slab if its middle is below that).
-    /// Fails when there are fewer columns than ranks.
+    /// Cuts `work` (per part along `axis`, [`BINS`] parts a column) into `size` slabs of about
+    /// equal work, each at least one part wide: rank r's slab ends where the running total
+    /// comes closest to (r + 1)/size of the whole (a part goes to the slab if its middle is
+    /// below that). Fails when there are fewer columns than ranks.
     pub fn balanced(axis: usize, work: &[u64], size: usize) -> Result<Self, String> {
-        let columns = work.len();
+        let parts = work.len();
+        let columns = parts / BINS;
         if columns < size {
             return Err(format!(
                 "{size} ranks cannot each own a slab of the {columns} grid columns along the domain's longest axis: use at most {columns} ranks"
             ));
         }
-        let total: u128 = work.iter().map(|&w| w as u128).sum::<u128>().max(1);
+        let total: u128 = work.iter().map(|&w| w as u128).sum();
+        if total == 0 {
+            // No work measured (no water): equal slabs.
+            let cuts = (0..=size).map(|r| parts * r / size).collect();
+            return Ok(Self { axis, cuts });
+        }
         let mut cuts = vec![0usize; size + 1];
-        cuts[size] = columns;
+        cuts[size] = parts;
         let mut running: u128 = 0;
         let mut c = 0usize;
         for r in 0..size - 1 {
             let target = total * (r as u128 + 1) / size as u128;
-            // At least one column for this rank, and one left for each rank after it.
+            // At least one part for this rank, and one left for each rank after it.
             let lowest = cuts[r] + 1;
-            let highest = columns - (size - 1 - r);
+            let highest = parts - (size - 1 - r);
             while c < lowest || (c < highest && 2 * running + (work[c] as u128) <= 2 * target) {
                 running += work[c] as u128;
                 c += 1;
+            }
+            // A cut between empty parts moves to the column's edge if it can: the same split
+            // of the work, and a column fewer held on one side.
+            let (down, up) = (c - c % BINS, c.next_multiple_of(BINS));
+            if up <= highest && work[c..up].iter().all(|&w| w == 0) {
+                c = up;
+            } else if down >= lowest && work[down..c].iter().all(|&w| w == 0) {
+                c = down;
             }
             cuts[r + 1] = c;
         }
@@ -56,21 +83,53 @@ impl Slabs {
         self.cuts.len() - 1
     }
 
-    /// Rank r's own columns.
+    /// Rank r's own parts.
     pub fn owned(&self, r: usize) -> Range<usize> {
         self.cuts[r]..self.cuts[r + 1]
     }
 
-    /// The columns rank r holds: its own and [`HALO`] on each side.
+    /// The columns rank r holds: those its parts lie in and [`HALO`] on each side.
     pub fn held(&self, r: usize) -> Range<usize> {
         let own = self.owned(r);
-        own.start.saturating_sub(HALO)..(own.end + HALO).min(*self.cuts.last().unwrap())
+        let columns = *self.cuts.last().unwrap() / BINS;
+        (own.start / BINS).saturating_sub(HALO)..((own.end - 1) / BINS + 1 + HALO).min(columns)
     }
 
-    /// The rank owning column `c`.
-    pub fn owner(&self, c: usize) -> usize {
-        // The last cut at or below c.
-        self.cuts[1..self.cuts.len() - 1].partition_point(|&k| k <= c)
+    /// The rank owning part `b`.
+    pub fn owner(&self, b: usize) -> usize {
+        // The last cut at or below b.
+        self.cuts[1..self.cuts.len() - 1].partition_point(|&k| k <= b)
+    }
+
+    /// The cuts that balance the ranks' compute times, from rank r's time `busy[r]` and the
+    /// work it did in that time `done[r]` (both over the same steps): each part's `work`
+    /// weighed by the time a unit of its owner's work took. Returns the time imbalance
+    /// (busiest over mean) and the new cuts if it is past [`RETIME`] and they differ from
+    /// these; None if a rank did no work.
+    pub fn retimed(
+        &self,
+        work: &[u64],
+        busy: &[u64],
+        done: &[u64],
+    ) -> Result<Option<(f64, Option<Slabs>)>, String> {
+        let total: u64 = busy.iter().sum();
+        if total == 0 || done.contains(&0) {
+            return Ok(None);
+        }
+        let imbalance = *busy.iter().max().unwrap() as f64 * busy.len() as f64 / total as f64;
+        if imbalance <= RETIME {
+            return Ok(Some((imbalance, None)));
+        }
+        let rate: Vec<f64> = busy
+            .iter()
+            .zip(done)
+            .map(|(&b, &w)| b as f64 / w as f64)
+            .collect();
+        let timed: Vec<u64> = (0..work.len())
+            .map(|b| (work[b] as f64 * rate[self.owner(b)]).round() as u64)
+            .collect();
+        let cut = Slabs::balanced(self.axis, &timed, self.size())?;
+        Ok(Some((imbalance, Some(cut).filter(|c| c != self))))
     }
 
     /// Each rank's share of `work`, over the mean (1 = balanced).
@@ -92,27 +151,63 @@ mod tests {
 
     #[test]
     fn cuts_divide_the_work_and_name_the_owner() {
-        let work = [1, 1, 1, 1, 10, 1, 1, 1, 1, 2];
+        // Ten columns of eight parts, a part weighing 1 but in column 4, where it weighs 10.
+        let work: Vec<u64> = (0..10 * BINS)
+            .map(|b| if b / BINS == 4 { 10 } else { 1 })
+            .collect();
         let s = Slabs::balanced(0, &work, 2).unwrap();
-        // 20 in all: the first slab takes the columns whose middle is below 10 (column 4 runs
-        // from 4 to 14, its middle 9).
-        assert_eq!(s.owned(0), 0..5);
-        assert_eq!(s.owned(1), 5..10);
-        assert_eq!(s.owner(4), 0);
-        assert_eq!(s.owner(5), 1);
-        assert_eq!(s.owner(9), 1);
+        // 152 in all: the first slab takes the parts whose middle is below 76 (part 36 runs
+        // from 72 to 82, its middle 77): the cut splits column 4 in half.
+        assert_eq!(s.owned(0), 0..36);
+        assert_eq!(s.owned(1), 36..80);
+        assert_eq!((s.owner(35), s.owner(36), s.owner(79)), (0, 1, 1));
+        // Both hold the split column and two more beyond it.
         assert_eq!(s.held(0), 0..7);
-        assert_eq!(s.held(1), 3..10);
-        assert!((s.imbalance(&work) - 14.0 / 10.0).abs() < 1e-12);
-        // Empty work still gives every rank a column.
-        let s = Slabs::balanced(1, &[0; 5], 5).unwrap();
-        assert_eq!((0..5).map(|r| s.owned(r).len()).collect::<Vec<_>>(), [1; 5]);
-        assert_eq!(s.owner(4), 4);
-        // All the work in the first column: the others still get one column each.
-        let s = Slabs::balanced(0, &[100, 0, 0, 0], 3).unwrap();
-        assert_eq!(s.owned(0), 0..1);
-        assert_eq!(s.owned(2), 2..4);
-        let e = Slabs::balanced(0, &[1; 3], 4).unwrap_err();
+        assert_eq!(s.held(1), 2..10);
+        assert!((s.imbalance(&work) - 80.0 / 76.0).abs() < 1e-12);
+        // No work: equal slabs.
+        let s = Slabs::balanced(1, &[0; 5 * BINS], 5).unwrap();
+        assert_eq!(
+            (0..5).map(|r| s.owned(r).len()).collect::<Vec<_>>(),
+            [BINS; 5]
+        );
+        assert_eq!(s.owner(5 * BINS - 1), 4);
+        // All the work in the first part: the others still get a slab each, at the columns'
+        // edges (the parts between are empty).
+        let mut work = vec![0; 4 * BINS];
+        work[0] = 100;
+        let s = Slabs::balanced(0, &work, 3).unwrap();
+        assert_eq!(s.owned(0), 0..BINS);
+        assert_eq!(s.owned(1), BINS..2 * BINS);
+        assert_eq!(s.owned(2), 2 * BINS..4 * BINS);
+        // Two parts of column 2 and one of column 3 hold the work: the first slab takes
+        // column 2's (its middle is below half); the cut, in column 2's empty parts, moves to
+        // their edge, and the second slab holds a column fewer.
+        let mut work = vec![0; 6 * BINS];
+        (work[2 * BINS], work[2 * BINS + 1], work[3 * BINS]) = (6, 6, 6);
+        let s = Slabs::balanced(0, &work, 2).unwrap();
+        assert_eq!(s.owned(0), 0..3 * BINS);
+        assert_eq!(s.held(1), 1..6);
+        let e = Slabs::balanced(0, &[1; 3 * BINS], 4).unwrap_err();
         assert!(e.contains("use at most 3 ranks"), "{e}");
+    }
+
+    #[test]
+    fn cuts_follow_the_ranks_times() {
+        // Even work in 12 columns, cut in half; rank 0 took twice as long a unit of work.
+        let work = vec![10; 12 * BINS];
+        let s = Slabs::balanced(0, &work, 2).unwrap();
+        assert_eq!(s.owned(0), 0..6 * BINS);
+        let (imbalance, cut) = s.retimed(&work, &[200, 100], &[100, 100]).unwrap().unwrap();
+        assert!((imbalance - 4.0 / 3.0).abs() < 1e-12);
+        // The parts keep the cost they had: rank 0 keeps 36 parts at 2 units of time each,
+        // rank 1 takes 12 of them and keeps its 48 at 1: 72 each.
+        assert_eq!(cut.unwrap().owned(0), 0..36);
+        // Within RETIME: no move; the same cuts: no move; no work done: no judgement.
+        let (_, cut) = s.retimed(&work, &[1010, 1000], &[1, 1]).unwrap().unwrap();
+        assert_eq!(cut, None);
+        let (_, cut) = s.retimed(&work, &[200, 100], &[200, 100]).unwrap().unwrap();
+        assert_eq!(cut, None);
+        assert_eq!(s.retimed(&work, &[200, 100], &[0, 100]).unwrap(), None);
     }
 }

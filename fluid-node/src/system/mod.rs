@@ -269,6 +269,19 @@ impl FluidSystem {
         (self.fluid_lists.pairs(), self.boundary.listed_pairs())
     }
 
+    /// On several ranks: the start of this rank's work on a step (its time, outside messages,
+    /// is what the cuts balance); false if a step is begun already or there is one rank.
+    pub fn begin_busy(&mut self) -> bool {
+        self.share.as_mut().is_some_and(Share::begin_busy)
+    }
+
+    /// The end of the work [`Self::begin_busy`] began.
+    pub fn end_busy(&mut self) {
+        if let Some(s) = &mut self.share {
+            s.end_busy();
+        }
+    }
+
     /// Sorts the particles by cell and lists their neighbours, if they moved since the last sort.
     pub fn prepare(&mut self) {
         if !self.grid_valid {
@@ -325,7 +338,8 @@ impl FluidSystem {
         self.boundary.list_fixed(pos, &self.grid, radius, owned);
         self.phases.stop(Phase::WallLists, t);
         if let Some(s) = &mut self.share {
-            s.measure_work(&self.fluid_lists, &self.boundary, &self.grid, pos);
+            s.measure_work(&self.fluid_lists, &self.boundary, &self.grid, pos)
+                .expect("the slabs fit the grid");
         }
         self.grid_valid = true;
         self.bodies_valid = false;
@@ -413,6 +427,7 @@ impl FluidSystem {
             &p.acceleration,
             &p.density,
             &self.sorted_at,
+            self.share.as_ref().map(|s| &s.owned[..]),
             &Rules {
                 domain: self.domain,
                 open_top: self.open_top,
@@ -476,6 +491,9 @@ impl FluidSystem {
             self.grid_valid = false;
         }
         self.bodies_valid = false;
+        if let Some(s) = &mut self.share {
+            s.step_done();
+        }
         self.prepare();
         let t = self.phases.start();
         let view = FluidView {

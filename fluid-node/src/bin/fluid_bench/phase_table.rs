@@ -5,7 +5,8 @@
 //! solver and size gives the mean µs per step of each phase the solver entered, one column per
 //! thread count, and, when 1 and 2 threads were both timed, their ratio per phase (1-thread
 //! time over 2-thread time: the speed-up, as the rows' 2 ÷ 1 of particle-steps/s). The
-//! phase tables of docs/PERFORMANCE.md are made with it.
+//! phase tables of docs/PERFORMANCE.md are made with it. With `--ranks`, a column per rank
+//! (each rank's own clock; time in messages, waiting included, is the halo phase).
 //!
 //! "outside the phases" is the row's step time minus the phases' sum: the step grant, the
 //! schemes' bookkeeping and the clock's own reads; a few µs when the phases cover the step.
@@ -17,6 +18,8 @@ pub struct Timed {
     pub solver: String,
     pub particles: usize,
     pub threads: usize,
+    /// On ranks (`--ranks`): which rank's steps (a column per rank).
+    pub rank: Option<usize>,
     pub steps: usize,
     /// Wall time of the timed steps [s].
     pub secs: f64,
@@ -51,8 +54,8 @@ pub fn print(rows: &[Timed]) {
             .iter()
             .filter(|r| r.solver == solver && r.particles == particles)
             .collect();
-        let one = cols.iter().position(|r| r.threads == 1);
-        let two = cols.iter().position(|r| r.threads == 2);
+        let one = cols.iter().position(|r| r.threads == 1 && r.rank.is_none());
+        let two = cols.iter().position(|r| r.threads == 2 && r.rank.is_none());
         let ratio = one.zip(two);
         let steps: Vec<String> = cols.iter().map(|r| r.steps.to_string()).collect();
         println!(
@@ -67,12 +70,13 @@ pub fn print(rows: &[Timed]) {
         println!();
         let head: Vec<String> = cols
             .iter()
-            .map(|r| {
-                format!(
+            .map(|r| match r.rank {
+                Some(k) => format!("rank {k}"),
+                None => format!(
                     "{} thread{}",
                     r.threads,
                     if r.threads == 1 { "" } else { "s" }
-                )
+                ),
             })
             .collect();
         let sep = "---:|".repeat(cols.len() + usize::from(ratio.is_some()));
