@@ -15,9 +15,27 @@ pub trait Comm: Send + Sync {
     fn rank(&self) -> usize;
     /// The number of ranks.
     fn size(&self) -> usize;
+    /// Sends `bytes` to rank `to` and returns at once (the send completes while this rank goes
+    /// on); the other rank takes it with [`Self::receive`].
+    fn send(&self, to: usize, bytes: Vec<u8>);
+    /// The next message from rank `from`, waiting (without spinning) until it is there.
+    fn receive(&self, from: usize) -> Vec<u8>;
+    /// [`Self::receive`] into `bytes` (resized to the message): a buffer kept from one message
+    /// to the next is warm in the cache and needs no allocation.
+    fn receive_into(&self, from: usize, bytes: &mut Vec<u8>) {
+        *bytes = self.receive(from);
+    }
     /// Sends `out[k].1` to rank `out[k].0` for every k and returns what each of those ranks sent
     /// back to this one, in the same order: every listed rank lists this one in its own call.
-    fn exchange(&self, out: Vec<(usize, Vec<u8>)>) -> Vec<Vec<u8>>;
+    /// Every send is posted before any receive waits: two ranks sending each other large
+    /// messages cannot block each other.
+    fn exchange(&self, out: Vec<(usize, Vec<u8>)>) -> Vec<Vec<u8>> {
+        let peers: Vec<usize> = out.iter().map(|(to, _)| *to).collect();
+        for (to, bytes) in out {
+            self.send(to, bytes);
+        }
+        peers.into_iter().map(|from| self.receive(from)).collect()
+    }
     /// Every rank's `bytes` on rank 0, in rank order (empty on the other ranks).
     fn gather(&self, bytes: Vec<u8>) -> Vec<Vec<u8>>;
     /// Rank 0's `bytes` on every rank.
@@ -175,15 +193,12 @@ impl Comm for ThreadRanks {
         self.boxes.size
     }
 
-    fn exchange(&self, out: Vec<(usize, Vec<u8>)>) -> Vec<Vec<u8>> {
-        let peers: Vec<usize> = out.iter().map(|(to, _)| *to).collect();
-        for (to, bytes) in out {
-            self.boxes.post(self.rank, to, bytes);
-        }
-        peers
-            .into_iter()
-            .map(|from| self.boxes.take(from, self.rank))
-            .collect()
+    fn send(&self, to: usize, bytes: Vec<u8>) {
+        self.boxes.post(self.rank, to, bytes);
+    }
+
+    fn receive(&self, from: usize) -> Vec<u8> {
+        self.boxes.take(from, self.rank)
     }
 
     fn gather(&self, bytes: Vec<u8>) -> Vec<Vec<u8>> {

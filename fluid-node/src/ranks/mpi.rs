@@ -57,6 +57,10 @@ impl MpiRanks {
                 "this MPI library offers thread level {level:?}; the fluid node needs Serialized (any thread, one at a time): use an MPI built with thread support (Debian's Open MPI and MPICH are)"
             ));
         }
+        // A nap of 20 µs sleeps 20 µs, not Linux's default slack of 50 µs more: a waiting
+        // rank wakes when its nap says (`Naps`).
+        // SAFETY: prctl with PR_SET_TIMERSLACK reads no pointer; it sets this thread's slack.
+        unsafe { libc::prctl(libc::PR_SET_TIMERSLACK, TIMER_SLACK_NS) };
         let world = universe.world();
         Ok(Self {
             _universe: universe,
@@ -84,28 +88,32 @@ impl Drop for MpiRanks {
     }
 }
 
+/// The timer slack of the thread that makes the MPI calls [ns].
+const TIMER_SLACK_NS: libc::c_ulong = 1_000;
+
 /// Longest nap between two looks at a pending message.
 const MAX_NAP: Duration = Duration::from_micros(500);
 
-/// Shortest nap (in practice Linux's timer slack, ~55 µs by default).
+/// Shortest nap (the thread's timer slack is set to 1 µs: [`TIMER_SLACK_NS`]).
 const MIN_NAP: Duration = Duration::from_micros(5);
 
 /// How long a rank looks again at once (yielding its core between looks) before it naps.
 const EAGER: Duration = Duration::from_micros(30);
 
-/// A nap is this fraction of the wait so far: a message is taken at most an eighth of the
-/// wait (plus the timer slack) after it came.
-const NAP_OF_WAIT: u32 = 8;
+/// A nap is this fraction of the wait so far: a message is taken at most a sixteenth of the
+/// wait after it came.
+const NAP_OF_WAIT: u32 = 16;
 
 /// Naps between looks at a pending message. MPI's own blocking calls poll (Open MPI's
 /// shared-memory transport spins a core while it waits), and the ranks share their cores with
 /// the coupler and the solid node: a rank that waits must sleep. Within a step the other ranks'
-/// messages mostly come within tens of µs, less than the shortest sleep Linux gives: for
-/// [`EAGER`] a rank yields its core between looks, then naps an eighth of the time it has
-/// waited ([`NAP_OF_WAIT`]), from [`MIN_NAP`] to [`MAX_NAP`]. Naps that doubled each time
-/// overslept a wait by up to its own length: at 10⁵ particles, where a step takes ~20 ms and a
-/// rank waits several times in it, that was a few per cent of the step. A rank waiting for the
-/// coupler's next step sleeps 2000 times a second.
+/// messages mostly come within tens of µs: for [`EAGER`] a rank yields its core between
+/// looks, then naps a sixteenth of the time it has waited ([`NAP_OF_WAIT`]), from [`MIN_NAP`]
+/// to [`MAX_NAP`]. What a rank oversleeps it brings late to the next message, where the other
+/// rank waits for it: naps that doubled each time overslept a wait by up to its own length, a
+/// few per cent of a 20 ms step at 10⁵ particles; Linux's default timer slack (50 µs added to
+/// every sleep) was another ~0.1 ms a wait. A rank waiting for the coupler's next step sleeps
+/// 2000 times a second.
 struct Naps(Option<Instant>);
 
 impl Naps {
@@ -180,12 +188,22 @@ impl MpiRanks {
     }
 
     /// The next message from rank `from`, napping until it is there.
-    fn receive(&self, from: usize) -> Vec<u8> {
+    fn take(&self, from: usize) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        self.take_into(from, &mut bytes);
+        bytes
+    }
+
+    /// [`Self::take`] into `bytes` (resized to the message).
+    fn take_into(&self, from: usize, bytes: &mut Vec<u8>) {
         let source = self.world.process_at_rank(from as i32);
         let mut naps = Naps::new();
         loop {
-            if let Some(probed) = source.immediate_matched_probe() {
-                return probed.matched_receive_vec::<u8>().0;
+            if let Some((message, status)) = source.immediate_matched_probe() {
+                let n = status.count(u8::equivalent_datatype()) as usize;
+                bytes.resize(n, 0);
+                message.matched_receive_into(&mut bytes[..]);
+                return;
             }
             naps.take();
         }
@@ -201,14 +219,16 @@ impl Comm for MpiRanks {
         self.world.size() as usize
     }
 
-    fn exchange(&self, out: Vec<(usize, Vec<u8>)>) -> Vec<Vec<u8>> {
-        // Every send is posted before any receive is waited for: two ranks sending each other
-        // large messages cannot block each other.
-        let from: Vec<usize> = out.iter().map(|(q, _)| *q).collect();
-        for (to, bytes) in out {
-            self.post(to, bytes);
-        }
-        from.iter().map(|&q| self.receive(q)).collect()
+    fn send(&self, to: usize, bytes: Vec<u8>) {
+        self.post(to, bytes);
+    }
+
+    fn receive(&self, from: usize) -> Vec<u8> {
+        self.take(from)
+    }
+
+    fn receive_into(&self, from: usize, bytes: &mut Vec<u8>) {
+        self.take_into(from, bytes);
     }
 
     fn gather(&self, bytes: Vec<u8>) -> Vec<Vec<u8>> {
@@ -217,7 +237,7 @@ impl Comm for MpiRanks {
             return Vec::new();
         }
         let mut all = vec![bytes];
-        all.extend((1..self.size()).map(|from| self.receive(from)));
+        all.extend((1..self.size()).map(|from| self.take(from)));
         all
     }
 

@@ -31,6 +31,10 @@ use shared::math::{Real, Vector};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+// The halo's values go on the wire as the machine's words ([`Share::share`]): the wire's
+// little-endian ones.
+const _: () = assert!(cfg!(target_endian = "little"));
+
 /// Words of a particle's hand-over state ([`state`]).
 const STATE: usize = 3 + 3 + 1 + 1 + 3 + 1 + 3 + 3 + 1;
 
@@ -49,6 +53,7 @@ const WALL_PAIR_WORK: usize = 6;
 /// See [`WALL_PAIR_WORK`].
 const PARTICLE_WORK: usize = 20;
 
+pub static mut DBG: [f64; 6] = [0.0; 6];
 /// What the halo costs, for `fluid-bench --ranks`.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct HaloStats {
@@ -105,6 +110,8 @@ pub struct Share {
     window: Window,
     /// The start of the step this rank is computing: the clock, and the time in messages then.
     busy_from: Option<(Instant, Duration)>,
+    /// Per link, the buffer its halo values arrive in ([`Self::take`]).
+    inbox: Vec<Vec<u8>>,
 }
 
 /// Steps after which the cuts are judged by the ranks' compute times (at the next sort).
@@ -143,6 +150,7 @@ impl Share {
             my_work: 0,
             window: Window::default(),
             busy_from: None,
+            inbox: Vec::new(),
         })
     }
 
@@ -398,39 +406,38 @@ impl Share {
         &mut self,
         get: impl Fn(usize) -> [Real; N],
     ) -> Vec<(u32, [Real; N])> {
-        let got = self.trade(get);
+        self.post(get);
         let mut halo = Vec::with_capacity(self.stats.halo);
-        self.read_halo(&got, |k, v| halo.push((k as u32, v)));
+        self.take(|k, v| halo.push((k as u32, v)));
         halo
     }
 
-    /// The messages of [`Self::share`]: each link's values, sent; the owners' values of this
-    /// rank's halo, received (one message per link, in the links' order).
-    fn trade<const N: usize>(&mut self, get: impl Fn(usize) -> [Real; N]) -> Vec<Vec<u8>> {
+    /// The first half of [`Self::share`]: sends each link's values and returns at once, so
+    /// that work which needs no halo values can run while they come ([`Self::take`]).
+    pub fn post<const N: usize>(&mut self, get: impl Fn(usize) -> [Real; N]) {
         let t = Instant::now();
-        let out: Vec<(usize, Vec<u8>)> = self
-            .links
-            .iter()
-            .map(|l| {
-                let mut b = vec![0u8; 8 * N * l.send.len()];
-                for (c, &k) in b.chunks_exact_mut(8 * N).zip(&l.send) {
-                    for (w, v) in c.chunks_exact_mut(8).zip(get(k as usize)) {
-                        w.copy_from_slice(&v.to_le_bytes());
-                    }
-                }
-                (l.rank, b)
-            })
-            .collect();
-        self.stats.bytes_sent += out.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
-        let got = self.comm.exchange(out);
+        for l in &self.links {
+            let mut b = Vec::with_capacity(8 * N * l.send.len());
+            for &k in &l.send {
+                // The wire's little-endian words are the machine's (`wire`).
+                b.extend_from_slice(bytemuck::cast_slice(&get(k as usize)));
+            }
+            self.stats.bytes_sent += b.len() as u64;
+            self.comm.send(l.rank, b);
+        }
+        unsafe { DBG[0] += t.elapsed().as_secs_f64(); DBG[5] += 1.0; }
         self.stats.waiting += t.elapsed();
-        got
     }
 
-    /// Hands each halo particle's values in `got` ([`Self::trade`]) to `set(local index,
-    /// values)`.
-    fn read_halo<const N: usize>(&self, got: &[Vec<u8>], mut set: impl FnMut(usize, [Real; N])) {
-        for (l, bytes) in self.links.iter().zip(got) {
+    /// The second half of [`Self::share`]: the halo's values from their owners, each handed
+    /// to `set(local index, values)`.
+    pub fn take<const N: usize>(&mut self, mut set: impl FnMut(usize, [Real; N])) {
+        let t = Instant::now();
+        self.inbox.resize_with(self.links.len(), Vec::new);
+        for (l, bytes) in self.links.iter().zip(&mut self.inbox) {
+            let t0 = Instant::now();
+            self.comm.receive_into(l.rank, bytes);
+            unsafe { DBG[1] += t0.elapsed().as_secs_f64(); }
             assert_eq!(
                 bytes.len(),
                 8 * N * l.receive.len(),
@@ -445,15 +452,23 @@ impl Share {
                 set(k as usize, v);
             }
         }
+        unsafe { DBG[2] += t.elapsed().as_secs_f64(); }
+        self.stats.waiting += t.elapsed();
+    }
+
+    /// [`Self::post`] of the rates (acceleration, dρ/dt) after an evaluation of them: the halo
+    /// takes them with [`Self::take`] (`[a.x, a.y, a.z, dρ/dt]`).
+    pub fn post_rates(&mut self, acceleration: &[Vector], density_rate: &[Real]) {
+        self.post(|k| {
+            let a = acceleration[k];
+            [a.x, a.y, a.z, density_rate[k]]
+        });
     }
 
     /// [`Self::share`] of the rates (acceleration, dρ/dt): after every evaluation of them.
     pub fn share_rates(&mut self, acceleration: &mut [Vector], density_rate: &mut [Real]) {
-        let got = self.trade(|k| {
-            let a = acceleration[k];
-            [a.x, a.y, a.z, density_rate[k]]
-        });
-        self.read_halo(&got, |k, [x, y, z, d]| {
+        self.post_rates(acceleration, density_rate);
+        self.take(|k, [x, y, z, d]| {
             acceleration[k] = Vector::new(x, y, z);
             density_rate[k] = d;
         });
