@@ -3,7 +3,6 @@
 
 use super::comm::Comm;
 use mpi::collective::SystemOperation;
-use mpi::point_to_point::MatchedReceiveVec;
 use mpi::request::{Request, Scope, StaticScope};
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;

@@ -53,7 +53,6 @@ const WALL_PAIR_WORK: usize = 6;
 /// See [`WALL_PAIR_WORK`].
 const PARTICLE_WORK: usize = 20;
 
-pub static mut DBG: [f64; 6] = [0.0; 6];
 /// What the halo costs, for `fluid-bench --ranks`.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct HaloStats {
@@ -425,7 +424,6 @@ impl Share {
             self.stats.bytes_sent += b.len() as u64;
             self.comm.send(l.rank, b);
         }
-        unsafe { DBG[0] += t.elapsed().as_secs_f64(); DBG[5] += 1.0; }
         self.stats.waiting += t.elapsed();
     }
 
@@ -435,9 +433,7 @@ impl Share {
         let t = Instant::now();
         self.inbox.resize_with(self.links.len(), Vec::new);
         for (l, bytes) in self.links.iter().zip(&mut self.inbox) {
-            let t0 = Instant::now();
             self.comm.receive_into(l.rank, bytes);
-            unsafe { DBG[1] += t0.elapsed().as_secs_f64(); }
             assert_eq!(
                 bytes.len(),
                 8 * N * l.receive.len(),
@@ -452,7 +448,6 @@ impl Share {
                 set(k as usize, v);
             }
         }
-        unsafe { DBG[2] += t.elapsed().as_secs_f64(); }
         self.stats.waiting += t.elapsed();
     }
 

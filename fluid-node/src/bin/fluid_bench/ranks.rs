@@ -96,8 +96,6 @@ pub fn run(comm: Arc<dyn Comm>, rows: &super::Rows) {
         comm.max(&mut [0.0]);
         let mut secs = [bench.run(steps)];
         comm.max(&mut secs);
-        #[allow(static_mut_refs)]
-        unsafe { let d = fluid_node::ranks::share::DBG; eprintln!("rank {rank}: post {:.0} receive {:.0} take(total) {:.0} us per call, calls/step {:.2}", 1e6*d[0]/d[5], 1e6*d[1]/d[5], 1e6*d[2]/d[5], d[5]/steps as f64); }
         let clocks = comm.gather(words(&bench.solver.system().phases.to_words()));
         if phases && rank == 0 {
             for (r, b) in clocks.iter().enumerate() {

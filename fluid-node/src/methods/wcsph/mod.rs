@@ -293,11 +293,7 @@ impl Wcsph {
     }
 
     /// [`Self::correct`] of the particles `mask` marks.
-    fn correct_where(
-        p: &mut Particles,
-        dt: Real,
-        mask: impl IndexedParallelIterator<Item = bool>,
-    ) {
+    fn correct_where(p: &mut Particles, dt: Real, mask: impl IndexedParallelIterator<Item = bool>) {
         let start = p
             .velocity0
             .par_iter()
