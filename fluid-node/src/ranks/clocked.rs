@@ -48,9 +48,6 @@ impl Comm for Clocked {
     fn receive(&self, from: usize) -> Vec<u8> {
         self.timed(|c| c.receive(from))
     }
-    fn receive_into(&self, from: usize, bytes: &mut Vec<u8>) {
-        self.timed(|c| c.receive_into(from, bytes))
-    }
     fn exchange(&self, out: Vec<(usize, Vec<u8>)>) -> Vec<Vec<u8>> {
         self.timed(|c| c.exchange(out))
     }

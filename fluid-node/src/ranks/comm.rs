@@ -20,11 +20,6 @@ pub trait Comm: Send + Sync {
     fn send(&self, to: usize, bytes: Vec<u8>);
     /// The next message from rank `from`, waiting (without spinning) until it is there.
     fn receive(&self, from: usize) -> Vec<u8>;
-    /// [`Self::receive`] into `bytes` (resized to the message): a buffer kept from one message
-    /// to the next is warm in the cache and needs no allocation.
-    fn receive_into(&self, from: usize, bytes: &mut Vec<u8>) {
-        *bytes = self.receive(from);
-    }
     /// Sends `out[k].1` to rank `out[k].0` for every k and returns what each of those ranks sent
     /// back to this one, in the same order: every listed rank lists this one in its own call.
     /// Every send is posted before any receive waits: two ranks sending each other large

@@ -3,6 +3,7 @@
 
 use super::comm::Comm;
 use mpi::collective::SystemOperation;
+use mpi::point_to_point::MatchedReceiveVec;
 use mpi::request::{Request, Scope, StaticScope};
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
@@ -188,21 +189,11 @@ impl MpiRanks {
 
     /// The next message from rank `from`, napping until it is there.
     fn take(&self, from: usize) -> Vec<u8> {
-        let mut bytes = Vec::new();
-        self.take_into(from, &mut bytes);
-        bytes
-    }
-
-    /// [`Self::take`] into `bytes` (resized to the message).
-    fn take_into(&self, from: usize, bytes: &mut Vec<u8>) {
         let source = self.world.process_at_rank(from as i32);
         let mut naps = Naps::new();
         loop {
-            if let Some((message, status)) = source.immediate_matched_probe() {
-                let n = status.count(u8::equivalent_datatype()) as usize;
-                bytes.resize(n, 0);
-                message.matched_receive_into(&mut bytes[..]);
-                return;
+            if let Some(probed) = source.immediate_matched_probe() {
+                return probed.matched_receive_vec::<u8>().0;
             }
             naps.take();
         }
@@ -224,10 +215,6 @@ impl Comm for MpiRanks {
 
     fn receive(&self, from: usize) -> Vec<u8> {
         self.take(from)
-    }
-
-    fn receive_into(&self, from: usize, bytes: &mut Vec<u8>) {
-        self.take_into(from, bytes);
     }
 
     fn gather(&self, bytes: Vec<u8>) -> Vec<Vec<u8>> {

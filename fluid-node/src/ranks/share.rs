@@ -109,8 +109,6 @@ pub struct Share {
     window: Window,
     /// The start of the step this rank is computing: the clock, and the time in messages then.
     busy_from: Option<(Instant, Duration)>,
-    /// Per link, the buffer its halo values arrive in ([`Self::take`]).
-    inbox: Vec<Vec<u8>>,
 }
 
 /// Steps after which the cuts are judged by the ranks' compute times (at the next sort).
@@ -149,7 +147,6 @@ impl Share {
             my_work: 0,
             window: Window::default(),
             busy_from: None,
-            inbox: Vec::new(),
         })
     }
 
@@ -431,9 +428,8 @@ impl Share {
     /// to `set(local index, values)`.
     pub fn take<const N: usize>(&mut self, mut set: impl FnMut(usize, [Real; N])) {
         let t = Instant::now();
-        self.inbox.resize_with(self.links.len(), Vec::new);
-        for (l, bytes) in self.links.iter().zip(&mut self.inbox) {
-            self.comm.receive_into(l.rank, bytes);
+        for l in &self.links {
+            let bytes = self.comm.receive(l.rank);
             assert_eq!(
                 bytes.len(),
                 8 * N * l.receive.len(),

@@ -246,33 +246,6 @@ impl FluidSystem {
         }
     }
 
-    /// On several ranks: sends the rates (acceleration, dρ/dt) of the owned particles other
-    /// ranks hold; the halo takes theirs with [`Self::take_rates`], and what needs no halo
-    /// rate runs between.
-    pub fn post_rates(&mut self) {
-        if let Some(s) = &mut self.share {
-            let t = self.phases.start();
-            let p = &self.particles;
-            s.post_rates(&p.acceleration, &p.density_rate);
-            self.phases.stop(Phase::Halo, t);
-        }
-    }
-
-    /// The halo's rates from their owners ([`Self::post_rates`]), each written into the
-    /// particles and then handed to `then(particles, index)`.
-    pub fn take_rates(&mut self, mut then: impl FnMut(&mut Particles, usize)) {
-        if let Some(s) = &mut self.share {
-            let t = self.phases.start();
-            let p = &mut self.particles;
-            s.take(|k, [x, y, z, d]| {
-                p.acceleration[k] = Vector::new(x, y, z);
-                p.density_rate[k] = d;
-                then(p, k);
-            });
-            self.phases.stop(Phase::Halo, t);
-        }
-    }
-
     /// Writes `fluid.json` in the run directory: the particle counts the coupler puts in
     /// `summary.json` (they are fixed for the run: particles carry fixed masses).
     fn write_counts(&self) -> std::io::Result<()> {

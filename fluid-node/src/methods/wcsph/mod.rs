@@ -11,7 +11,6 @@ pub mod pairs;
 
 use crate::core::dt::StepLimits;
 use crate::core::lanes::Packed;
-use crate::core::particles::Particles;
 use crate::core::phases::Phase;
 use crate::core::tasks;
 use crate::kernels::Kernel;
@@ -22,7 +21,7 @@ use crate::validation::Check;
 use pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
 use rayon::prelude::*;
 use serde::Deserialize;
-use shared::math::{Real, Vector};
+use shared::math::Real;
 use shared::registry::{ParamCheck, SolverParams, Variant, study};
 use shared::solver::{SolverError, StepReport};
 
@@ -187,9 +186,8 @@ impl Wcsph {
         sys.phases.stop(Phase::WallPressures, t);
     }
 
-    /// Momentum and continuity: acceleration and dρ/dt of every particle at the current state
-    /// (on several ranks, of the owned ones).
-    fn forces(&mut self, sys: &mut FluidSystem) {
+    /// Momentum and continuity: acceleration and dρ/dt of every particle at the current state.
+    fn rates(&mut self, sys: &mut FluidSystem) {
         self.pressures(sys);
         let t = sys.phases.start();
         let prm = self.constants;
@@ -241,11 +239,6 @@ impl Wcsph {
                 *d = di * m;
             });
         sys.phases.stop(Phase::Forces, t);
-    }
-
-    /// [`Self::forces`], the halo's rates from their owners.
-    fn rates(&mut self, sys: &mut FluidSystem) {
-        self.forces(sys);
         sys.share_rates();
     }
 
@@ -277,23 +270,10 @@ impl Wcsph {
     }
 
     /// Corrector: from (r, v, ρ)^n to n + 1 with the rates at n + 1/2 (evaluated on the
-    /// neighbour lists of the last sort; the lists' skin covers the move). One parallel pass;
-    /// on several ranks with `owned_only`, of the owned particles (the halo's rates are still
-    /// on their way: [`correct_one`] as they come).
-    fn correct(sys: &mut FluidSystem, dt: Real, owned_only: bool) {
-        let owned = sys.share.as_ref().filter(|_| owned_only);
+    /// neighbour lists of the last sort; the lists' skin covers the move). One parallel pass.
+    fn correct(sys: &mut FluidSystem, dt: Real) {
         let p = &mut sys.particles;
-        match owned {
-            Some(s) => Self::correct_where(p, dt, s.owned.par_iter().copied()),
-            None => {
-                let n = p.len();
-                Self::correct_where(p, dt, rayon::iter::repeat_n(true, n))
-            }
-        }
-    }
-
-    /// [`Self::correct`] of the particles `mask` marks.
-    fn correct_where(p: &mut Particles, dt: Real, mask: impl IndexedParallelIterator<Item = bool>) {
+        let half = 0.5 * dt;
         let start = p
             .velocity0
             .par_iter()
@@ -306,32 +286,12 @@ impl Wcsph {
             .zip(p.density.par_iter_mut())
             .zip(start)
             .zip(rates)
-            .zip(mask)
-            .for_each(|(((((v, x), r), ((v0, x0), r0)), (a, d)), m)| {
-                if m {
-                    (*v, *x, *r) = corrected(v0, x0, *r0, a, *d, *r, dt);
-                }
+            .for_each(|((((v, x), r), ((v0, x0), r0)), (a, d))| {
+                *v = v0 + a * dt;
+                *x = x0 + (*v + v0) * half;
+                let eps = -d / *r * dt;
+                *r = r0 * (2.0 - eps) / (2.0 + eps);
             });
-    }
-
-    /// Drift–kick–drift with one evaluation (see [`Integrator::Leapfrog`]): the predictor with
-    /// the last step's rates (positions drift on v^n alone, exact; velocity and density enter
-    /// only viscosity, continuity and the EOS), the corrector unchanged. The first step
-    /// evaluates the rates once. On several ranks the owned particles are corrected while the
-    /// halo's rates come (the rank that finished its forces first does not wait idle).
-    fn leapfrog(&mut self, sys: &mut FluidSystem, dt: Real) {
-        if sys.steps == 0 {
-            self.rates(sys);
-        }
-        let t = sys.phases.start();
-        Self::predict_half_step(sys, dt);
-        sys.phases.stop(Phase::Predictor, t);
-        self.forces(sys);
-        sys.post_rates();
-        let t = sys.phases.start();
-        Self::correct(sys, dt, true);
-        sys.phases.stop(Phase::Integration, t);
-        sys.take_rates(|p, k| correct_one(p, k, dt));
     }
 
     /// Symplectic position Verlet: the predictor with the rates at n, the corrector with those
@@ -343,7 +303,24 @@ impl Wcsph {
         sys.phases.stop(Phase::Predictor, t);
         self.rates(sys);
         let t = sys.phases.start();
-        Self::correct(sys, dt, false);
+        Self::correct(sys, dt);
+        sys.phases.stop(Phase::Integration, t);
+    }
+
+    /// Drift–kick–drift with one evaluation (see [`Integrator::Leapfrog`]): the predictor with
+    /// the last step's rates (positions drift on v^n alone, exact; velocity and density enter
+    /// only viscosity, continuity and the EOS), the corrector unchanged. The first step
+    /// evaluates the rates once.
+    fn leapfrog(&mut self, sys: &mut FluidSystem, dt: Real) {
+        if sys.steps == 0 {
+            self.rates(sys);
+        }
+        let t = sys.phases.start();
+        Self::predict_half_step(sys, dt);
+        sys.phases.stop(Phase::Predictor, t);
+        self.rates(sys);
+        let t = sys.phases.start();
+        Self::correct(sys, dt);
         sys.phases.stop(Phase::Integration, t);
     }
 
@@ -384,37 +361,6 @@ impl Wcsph {
             });
         sys.phases.stop(Phase::Integration, t);
     }
-}
-
-/// The corrector's step of one particle: (v, x, ρ) at n + 1 from (v0, x0, ρ0) at n, the rates
-/// (a, dρ/dt) at n + 1/2 and the density ρ there (Crank–Nicolson in ρ, as DualSPHysics).
-#[inline(always)]
-fn corrected(
-    v0: &Vector,
-    x0: &Vector,
-    r0: Real,
-    a: &Vector,
-    d: Real,
-    r: Real,
-    dt: Real,
-) -> (Vector, Vector, Real) {
-    let v = v0 + a * dt;
-    let x = x0 + (v + v0) * (0.5 * dt);
-    let eps = -d / r * dt;
-    (v, x, r0 * (2.0 - eps) / (2.0 + eps))
-}
-
-/// [`corrected`] of particle `i` in place.
-fn correct_one(p: &mut Particles, i: usize, dt: Real) {
-    (p.velocity[i], p.position[i], p.density[i]) = corrected(
-        &p.velocity0[i],
-        &p.position0[i],
-        p.density0[i],
-        &p.acceleration[i],
-        p.density_rate[i],
-        p.density[i],
-        dt,
-    );
 }
 
 /// Tait's equation of state.
