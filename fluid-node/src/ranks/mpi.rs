@@ -57,10 +57,6 @@ impl MpiRanks {
                 "this MPI library offers thread level {level:?}; the fluid node needs Serialized (any thread, one at a time): use an MPI built with thread support (Debian's Open MPI and MPICH are)"
             ));
         }
-        // A nap of 20 µs sleeps 20 µs, not Linux's default slack of 50 µs more: a waiting
-        // rank wakes when its nap says (`Naps`).
-        // SAFETY: prctl with PR_SET_TIMERSLACK reads no pointer; it sets this thread's slack.
-        unsafe { libc::prctl(libc::PR_SET_TIMERSLACK, TIMER_SLACK_NS) };
         let world = universe.world();
         Ok(Self {
             _universe: universe,
@@ -126,7 +122,24 @@ impl Naps {
             std::thread::yield_now();
             return;
         }
+        exact_naps();
         std::thread::sleep((waited / NAP_OF_WAIT).clamp(MIN_NAP, MAX_NAP));
+    }
+}
+
+thread_local! {
+    /// Whether this thread's timer slack is set ([`exact_naps`]).
+    static EXACT: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Sets the calling thread's timer slack to [`TIMER_SLACK_NS`], once per thread (the slack is a
+/// thread's own, and the MPI calls are made from whichever thread drives the solver): a nap of
+/// 20 µs then sleeps 20 µs, not Linux's default 50 µs more.
+fn exact_naps() {
+    if !EXACT.get() {
+        // SAFETY: prctl with PR_SET_TIMERSLACK reads no pointer; it sets this thread's slack.
+        unsafe { libc::prctl(libc::PR_SET_TIMERSLACK, TIMER_SLACK_NS) };
+        EXACT.set(true);
     }
 }
 

@@ -408,9 +408,8 @@ impl Share {
         halo
     }
 
-    /// The first half of [`Self::share`]: sends each link's values and returns at once, so
-    /// that work which needs no halo values can run while they come ([`Self::take`]).
-    pub fn post<const N: usize>(&mut self, get: impl Fn(usize) -> [Real; N]) {
+    /// The first half of [`Self::share`]: sends each link's values and returns at once.
+    fn post<const N: usize>(&mut self, get: impl Fn(usize) -> [Real; N]) {
         let t = Instant::now();
         for l in &self.links {
             let mut b = Vec::with_capacity(8 * N * l.send.len());
@@ -426,7 +425,7 @@ impl Share {
 
     /// The second half of [`Self::share`]: the halo's values from their owners, each handed
     /// to `set(local index, values)`.
-    pub fn take<const N: usize>(&mut self, mut set: impl FnMut(usize, [Real; N])) {
+    fn take<const N: usize>(&mut self, mut set: impl FnMut(usize, [Real; N])) {
         let t = Instant::now();
         for l in &self.links {
             let bytes = self.comm.receive(l.rank);
@@ -447,18 +446,12 @@ impl Share {
         self.stats.waiting += t.elapsed();
     }
 
-    /// [`Self::post`] of the rates (acceleration, dρ/dt) after an evaluation of them: the halo
-    /// takes them with [`Self::take`] (`[a.x, a.y, a.z, dρ/dt]`).
-    pub fn post_rates(&mut self, acceleration: &[Vector], density_rate: &[Real]) {
+    /// [`Self::share`] of the rates (acceleration, dρ/dt): after every evaluation of them.
+    pub fn share_rates(&mut self, acceleration: &mut [Vector], density_rate: &mut [Real]) {
         self.post(|k| {
             let a = acceleration[k];
             [a.x, a.y, a.z, density_rate[k]]
         });
-    }
-
-    /// [`Self::share`] of the rates (acceleration, dρ/dt): after every evaluation of them.
-    pub fn share_rates(&mut self, acceleration: &mut [Vector], density_rate: &mut [Real]) {
-        self.post_rates(acceleration, density_rate);
         self.take(|k, [x, y, z, d]| {
             acceleration[k] = Vector::new(x, y, z);
             density_rate[k] = d;
