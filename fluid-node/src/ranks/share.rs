@@ -460,16 +460,57 @@ impl Share {
 
     /// The owned particles of every rank on rank 0, in one-rank order: `fields(i)` are particle
     /// i's values (the same number for every particle). None on the other ranks.
+    ///
+    /// Each rank's owned particles are in key order (a rank's particles are the one-rank order
+    /// restricted to it), so rank 0 merges the pieces by key as they came, without a sort and
+    /// without a keyed copy of the whole water; the other ranks encode theirs straight into
+    /// the message.
     pub fn gather<const N: usize>(
         &self,
         fields: impl Fn(usize) -> [Real; N],
     ) -> Option<Vec<[Real; N]>> {
-        let mine: Vec<(u64, [Real; N])> = (0..self.owned.len())
-            .filter(|&i| self.owned[i])
-            .map(|i| (self.key[i], fields(i)))
+        let item = 8 * (N + 1);
+        let mut bytes = Vec::with_capacity(item * self.owned_count());
+        for i in (0..self.owned.len()).filter(|&i| self.owned[i]) {
+            wire::put_u64(&mut bytes, [self.key[i]]);
+            wire::put_f64(&mut bytes, fields(i));
+        }
+        let all = self.comm.gather(bytes);
+        if self.rank() != 0 {
+            return None;
+        }
+        let key = |piece: &[u8], k: usize| {
+            u64::from_le_bytes(piece[k * item..k * item + 8].try_into().unwrap())
+        };
+        let mut heads: std::collections::BinaryHeap<std::cmp::Reverse<(u64, usize)>> = all
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| !b.is_empty())
+            .map(|(r, b)| std::cmp::Reverse((key(b, 0), r)))
             .collect();
-        let all = self.gather_items(&mine)?;
-        Some(all.into_iter().map(|(_, v)| v).collect())
+        let mut next = vec![0usize; all.len()];
+        let mut out = Vec::with_capacity(all.iter().map(|b| b.len() / item).sum());
+        while let Some(std::cmp::Reverse((k, r))) = heads.pop() {
+            let (piece, at) = (&all[r], next[r]);
+            let mut v = [0.0; N];
+            for (v, w) in v
+                .iter_mut()
+                .zip(wire::f64s(&piece[at * item + 8..(at + 1) * item]))
+            {
+                *v = w;
+            }
+            out.push(v);
+            next[r] += 1;
+            if next[r] * item < piece.len() {
+                let following = key(piece, next[r]);
+                assert!(
+                    following > k,
+                    "rank {r}'s particles are not in key order: the ranks' order is broken"
+                );
+                heads.push(std::cmp::Reverse((following, r)));
+            }
+        }
+        Some(out)
     }
 
     /// Items from every rank on rank 0, sorted by their keys (each key given by one rank): the
