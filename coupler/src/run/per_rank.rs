@@ -9,7 +9,9 @@
 //! move with the work, which keeps the shares near equal), and a halo on both sides of every
 //! slab (the two end slabs have one: an upper estimate).
 
-use crate::run::sizes::{BASE_BYTES, estimate};
+use crate::run::sizes::{
+    BASE_BYTES, BYTES_PER_BOUNDARY_PARTICLE, BYTES_PER_WATER_PARTICLE, estimate,
+};
 use fluid_node::methods::wcsph::WCSPH_SKIN;
 use shared::scene::{FieldError, Scene, fluid_ranks_problem};
 
@@ -23,21 +25,12 @@ pub const HALO_CELLS: f64 = 2.5;
 /// Narrowest slab, in grid cells: a slab narrower than its two halos would hold more copies
 /// than particles of its own, and trade most of its water every step.
 pub const MIN_SLAB_CELLS: u32 = 4;
-/// Peak resident bytes of a rank per water particle it holds, own or halo, measured: the
-/// per-particle arrays, the WCSPH records and the neighbour lists (~100 entries within the
-/// lists' reach of 1.1 supports). From `fluid-bench --ranks 2 --threads 1 --sizes 1000000`
-/// (docs/PERFORMANCE.md, 28 Nov 2026): 737 MB for 992 319 water and ~642 000 boundary
-/// particles in one process, 464 MB on a rank holding 577 806 of the water and all the
-/// boundary; two equations, two unknowns: this and [`BYTES_PER_BOUNDARY_PARTICLE`].
-pub const BYTES_PER_RANK_PARTICLE: f64 = 660.0;
-/// Peak resident bytes per boundary (wall, terrain, block) particle, measured as above. Every
-/// rank holds every boundary particle.
-pub const BYTES_PER_BOUNDARY_PARTICLE: f64 = 90.0;
 /// Rank 0's peak resident bytes on top of its own share, per water particle of the whole run:
 /// it gathers every particle to write a checkpoint (the one-rank file) and a frame. Measured on
-/// `scenes/fjord.toml --dx 1.3333333333333333 --fluid-ranks 2` (28 Nov 2026): rank 0 peaked at
-/// 739 MiB against 232 MB for its share by the figures above, with 534 348 water particles.
-pub const LEAD_BYTES_PER_PARTICLE: f64 = 1000.0;
+/// `scenes/fjord.toml --dx 1 --fluid-ranks 2` (29 Nov 2026): rank 0 peaked at 1.63 GB and
+/// rank 1 at 1.13 GB, with 1 266 264 water particles (~400 B each); at dx = 4/3 m (28 Nov)
+/// rank 0 peaked at 775 MB, ~500 B a particle over its share by the figures above.
+pub const LEAD_BYTES_PER_PARTICLE: f64 = 500.0;
 
 /// The slabs of a scene's domain: the axis they are cut along, its length and a grid cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,7 +80,7 @@ pub struct PerRank {
     pub halo: f64,
     /// Boundary particles a rank holds: all of them.
     pub boundary: f64,
-    /// Memory of one rank [bytes]: [`BASE_BYTES`] + [`BYTES_PER_RANK_PARTICLE`] × (own + halo)
+    /// Memory of one rank [bytes]: [`BASE_BYTES`] + [`BYTES_PER_WATER_PARTICLE`] × (own + halo)
     /// + [`BYTES_PER_BOUNDARY_PARTICLE`] × boundary particles.
     pub memory: f64,
     /// Memory of rank 0 [bytes]: [`Self::memory`] + [`LEAD_BYTES_PER_PARTICLE`] × the whole
@@ -111,7 +104,7 @@ impl PerRank {
         };
         let boundary = whole.boundary_particles;
         let memory = BASE_BYTES
-            + BYTES_PER_RANK_PARTICLE * (particles + halo)
+            + BYTES_PER_WATER_PARTICLE * (particles + halo)
             + BYTES_PER_BOUNDARY_PARTICLE * boundary;
         Some(PerRank {
             ranks,
@@ -140,7 +133,7 @@ impl PerRank {
             s.cell,
             self.boundary,
             self.memory / 1e6,
-            BYTES_PER_RANK_PARTICLE,
+            BYTES_PER_WATER_PARTICLE,
             BYTES_PER_BOUNDARY_PARTICLE,
             self.lead_memory / 1e6
         )
@@ -255,7 +248,7 @@ mod tests {
             "along x",
             "halo (30 % more: 2 × 2.5 cells",
             "MB of memory",
-            "660 B per water and 90 B per boundary particle, measured), rank 0 about",
+            "1600 B per water and 90 B per boundary particle, measured), rank 0 about",
         ] {
             assert!(line.contains(says), "{says}: {line}");
         }

@@ -1,16 +1,28 @@
 //! What a scene will cost before anything is allocated: particles, memory, steps and disk, and
 //! the refusal of a scene that cannot fit in this machine's memory (naming `fluid.dx`).
 //!
-//! The memory figure is measured, not derived: the fluid node's peak resident set (VmHWM) on the
-//! sliding wedge at dx = 0.02 m over its water and estimated boundary particles (below) gives
-//! [`BYTES_PER_PARTICLE`], over a base of [`BASE_BYTES`] (the same scene at dx = 0.04 m).
+//! The memory figures are measured, not derived: the peak resident set (VmHWM) of a fluid rank
+//! of the synthetic reservoir at dx = 1 m, 21 550 steps on 2 ranks, over the water and boundary
+//! particles it held ([`BYTES_PER_WATER_PARTICLE`], [`BYTES_PER_BOUNDARY_PARTICLE`]), over a base
+//! of [`BASE_BYTES`] (the sliding wedge at dx = 0.04 m). A rank and a one-process node hold
+//! the same arrays per particle; the long run is the one to plan by (docs/PERFORMANCE.md,
+//! "Sizes and memory").
 
 use shared::geometry::Polyhedron;
 use shared::scene::{BlockKind, FieldError, Scene, Walls};
 use shared::terrain::Terrain;
 
-/// Peak resident bytes of the fluid node per particle (water and boundary), measured as above.
-pub const BYTES_PER_PARTICLE: f64 = 320.0;
+/// Peak resident bytes of the fluid node (or of a rank) per water particle it holds, own or
+/// halo, measured as above: the per-particle arrays, the WCSPH records and the neighbour lists
+/// (~100 entries within the lists' reach of 1.1 supports), at the size the lists and the
+/// allocator keep them after thousands of sorts, and the rank's piece of a checkpoint. A short
+/// run holds less: `fluid-bench --ranks 2 --sizes 1000000 --steps 3` ~660 B (docs/PERFORMANCE.md).
+pub const BYTES_PER_WATER_PARTICLE: f64 = 1600.0;
+/// Peak resident bytes per boundary (wall, terrain, block) particle: from one process and one
+/// rank of `fluid-bench --ranks 2 --sizes 1000000` (737 MB for 992 319 water and ~642 000
+/// boundary particles; 464 MB on a rank holding 577 806 of the water and all the boundary: two
+/// equations, two unknowns). Every rank holds every boundary particle.
+pub const BYTES_PER_BOUNDARY_PARTICLE: f64 = 90.0;
 /// Peak resident bytes of the fluid node with no particles.
 pub const BASE_BYTES: f64 = 25e6;
 /// Bytes of one particle in one ASCII VTK frame (a particles_NNNNN.vtp of the sliding wedge at
@@ -130,7 +142,9 @@ pub fn estimate(scene: &Scene, solver: Option<&str>) -> Option<Estimate> {
         Walls::Particles => BOUNDARY_LAYERS * area / (dx * dx),
         Walls::Penalty => 0.0,
     };
-    let memory = BASE_BYTES + BYTES_PER_PARTICLE * (fluid_particles + boundary_particles);
+    let memory = BASE_BYTES
+        + BYTES_PER_WATER_PARTICLE * fluid_particles
+        + BYTES_PER_BOUNDARY_PARTICLE * boundary_particles;
     let height = (top - bottom).max(dx);
     // The solver's own step for this water (its registry entry); one without an estimate is
     // taken at the scene's largest step.
@@ -360,7 +374,8 @@ pub fn check(scene: &Scene, available: Option<f64>) -> Vec<FieldError> {
         format!("{:?}", f.dx),
         &format!(
             "asks for {:.3e} water and {:.3e} boundary particles, about {:.3e} GB of memory \
-             ({BYTES_PER_PARTICLE:.0} bytes per particle, measured); this machine has {:.1} GB \
+             ({BYTES_PER_WATER_PARTICLE:.0} B per water and {BYTES_PER_BOUNDARY_PARTICLE:.0} B \
+             per boundary particle, measured on a long run); this machine has {:.1} GB \
              available and a run may plan {:.0} % of it",
             est.fluid_particles,
             est.boundary_particles,

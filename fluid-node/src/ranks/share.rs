@@ -435,12 +435,9 @@ impl Share {
                 "rank {} sent the values of another halo: the ranks disagree on the cuts",
                 l.rank
             );
+            // A particle's record read whole: the machine's words are the wire's (`wire`).
             for (c, &k) in bytes.chunks_exact(8 * N).zip(&l.receive) {
-                let mut v = [0.0; N];
-                for (v, w) in v.iter_mut().zip(c.chunks_exact(8)) {
-                    *v = Real::from_le_bytes(w.try_into().unwrap());
-                }
-                set(k as usize, v);
+                set(k as usize, bytemuck::pod_read_unaligned(c));
             }
         }
         self.stats.waiting += t.elapsed();
