@@ -68,7 +68,13 @@ impl Bench {
             let start = Instant::now();
             for _ in 0..steps {
                 *time = validation::step(solver.as_mut(), rule, *time, *end, loads)
-                    .expect("stable")
+                    .unwrap_or_else(|e| {
+                        // Every rank of a `--ranks` run stops at the same step (same bits).
+                        eprintln!(
+                            "fluid-bench: the dam break stopped at t = {time:.4} s: {e} (time fewer steps, or from an earlier --from)"
+                        );
+                        std::process::exit(1)
+                    })
                     .0;
             }
             start.elapsed().as_secs_f64()

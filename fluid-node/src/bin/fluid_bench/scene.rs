@@ -3,6 +3,13 @@
 
 use shared::scene::Scene;
 
+/// The scene's end [s]: the bench steps towards it and never reaches it.
+pub const END: f64 = 1.0;
+
+/// The latest `--from` [s]: near t = 0.9 s the surge that met the far wall throws water over
+/// the tank's 3 m top, out of the domain, and WCSPH stops there at 10⁵ particles.
+pub const LAST_FROM: f64 = 0.8;
+
 pub fn scene(solver: &str, particles: usize, params: &[String]) -> Scene {
     // N = 2·(a/dx)³ with a = 1 m.
     let dx = (2.0 / particles as f64).cbrt();
@@ -21,7 +28,7 @@ pub fn scene(solver: &str, particles: usize, params: &[String]) -> Scene {
     ]
     .concat();
     let text = format!(
-        "name = \"bench\"\n[time]\nend = 1.0\n[domain]\nmin = [0.0, 0.0, 0.0]\nmax = [4.0, 1.0, 3.0]\n\
+        "name = \"bench\"\n[time]\nend = {END:?}\n[domain]\nmin = [0.0, 0.0, 0.0]\nmax = [4.0, 1.0, 3.0]\n\
          [fluid]\nsolver = \"{solver}\"\ndx = {dx}\n[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 2.0] }}\n\n{walls}\
          [fluid.{solver}]\n{}\n",
         params.join("\n")
