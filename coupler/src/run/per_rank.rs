@@ -27,8 +27,8 @@ pub const HALO_CELLS: f64 = 2.5;
 pub const MIN_SLAB_CELLS: u32 = 4;
 /// Rank 0's peak resident bytes on top of its own share, per water particle of the whole run:
 /// it gathers every particle to write a checkpoint (the one-rank file) and a frame. Measured on
-/// `scenes/fjord.toml --dx 1 --fluid-ranks 2` (29 Nov 2026): rank 0 peaked at 1.63 GB and
-/// rank 1 at 1.13 GB, with 1 266 264 water particles (~400 B each); at dx = 4/3 m (28 Nov)
+/// `scenes/fjord.toml --dx 1 --fluid-ranks 2` (29 Nov 2026): rank 0 peaked at 1.65 GB and
+/// rank 1 at 1.14 GB, with 1 266 439 water particles (~400 B each); at dx = 4/3 m (28 Nov)
 /// rank 0 peaked at 775 MB, ~500 B a particle over its share by the figures above.
 pub const LEAD_BYTES_PER_PARTICLE: f64 = 500.0;
 

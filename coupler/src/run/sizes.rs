@@ -2,7 +2,7 @@
 //! the refusal of a scene that cannot fit in this machine's memory (naming `fluid.dx`).
 //!
 //! The memory figures are measured, not derived: the peak resident set (VmHWM) of a fluid rank
-//! of the synthetic reservoir at dx = 1 m, 21 550 steps on 2 ranks, over the water and boundary
+//! of the synthetic reservoir at dx = 1 m, 22 631 steps on 2 ranks, over the water and boundary
 //! particles it held ([`BYTES_PER_WATER_PARTICLE`], [`BYTES_PER_BOUNDARY_PARTICLE`]), over a base
 //! of [`BASE_BYTES`] (the sliding wedge at dx = 0.04 m). A rank and a one-process node hold
 //! the same arrays per particle; the long run is the one to plan by (docs/PERFORMANCE.md,
@@ -14,9 +14,9 @@ use shared::terrain::Terrain;
 
 /// Peak resident bytes of the fluid node (or of a rank) per water particle it holds, own or
 /// halo, measured as above: the per-particle arrays, the WCSPH records and the neighbour lists
-/// (~100 entries within the lists' reach of 1.1 supports), at the size the lists and the
-/// allocator keep them after thousands of sorts, and the rank's piece of a checkpoint. A short
-/// run holds less: `fluid-bench --ranks 2 --sizes 1000000 --steps 3` ~660 B (docs/PERFORMANCE.md).
+/// (~100 entries within the lists' reach of 1.1 supports), as a developed flow keeps them after
+/// thousands of sorts (the allocator had 761 MB in use of 923 MB mapped at that run's end), and
+/// the rank's piece of a checkpoint. A short run holds less: `fluid-bench --ranks 2 --sizes 1000000 --steps 3` ~660 B (docs/PERFORMANCE.md).
 pub const BYTES_PER_WATER_PARTICLE: f64 = 1600.0;
 /// Peak resident bytes per boundary (wall, terrain, block) particle: from one process and one
 /// rank of `fluid-bench --ranks 2 --sizes 1000000` (737 MB for 992 319 water and ~642 000
