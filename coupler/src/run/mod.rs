@@ -16,6 +16,7 @@ pub mod error;
 pub mod launch;
 pub mod launcher;
 pub mod lock;
+pub mod mpi_segments;
 pub mod not_on_ranks;
 pub mod output;
 pub mod per_rank;

@@ -52,6 +52,9 @@ impl Session {
             failures.push(failure);
             restarts += 1;
             transport::remove_run_files(&id);
+            if opts.fluid_ranks > 1 {
+                crate::run::mpi_segments::remove_orphans();
+            }
             let back = match crate::run::checkpoint::latest(dir.path(), &opts.scene) {
                 Ok(Some(ck)) => crate::run::checkpoint::rollback(dir.path(), &ck)
                     .and_then(|_| {
@@ -99,8 +102,12 @@ impl Session {
         stats.coupler_cpu_seconds = shared::runtime::process_cpu_seconds();
         stats.coupler_peak_rss_bytes = shared::runtime::process_peak_rss_bytes();
         // Every process of the run is gone now (the session dropped its children): remove
-        // whatever iceoryx2 left in /dev/shm and /tmp/iceoryx2, e.g. after a SIGKILL.
+        // whatever iceoryx2 left in /dev/shm and /tmp/iceoryx2, e.g. after a SIGKILL, and the
+        // MPI segments of a killed rank.
         transport::remove_run_files(&id);
+        if opts.fluid_ranks > 1 {
+            crate::run::mpi_segments::remove_orphans();
+        }
         (stats, result)
     }
 }
