@@ -489,14 +489,10 @@ impl Share {
         let mut out = Vec::with_capacity(all.iter().map(|b| b.len() / item).sum());
         while let Some(std::cmp::Reverse((k, r))) = heads.pop() {
             let (piece, at) = (&all[r], next[r]);
-            let mut v = [0.0; N];
-            for (v, w) in v
-                .iter_mut()
-                .zip(wire::f64s(&piece[at * item + 8..(at + 1) * item]))
-            {
-                *v = w;
-            }
-            out.push(v);
+            // The record read whole, as the halo's (`take`).
+            out.push(bytemuck::pod_read_unaligned(
+                &piece[at * item + 8..(at + 1) * item],
+            ));
             next[r] += 1;
             if next[r] * item < piece.len() {
                 let following = key(piece, next[r]);
