@@ -47,6 +47,7 @@ pub static REGISTRY: Registry<dyn SphSolver> = Registry {
         entry::<methods::wcsph::Wcsph>(),
         entry::<methods::muller::Muller>(),
         entry::<methods::dfsph::Dfsph>(),
+        entry::<methods::riemann::Riemann>(),
     ],
 };
 

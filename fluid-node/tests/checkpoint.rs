@@ -55,7 +55,16 @@ fn continues_exactly(solver: &str, scene: &Scene, what: &str) {
 /// reaches back before it).
 fn scene_with_probes(solver: &str) -> Scene {
     let mut scene = dam_break_scene(solver, 2, 0.1, 6, None);
-    for (name, window) in [("p_inst", None), ("p_avg", Some(0.008))] {
+    // A sensor's face: its seven points' averages go through the checkpoint too.
+    let face = Some(shared::scene::ProbeFace {
+        diameter: 0.02,
+        normal: [0.0, 0.0, 1.0],
+    });
+    for (name, window, face) in [
+        ("p_inst", None, None),
+        ("p_avg", Some(0.008), None),
+        ("p_face", Some(0.008), face),
+    ] {
         scene.probes.push(shared::scene::ProbeSpec {
             name: name.into(),
             position: [
@@ -64,6 +73,7 @@ fn scene_with_probes(solver: &str) -> Scene {
                 0.02,
             ],
             window,
+            face,
         });
     }
     scene

@@ -673,6 +673,33 @@ fn cases() -> Vec<Case> {
             "window = inf",
         ),
         case(
+            "probe face of diameter zero",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0, normal = [-1.0, 0.0, 0.0] }",
+            ),
+            "probe[0].face.diameter",
+            "diameter = 0.0",
+        ),
+        case(
+            "probe face with a zero normal",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [0.0, 0.0, 0.0] }",
+            ),
+            "probe[0].face.normal",
+            "normal = [0.0, 0.0, 0.0]",
+        ),
+        case(
+            "probe face with a misspelt field",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diametre = 0.0042, normal = [-1.0, 0.0, 0.0] }",
+            ),
+            "diametre",
+            "diametre",
+        ),
+        case(
             "probe window not a number",
             edit(
                 "position = [4.95, 0.4, 0.05]",

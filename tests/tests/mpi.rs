@@ -187,8 +187,8 @@ fn dam_break_with(solver: &str) -> String {
 }
 
 #[test]
-fn the_paper_sph_and_dfsph_write_the_same_bits_on_one_and_two_ranks() {
-    for solver in ["muller", "dfsph"] {
+fn the_other_solvers_write_the_same_bits_on_one_and_two_ranks() {
+    for solver in ["muller", "dfsph", "riemann"] {
         let text = dam_break_with(solver);
         let one = run_scene(&format!("{solver}-1-rank"), &text, &[]);
         let steps = summary(&one)["stats"]["steps"].as_u64().unwrap();

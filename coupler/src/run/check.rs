@@ -142,7 +142,7 @@ mod tests {
     /// moving blocks and checkpoints run on ranks.
     #[test]
     fn check_says_what_each_rank_holds_for_every_solver() {
-        for solver in ["wcsph", "muller", "dfsph"] {
+        for solver in fluid_node::REGISTRY.names() {
             let mut scene = fixed_only();
             scene.fluid.as_mut().unwrap().solver = solver.into();
             assert_eq!(

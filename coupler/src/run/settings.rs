@@ -407,7 +407,7 @@ mod tests {
             let args = run_args(&[words, &["--fluid-ranks", "2"]].concat());
             assert!(check_flags(&args, &long, None).is_ok(), "{words:?}");
         }
-        for solver in ["muller", "dfsph"] {
+        for solver in fluid_node::REGISTRY.names() {
             let args = run_args(&["--fluid-ranks", "2", "--fluid-solver", solver]);
             assert!(check_flags(&args, &long, None).is_ok(), "{solver}");
         }

@@ -52,6 +52,12 @@
 //! sensor sampled by an acquisition that averages over w. In the average a dry reading counts as
 //! 0 Pa (atmospheric: pressures are gauge pressures), and a window with no wet reading is NaN,
 //! like the instantaneous dry reading.
+//!
+//! A probe with a sensing `face` ([`ProbeSpec::face`]) reads the mean over the face's disk:
+//! the weighted sum of seven point probes ([`shared::scene::ProbeFace::points`], Stroud's rule),
+//! each read (and box-averaged) as above and owned on several ranks by the rank holding its own
+//! point, then combined as the row is written; a dry point counts as 0 Pa, and a face whose
+//! every point is dry reads NaN.
 
 use crate::core::grid::CellGrid;
 use crate::core::particles::Particles;
@@ -170,6 +176,44 @@ impl BoxAverage {
     }
 }
 
+/// The points the probes are read at: each probe's own, or its face's seven, as point probes
+/// with the probe's window; and each probe's weights over its consecutive points.
+fn probe_points(probes: &[ProbeSpec]) -> (Vec<ProbeSpec>, Vec<Vec<Real>>) {
+    let (mut points, mut weights) = (Vec::new(), Vec::new());
+    for p in probes {
+        let point = |position| ProbeSpec {
+            position,
+            face: None,
+            ..p.clone()
+        };
+        match p.face {
+            None => {
+                points.push(point(p.position));
+                weights.push(vec![1.0]);
+            }
+            Some(face) => {
+                let rule = face.points(p.position);
+                points.extend(rule.iter().map(|&(x, _)| point(x)));
+                weights.push(rule.iter().map(|&(_, w)| w).collect());
+            }
+        }
+    }
+    (points, weights)
+}
+
+/// A probe's reading from its points' `readings` and `weights`: a dry (NaN) point counts as
+/// 0 Pa; NaN when every point is dry. One point: its reading as it is.
+fn face_mean(readings: &[Real], weights: &[Real]) -> Real {
+    if readings.iter().all(|r| !r.is_finite()) {
+        return Real::NAN;
+    }
+    readings
+        .iter()
+        .zip(weights)
+        .map(|(r, w)| if r.is_finite() { r * w } else { 0.0 })
+        .sum()
+}
+
 /// Gauges and probes of a scene and their CSV files.
 /// Where a [`Recorder`] is in its sampling, for a checkpoint: the last sample time, the rows
 /// written, and the probes' running box averages.
@@ -184,10 +228,13 @@ pub struct Recorder {
     gauges: Vec<GaugeSpec>,
     /// Bed elevation under each gauge: what a dry gauge reads.
     beds: Vec<Real>,
+    /// The points read: every probe's own point, or its face's seven ([`probe_points`]).
     probes: Vec<ProbeSpec>,
+    /// Of each probe of the scene, in order: the weights of its consecutive points in `probes`.
+    weights: Vec<Vec<Real>>,
     gauge_file: Option<Series>,
     probe_file: Option<Series>,
-    /// The box average of each probe with a window ([`ProbeSpec::window`]).
+    /// The box average of each point with a window ([`ProbeSpec::window`]).
     averages: Vec<Option<BoxAverage>>,
     min_interval: Real,
     last: Real,
@@ -226,14 +273,16 @@ impl Recorder {
                 probes.iter().map(|p| p.name.clone()),
             )?)
         };
+        let (points, weights) = probe_points(probes);
         Ok(Self {
             gauges: gauges.to_vec(),
             beds: beds.to_vec(),
-            averages: probes
+            averages: points
                 .iter()
                 .map(|p| p.window.map(|w| BoxAverage::new(w, 0.0)))
                 .collect(),
-            probes: probes.to_vec(),
+            probes: points,
+            weights,
             gauge_file,
             probe_file,
             row: Vec::new(),
@@ -301,7 +350,11 @@ impl Recorder {
         }
         if let Some(s) = &mut self.probe_file {
             s.row.clear();
-            s.row.extend_from_slice(p);
+            let mut at = 0;
+            for w in &self.weights {
+                s.row.push(face_mean(&p[at..at + w.len()], w));
+                at += w.len();
+            }
             s.write(time)?;
         }
         // Kept for its capacity.
@@ -534,6 +587,45 @@ impl<K: Kernel> FluidView<'_, K> {
 mod tests {
     use super::*;
     use crate::kernels::{Poly6, WendlandC2};
+
+    /// Stroud's 7-point disk rule integrates the face's moments up to degree 5
+    /// exactly: mean of 1, of r² (R²/2) and of r⁴ (R⁴/3), and of u⁴ (R⁴/8) along any direction
+    /// in the face; every point lies in the face's plane, within its radius.
+    #[test]
+    fn a_face_is_read_at_seven_points_that_integrate_its_disk() {
+        let face = shared::scene::ProbeFace {
+            diameter: 0.02,
+            normal: [-2.0, 0.0, 0.0],
+        };
+        let (c, r) = ([1.0, 0.5, 0.003], 0.01);
+        let rule = face.points(c);
+        let mean = |f: &dyn Fn([f64; 3]) -> f64| rule.iter().map(|&(x, w)| w * f(x)).sum::<f64>();
+        let d = |x: [f64; 3], k: usize| x[k] - c[k];
+        let r2 = |x: [f64; 3]| d(x, 1).powi(2) + d(x, 2).powi(2);
+        assert!((mean(&|_| 1.0) - 1.0).abs() < 1e-15);
+        assert!((mean(&r2) - r * r / 2.0).abs() < 1e-18);
+        assert!((mean(&|x| r2(x).powi(2)) - r.powi(4) / 3.0).abs() < 1e-20);
+        assert!((mean(&|x| d(x, 2).powi(4)) - r.powi(4) / 8.0).abs() < 1e-20);
+        for (x, _) in rule {
+            assert_eq!(x[0], c[0], "off the wall's plane: {x:?}");
+            assert!(r2(x) <= r * r, "outside the face: {x:?}");
+        }
+    }
+
+    /// A face's points combine by their weights; a dry point counts as 0 Pa (atmospheric), and
+    /// a face dry at every point reads NaN, like a dry point probe.
+    #[test]
+    fn a_face_reading_counts_dry_points_as_atmospheric() {
+        let w = [0.25, 0.125, 0.125, 0.125, 0.125, 0.125, 0.125];
+        let wet = [100.0, 200.0, 200.0, 200.0, 200.0, 200.0, 200.0];
+        assert_eq!(face_mean(&wet, &w), 175.0);
+        let mut half = wet;
+        half[1..4].fill(Real::NAN);
+        assert_eq!(face_mean(&half, &w), 25.0 + 3.0 * 25.0);
+        assert!(face_mean(&[Real::NAN; 7], &w).is_nan());
+        assert_eq!(face_mean(&[42.0], &[1.0]), 42.0);
+        assert!(face_mean(&[Real::NAN], &[1.0]).is_nan());
+    }
 
     const DX: Real = 0.05;
     const RHO: Real = 1000.0;

@@ -5,6 +5,8 @@
 //!
 //! - [`muller`]: the paper's method (Müller et al. 2003; paper Eqs. 11–21);
 //! - [`wcsph`]: weakly compressible SPH in the DualSPHysics standard;
+//! - [`riemann`]: the same with a low-dissipation Riemann solver for the pairs (Zhang, Hu &
+//!   Adams 2017);
 //! - [`dfsph`]: divergence-free SPH (Bender & Koschier 2015, 2017).
 //!
 //! # Adding an SPH method
@@ -104,6 +106,7 @@ mod method;
 
 pub mod dfsph;
 pub mod muller;
+pub mod riemann;
 pub mod wcsph;
 
 pub use method::SphMethod;

@@ -8,6 +8,7 @@ use super::share::HaloStats;
 use crate::methods::SphMethod;
 use crate::methods::dfsph::Dfsph;
 use crate::methods::muller::Muller;
+use crate::methods::riemann::Riemann;
 use crate::methods::wcsph::Wcsph;
 use crate::sph::Sph;
 use shared::scene::{CouplingScheme, Scene};
@@ -130,6 +131,15 @@ fn wcsph_gives_the_same_bits_on_one_to_four_ranks() {
 #[test]
 fn muller_gives_the_same_bits_on_one_to_four_ranks() {
     same_bits_on_one_to_four_ranks::<Muller>(400);
+}
+
+/// The Riemann flux, and a sensor's face on the floor 3 cm across where the column's foot is
+/// (its seven points fall on either side of a cut as the cuts move): each point read by its
+/// owner, the face's mean the one rank's.
+#[test]
+fn riemann_and_a_probe_face_give_the_same_bits_on_one_to_four_ranks() {
+    let face = "\n[[probe]]\nname = \"face\"\nposition = [0.2, 0.03, 0.0]\nwindow = 0.002\nface = { diameter = 0.03, normal = [0.0, 0.0, 1.0] }\n";
+    same_bits_in::<Riemann>(&scene_with(face), 800);
 }
 
 /// DFSPH's steps are capped at the scene's 1 ms (its CFL step is longer): 150 steps run the

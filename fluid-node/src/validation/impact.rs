@@ -28,6 +28,9 @@ use super::*;
 pub const TANK_LENGTH: f64 = 1.61;
 /// Water column length [m].
 pub const COLUMN_LENGTH: f64 = 0.6;
+/// The sensors' sensing face, 4.2 mm across (docs/REFERENCES.md §1.3, second-hand): each probe
+/// reads the mean over that disk on the wall ([`shared::scene::ProbeFace`]).
+pub const SENSOR_DIAMETER: f64 = 0.0042;
 
 /// A wall pressure sensor and its measured peak pressure over the repeated runs [Pa].
 #[derive(Debug, Clone, Copy)]
@@ -156,7 +159,7 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
         .iter()
         .map(|s| {
             format!(
-                "[[probe]]\nname = \"{}\"\nposition = [{TANK_LENGTH}, {}, {}]\n{window}\n",
+                "[[probe]]\nname = \"{}\"\nposition = [{TANK_LENGTH}, {}, {}]\n{window}face = {{ diameter = {SENSOR_DIAMETER}, normal = [-1.0, 0.0, 0.0] }}\n\n",
                 s.name,
                 0.5 * w,
                 s.z
@@ -369,6 +372,8 @@ mod tests {
         assert_eq!(s.probes.len(), 4);
         assert!(s.probes.iter().all(|p| p.position[0] == TANK_LENGTH));
         assert_eq!(s.probes[0].window, Some(1e-3));
+        let face = s.probes[0].face.expect("a sensing face");
+        assert_eq!((face.diameter, face.normal), (0.0042, [-1.0, 0.0, 0.0]));
         assert!((s.probes[3].position[2] - 0.08).abs() < 1e-12);
     }
 }

@@ -271,6 +271,76 @@ pub fn validate_impact(solver: &str, plan: &Plan, mut log: impl FnMut(&str)) -> 
     rows
 }
 
+/// The resolutions of the impact-pressure study (`fluid-validate --only impact-study`):
+/// particles per water height H.
+pub const IMPACT_STUDY_PER_H: [usize; 3] = [15, 30, 60];
+
+/// How much a finer run's impact peak may exceed the next coarser one's and still count as not
+/// growing with resolution: 10 %, a third of the experiment's own 2.5–97.5 % band about its
+/// median (−18 %, +43 %).
+pub const PEAK_GROWTH_TOLERANCE: f64 = 0.10;
+
+/// The impact-pressure resolution study for `solver`: [`validate_impact`] at each of
+/// `per_h` (coarse to fine), then one row on whether the peak grows with resolution (the
+/// largest ratio of a finer peak to the next coarser one, against 1 + [`PEAK_GROWTH_TOLERANCE`]).
+pub fn validate_impact_study(solver: &str, per_h: &[usize], mut log: impl FnMut(&str)) -> Vec<Row> {
+    let mut rows = Vec::new();
+    let mut peaks = Vec::new();
+    for &n in per_h {
+        let plan = Plan {
+            impact_per_h: n,
+            ..Plan::QUICK
+        };
+        let these = validate_impact(solver, &plan, &mut log);
+        // The peak row's measured value ("123.4 mbar"), None for a run that failed.
+        peaks.push(
+            these
+                .iter()
+                .find(|r| r.quantity == "peak pressure")
+                .and_then(|r| r.measured.trim_end_matches(" mbar").parse::<f64>().ok()),
+        );
+        rows.extend(these);
+    }
+    let growth = peaks
+        .windows(2)
+        .map(|w| match (w[0], w[1]) {
+            (Some(a), Some(b)) if a > 0.0 => Some(b / a),
+            _ => None,
+        })
+        .collect::<Option<Vec<f64>>>();
+    let shown = |p: &Option<f64>| p.map_or("failed".to_string(), |p| format!("{p:.1}"));
+    let (measured, error, pass) = match growth {
+        Some(g) if !g.is_empty() => {
+            let worst = g.iter().copied().fold(f64::MIN, f64::max);
+            (
+                peaks.iter().map(shown).collect::<Vec<_>>().join(" → "),
+                format!("largest finer ÷ coarser {worst:.2}"),
+                worst <= 1.0 + PEAK_GROWTH_TOLERANCE,
+            )
+        }
+        _ => (
+            peaks.iter().map(shown).collect::<Vec<_>>().join(" → "),
+            "-".into(),
+            false,
+        ),
+    };
+    rows.push(Row {
+        case: format!(
+            "Lobovský dam break H = 300 mm, H/dx = {per_h:?}, sensor 1 (z = 3 mm), {} ms window",
+            1000.0 * IMPACT_WINDOW
+        ),
+        solver: solver.into(),
+        quantity: "peak pressure against resolution [mbar]".into(),
+        reference: "not growing".into(),
+        measured,
+        error,
+        tolerance: format!("≤ +{:.0} % per refinement", 100.0 * PEAK_GROWTH_TOLERANCE),
+        pass,
+        known_limitation: known_limitation(solver, None, Check::ImpactPeakGrowth).map(Into::into),
+    });
+    rows
+}
+
 fn failed_row(case: &str, solver: &str, e: &SolverError) -> Row {
     Row {
         case: case.into(),
@@ -302,6 +372,8 @@ pub enum Check {
     ImpactPeak {
         per_h: usize,
     },
+    /// Whether the impact's peak grows with resolution ([`validate_impact_study`]).
+    ImpactPeakGrowth,
 }
 
 impl Check {
@@ -314,6 +386,7 @@ impl Check {
             Check::FrontWorst => "front_worst",
             Check::SelfConvergence { .. } => "self_convergence",
             Check::ImpactPeak { .. } => "impact_peak",
+            Check::ImpactPeakGrowth => "impact_peak_growth",
         }
     }
 

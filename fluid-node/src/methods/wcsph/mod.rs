@@ -8,6 +8,7 @@
 //! or Verlet (Verlet 1967) with an Euler step every 40; adaptive dt.
 
 pub mod pairs;
+pub mod riemann;
 
 use crate::core::dt::StepLimits;
 use crate::core::lanes::Packed;
@@ -21,7 +22,7 @@ use crate::validation::Check;
 use pairs::{PairConstants, boundary_record, boundary_sums, fluid_record, fluid_sums};
 use rayon::prelude::*;
 use serde::Deserialize;
-use shared::math::Real;
+use shared::math::{Real, Vector};
 use shared::registry::{ParamCheck, SolverParams, Variant, study};
 use shared::solver::{SolverError, StepReport};
 
@@ -48,6 +49,17 @@ pub struct WcsphParams {
     /// Verlet skin of the neighbour lists, as a fraction of the kernel support; default 0.1
     /// ([`WCSPH_SKIN`]); 0 rebuilds the lists at every step.
     pub skin: Option<f64>,
+}
+
+/// How a pair exchanges momentum and mass: the method `wcsph` (artificial viscosity and
+/// δ-SPH) or `riemann` ([`crate::methods::riemann`]: a low-dissipation Riemann solver).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+pub enum Flux {
+    /// Monaghan (1992)'s artificial viscosity with δ-SPH density diffusion.
+    #[default]
+    Artificial,
+    /// The low-dissipation Riemann solver of Zhang, Hu & Adams (2017) ([`riemann`]).
+    Riemann,
 }
 
 impl SolverParams for WcsphParams {
@@ -131,6 +143,7 @@ pub struct WcsphConstants {
     pub delta: Real,
     pub h: Real,
     pub integrator: Integrator,
+    pub flux: Flux,
 }
 
 #[derive(serde::Serialize, serde::Deserialize)]
@@ -150,6 +163,67 @@ pub struct Wcsph {
 }
 
 impl Wcsph {
+    /// WCSPH with the pair exchange `flux`: the method `wcsph` ([`Flux::Artificial`]) or
+    /// `riemann` ([`Flux::Riemann`], [`crate::methods::riemann`]).
+    pub fn with_flux(
+        spec: WcsphParams,
+        flux: Flux,
+        init: &Initial,
+    ) -> Result<(Self, Layout), SolverError> {
+        let dx = init.fluid.dx;
+        let rho0 = init.fluid.density;
+        let h = spec.smoothing_ratio.unwrap_or(1.3) * dx;
+        let c0 = spec
+            .sound_speed
+            .unwrap_or_else(|| init.default_sound_speed());
+        let gamma = spec.gamma.unwrap_or(7.0);
+        let constants = WcsphConstants {
+            sound_speed: c0,
+            gamma,
+            b: rho0 * c0 * c0 / gamma,
+            alpha: spec.alpha.unwrap_or(0.01),
+            delta: spec.delta.unwrap_or(0.1),
+            h,
+            integrator: spec.integrator,
+            flux,
+        };
+        let g = init.gravity.norm();
+        // Hydrostatic start: the Tait density of the pressure ρ0·g·depth.
+        let density = init
+            .fill
+            .depth
+            .iter()
+            .map(|d| rho0 * (1.0 + rho0 * g * d / constants.b).powf(1.0 / gamma))
+            .collect();
+        let kernel = WendlandC2::new(h);
+        let limits = StepLimits {
+            h,
+            sound_speed: c0,
+            viscosity: init.fluid.kinematic_viscosity,
+            // Set in `start`, once the system has chosen the Eq. 22 spring.
+            penalty_stiffness: 0.0,
+            mass: rho0 * dx.powi(3),
+            cfl: spec.cfl.unwrap_or(0.2),
+        };
+        let layout = Layout {
+            density,
+            support: kernel.support(),
+            sound_speed: c0,
+            skin_ratio: spec.skin.unwrap_or(WCSPH_SKIN),
+            poly6_sums: false,
+            carried: crate::core::particles::Carried::ALL,
+        };
+        let scheme = Self {
+            kernel,
+            constants,
+            rest_density: rho0,
+            limits,
+            verlet_step: 0,
+            near: Vec::new(),
+        };
+        Ok((scheme, layout))
+    }
+
     /// The Tait density of a boundary particle's pressure: ρ0(1 + p/B)^(1/γ).
     fn density_of(&self, pw: Real) -> Real {
         let prm = &self.constants;
@@ -173,7 +247,10 @@ impl Wcsph {
             .enumerate()
             .for_each(|(i, ((pr, near), &r))| {
                 *pr = tait(&prm, rho0, r);
-                *near = fluid_record(&pos[i], &origin, &vel[i], r, rho0, *pr);
+                *near = match prm.flux {
+                    Flux::Artificial => fluid_record(&pos[i], &origin, &vel[i], r, rho0, *pr),
+                    Flux::Riemann => riemann::record(&pos[i], &origin, &vel[i], r, rho0, *pr),
+                };
             });
         let t = sys.phases.lap(Phase::Density, t);
         let this = &*self;
@@ -181,8 +258,14 @@ impl Wcsph {
             .update(&this.kernel, &sys.particles, &sys.gravity, rho0, |pw| {
                 this.density_of(pw)
             });
-        sys.boundary
-            .pack(|x, v, pw, rw| boundary_record(x, &origin, v, pw, rw));
+        match prm.flux {
+            Flux::Artificial => sys
+                .boundary
+                .pack(|x, v, pw, rw| boundary_record(x, &origin, v, pw, rw)),
+            Flux::Riemann => sys
+                .boundary
+                .pack(|x, v, pw, rw| riemann::record(x, &origin, v, rw, rho0, pw)),
+        }
         sys.phases.stop(Phase::WallPressures, t);
     }
 
@@ -191,53 +274,49 @@ impl Wcsph {
         self.pressures(sys);
         let t = sys.phases.start();
         let prm = self.constants;
-        let (m, g, rho0) = (sys.mass, sys.gravity, sys.rest_density);
+        let (g, rho0) = (sys.gravity, sys.rest_density);
         let kernel = &self.kernel;
         let near = &self.near;
-        let delta_coef = prm.delta * prm.h * prm.sound_speed;
-        let inv_c2 = 1.0 / (prm.sound_speed * prm.sound_speed);
-        let pc = PairConstants::new(
-            kernel,
-            sys.grid.centre(),
-            rho0,
-            0.01 * prm.h * prm.h,
-            -2.0 * prm.alpha * prm.sound_speed * prm.h,
-            g * (rho0 * inv_c2),
-        );
-        let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
-        // On several ranks, a rank's own particles only: the halo's rates come from their
-        // owners (`share_rates` below).
-        let owned = sys.share.as_ref().map(|s| &s.owned[..]);
-        let p = &mut sys.particles;
-        let pen = &p.penalty;
-        p.acceleration
-            .par_iter_mut()
-            .zip(p.density_rate.par_iter_mut())
-            .enumerate()
-            .with_max_len(tasks::PARTICLES)
-            .for_each(|(i, (a, d))| {
-                if owned.is_some_and(|o| !o[i]) {
-                    return;
-                }
-                let me = &near[i];
-                // Fluid neighbours (wcsph_pairs.rs): symmetric pressure gradient and artificial
+        match prm.flux {
+            Flux::Artificial => {
+                let delta_coef = prm.delta * prm.h * prm.sound_speed;
+                let inv_c2 = 1.0 / (prm.sound_speed * prm.sound_speed);
+                let pc = PairConstants::new(
+                    kernel,
+                    sys.grid.centre(),
+                    rho0,
+                    0.01 * prm.h * prm.h,
+                    -2.0 * prm.alpha * prm.sound_speed * prm.h,
+                    g * (rho0 * inv_c2),
+                );
+                // Fluid neighbours (pairs.rs): symmetric pressure gradient and artificial
                 // viscosity (Monaghan 1992), continuity, δ-SPH diffusion (Molteni & Colagrossi
                 // 2009) minus its hydrostatic part (Fourtakas et al. 2019), linearised:
                 // ρ0((1 + ρ0 g·r_ji/B)^(1/γ) − 1) ≈ ρ0 g·r_ji/c0², exact to O((ρ0gΔz/B)²).
-                let (mut ai, mut di, diffusion) = fluid_sums(me, lists.of(i), near, &pc);
-                di += 2.0 * delta_coef * diffusion;
                 // Boundary particles, fixed and moving: the same pressure term (a moving block
                 // takes its reverse, see `react`) and continuity with the wall's velocity, zero
                 // on a fixed block (Adami 2012: free slip, the wall velocity enters through
                 // v_i − v_w only).
-                boundary.for_each_list(i, |list, walls| {
-                    let (ab, db) = boundary_sums(me, list, walls, &pc);
-                    ai += ab;
-                    di += db;
-                });
-                *a = ai * m + g + pen[i] / m;
-                *d = di * m;
-            });
+                pair_rates(
+                    sys,
+                    near,
+                    |me, list| {
+                        let (a, d, diffusion) = fluid_sums(me, list, near, &pc);
+                        (a, d + 2.0 * delta_coef * diffusion)
+                    },
+                    |me, list, walls| boundary_sums(me, list, walls, &pc),
+                );
+            }
+            Flux::Riemann => {
+                let rc = riemann::RiemannConstants::new(kernel, rho0, prm.sound_speed, g);
+                pair_rates(
+                    sys,
+                    near,
+                    |me, list| riemann::fluid_sums(me, list, near, &rc),
+                    |me, list, walls| riemann::boundary_sums(me, list, walls, &rc),
+                );
+            }
+        }
         sys.phases.stop(Phase::Forces, t);
         sys.share_rates();
     }
@@ -363,6 +442,42 @@ impl Wcsph {
     }
 }
 
+/// Every (owned) particle's acceleration and dρ/dt from its pair sums over fluid neighbours
+/// (`fluid`) and over each set of boundary neighbours (`wall`), both without the factor m.
+fn pair_rates(
+    sys: &mut FluidSystem,
+    near: &[Packed],
+    fluid: impl Fn(&Packed, &[u32]) -> (Vector, Real) + Sync,
+    wall: impl Fn(&Packed, &[u32], &[Packed]) -> (Vector, Real) + Sync,
+) {
+    let (m, g) = (sys.mass, sys.gravity);
+    let (lists, boundary) = (&sys.fluid_lists, &sys.boundary);
+    // On several ranks, a rank's own particles only: the halo's rates come from their owners
+    // (`share_rates`).
+    let owned = sys.share.as_ref().map(|s| &s.owned[..]);
+    let p = &mut sys.particles;
+    let pen = &p.penalty;
+    p.acceleration
+        .par_iter_mut()
+        .zip(p.density_rate.par_iter_mut())
+        .enumerate()
+        .with_max_len(tasks::PARTICLES)
+        .for_each(|(i, (a, d))| {
+            if owned.is_some_and(|o| !o[i]) {
+                return;
+            }
+            let me = &near[i];
+            let (mut ai, mut di) = fluid(me, lists.of(i));
+            boundary.for_each_list(i, |list, walls| {
+                let (ab, db) = wall(me, list, walls);
+                ai += ab;
+                di += db;
+            });
+            *a = ai * m + g + pen[i] / m;
+            *d = di * m;
+        });
+}
+
 /// Tait's equation of state.
 #[inline]
 pub fn tait(p: &WcsphConstants, rho0: Real, rho: Real) -> Real {
@@ -386,57 +501,7 @@ impl SphMethod for Wcsph {
     type Kernel = WendlandC2;
 
     fn new(spec: WcsphParams, init: &Initial) -> Result<(Self, Layout), SolverError> {
-        let dx = init.fluid.dx;
-        let rho0 = init.fluid.density;
-        let h = spec.smoothing_ratio.unwrap_or(1.3) * dx;
-        let c0 = spec
-            .sound_speed
-            .unwrap_or_else(|| init.default_sound_speed());
-        let gamma = spec.gamma.unwrap_or(7.0);
-        let constants = WcsphConstants {
-            sound_speed: c0,
-            gamma,
-            b: rho0 * c0 * c0 / gamma,
-            alpha: spec.alpha.unwrap_or(0.01),
-            delta: spec.delta.unwrap_or(0.1),
-            h,
-            integrator: spec.integrator,
-        };
-        let g = init.gravity.norm();
-        // Hydrostatic start: the Tait density of the pressure ρ0·g·depth.
-        let density = init
-            .fill
-            .depth
-            .iter()
-            .map(|d| rho0 * (1.0 + rho0 * g * d / constants.b).powf(1.0 / gamma))
-            .collect();
-        let kernel = WendlandC2::new(h);
-        let limits = StepLimits {
-            h,
-            sound_speed: c0,
-            viscosity: init.fluid.kinematic_viscosity,
-            // Set in `start`, once the system has chosen the Eq. 22 spring.
-            penalty_stiffness: 0.0,
-            mass: rho0 * dx.powi(3),
-            cfl: spec.cfl.unwrap_or(0.2),
-        };
-        let layout = Layout {
-            density,
-            support: kernel.support(),
-            sound_speed: c0,
-            skin_ratio: spec.skin.unwrap_or(WCSPH_SKIN),
-            poly6_sums: false,
-            carried: crate::core::particles::Carried::ALL,
-        };
-        let scheme = Self {
-            kernel,
-            constants,
-            rest_density: rho0,
-            limits,
-            verlet_step: 0,
-            near: Vec::new(),
-        };
-        Ok((scheme, layout))
+        Self::with_flux(spec, Flux::Artificial, init)
     }
 
     fn start(&mut self, sys: &mut FluidSystem) {
@@ -478,14 +543,18 @@ impl SphMethod for Wcsph {
             |pw| self.density_of(pw),
         );
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
+        let flux = self.constants.flux;
         let split = sys.share.as_ref().map(|s| (s, &sys.grid));
         sys.boundary.react(
             &p.position,
             kernel.support(),
             |i, pw, rw, r, len| {
-                let ri = p.density[i];
-                r * (kernel.gradient_factor(len)
-                    * (-m * m * (p.pressure[i] / (ri * ri) + pw / (rw * rw))))
+                let (ri, pi) = (p.density[i], p.pressure[i]);
+                let pair = match flux {
+                    Flux::Artificial => pi / (ri * ri) + pw / (rw * rw),
+                    Flux::Riemann => riemann::wall_pair(pi, ri, pw, rw),
+                };
+                r * (kernel.gradient_factor(len) * (-m * m * pair))
             },
             split,
         );

@@ -487,4 +487,54 @@ pub struct ProbeSpec {
     /// row holds the reading at the row's time (the instantaneous value).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub window: Option<f64>,
+    /// The sensor's sensing face: when given, the reading is the mean over this disk, centred
+    /// on `position`, of the pressure at its points (a transducer integrates the pressure over
+    /// its diaphragm); absent, the reading at the point.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub face: Option<ProbeFace>,
+}
+
+/// A pressure sensor's circular sensing face (`face = { diameter = 0.0042, normal = [-1, 0, 0] }`).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeFace {
+    /// The face's diameter [m].
+    pub diameter: f64,
+    /// The face's normal (any length; the disk lies in the plane through `position` normal to it).
+    pub normal: [f64; 3],
+}
+
+impl ProbeFace {
+    /// The points and weights of Stroud's (1971) seven-point rule for a disk (exact for
+    /// polynomials up to degree 5): the centre with weight 1/4 and six points at radius
+    /// sqrt(2/3)·R, 60° apart, with weight 1/8 each. `centre` is the probe's position.
+    pub fn points(&self, centre: [f64; 3]) -> [([f64; 3], f64); 7] {
+        let n = self.normal;
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let n = [n[0] / len, n[1] / len, n[2] / len];
+        // Two unit vectors spanning the face: the axis least aligned with n, made normal to n.
+        let k = (0..3)
+            .min_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+            .unwrap_or(0);
+        let mut e = [0.0; 3];
+        e[k] = 1.0;
+        let d = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
+        let u = [e[0] - d * n[0], e[1] - d * n[1], e[2] - d * n[2]];
+        let ul = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+        let u = [u[0] / ul, u[1] / ul, u[2] / ul];
+        let v = [
+            n[1] * u[2] - n[2] * u[1],
+            n[2] * u[0] - n[0] * u[2],
+            n[0] * u[1] - n[1] * u[0],
+        ];
+        let r = 0.5 * self.diameter * (2.0f64 / 3.0).sqrt();
+        let mut out = [(centre, 0.25); 7];
+        for (j, o) in out.iter_mut().skip(1).enumerate() {
+            let a = std::f64::consts::FRAC_PI_3 * j as f64;
+            let (s, c) = a.sin_cos();
+            o.0 = std::array::from_fn(|q| centre[q] + r * (c * u[q] + s * v[q]));
+            o.1 = 0.125;
+        }
+        out
+    }
 }

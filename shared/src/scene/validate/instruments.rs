@@ -118,6 +118,24 @@ fn probes(c: &mut Checker, s: &Scene) {
                         );
                     }
                 }
+                if let Some(f) = p.face {
+                    c.key("face", |c| {
+                        c.positive(
+                            "diameter",
+                            f.diameter,
+                            "give the sensing face's diameter in metres (e.g. diameter = 0.0042)",
+                        );
+                        let n2: f64 = f.normal.iter().map(|x| x * x).sum();
+                        if !(n2.is_finite() && n2 > 0.0) {
+                            c.fail(
+                                "normal",
+                                f.normal,
+                                "must be a finite, non-zero vector",
+                                "give the wall's normal at the sensor, e.g. normal = [-1.0, 0.0, 0.0]",
+                            );
+                        }
+                    });
+                }
             })
         });
     }

@@ -1,0 +1,90 @@
+//! `riemann`: weakly compressible SPH whose pairs exchange momentum and mass through a
+//! low-dissipation Riemann solver (Zhang, Hu & Adams 2017, J. Comput. Phys. 335, 605–620) in
+//! place of artificial viscosity and δ-SPH. Everything else is [`Wcsph`]'s: Tait's equation of
+//! state, Wendland C2, the continuity equation, the integrators, the adaptive step, Adami's
+//! walls; the pair sums are [`crate::methods::wcsph::riemann`].
+//!
+//! Why a method of its own: the Riemann solver's dissipation is scaled by the compression of
+//! each pair (their Eq. 18 limiter), not by a constant viscosity, which is what an impact
+//! pressure needs (docs/VALIDATION.md, "Impact pressure: resolution study"); as a registry entry
+//! it runs every validation row, every rank test and the speed–accuracy chart as `wcsph` does.
+
+use crate::kernels::WendlandC2;
+use crate::methods::SphMethod;
+use crate::methods::wcsph::{Flux, Wcsph, WcsphParams};
+use crate::system::{FluidSystem, Initial, Layout};
+use serde::Deserialize;
+use shared::math::Real;
+use shared::registry::{ParamCheck, SolverParams, Variant};
+use shared::solver::{SolverError, StepReport};
+
+/// `[fluid.riemann]`: WCSPH's parameters ([`WcsphParams`]: `sound_speed`, `gamma`,
+/// `smoothing_ratio`, `integrator`, `cfl`, `skin`) without `alpha` and `delta`, whose work the
+/// Riemann solver's dissipation does.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(transparent)]
+pub struct RiemannParams(pub WcsphParams);
+
+impl SolverParams for RiemannParams {
+    fn check(&self, c: &mut ParamCheck) {
+        self.0.check(c);
+        for (field, value) in [("alpha", self.0.alpha), ("delta", self.0.delta)] {
+            if let Some(v) = value {
+                c.fail(
+                    field,
+                    v,
+                    "is not a parameter of riemann (its Riemann solver dissipates instead of artificial viscosity and δ-SPH)",
+                    "remove it, or use solver = \"wcsph\"",
+                );
+            }
+        }
+    }
+}
+
+/// WCSPH with the Riemann flux: [`Wcsph`] built with [`Flux::Riemann`].
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(transparent)]
+pub struct Riemann(Wcsph);
+
+impl SphMethod for Riemann {
+    const NAME: &'static str = "riemann";
+    const DESCRIPTION: &'static str = "weakly compressible SPH with a low-dissipation Riemann solver (Zhang, Hu & Adams 2017) in place of artificial viscosity and δ-SPH";
+    const PARTICLE_STEPS_PER_SECOND: Option<f64> = Wcsph::PARTICLE_STEPS_PER_SECOND;
+    const SPLITS: bool = true;
+    type Params = RiemannParams;
+    type Kernel = WendlandC2;
+
+    fn new(params: RiemannParams, init: &Initial) -> Result<(Self, Layout), SolverError> {
+        let (wcsph, layout) = Wcsph::with_flux(params.0, Flux::Riemann, init)?;
+        Ok((Self(wcsph), layout))
+    }
+
+    fn start(&mut self, sys: &mut FluidSystem) {
+        self.0.start(sys)
+    }
+
+    fn step(&mut self, sys: &mut FluidSystem, dt: Real) -> Result<StepReport, SolverError> {
+        self.0.step(sys, dt)
+    }
+
+    fn react(&self, sys: &mut FluidSystem) {
+        self.0.react(sys)
+    }
+
+    fn kernel(&self) -> &WendlandC2 {
+        self.0.kernel()
+    }
+
+    fn density_check(&self) -> (bool, Real) {
+        self.0.density_check()
+    }
+
+    fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real {
+        self.0.dt_proposal(v_max, a_max)
+    }
+
+    /// Not in the stability maps: its step limits are WCSPH's, whose rows stand for both.
+    fn study_variants(_study: &str) -> &'static [Variant] {
+        &[]
+    }
+}
