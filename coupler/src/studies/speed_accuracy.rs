@@ -5,7 +5,10 @@
 //!
 //! - fluid: the dam-break surge front against Martin & Moyce (in-process, `fluid_sweep`);
 //! - solid: the block sliding down an incline against the closed form (in-process);
-//! - coupled: the floating block's draft against (ρ_b/ρ_w)·h (real processes, `coupler run`).
+//! - coupled: the floating block's draft against (ρ_b/ρ_w)·h (real processes, `coupler run`);
+//! - loads: the impact of a dam break on a wall (Lobovský et al. 2014, in-process,
+//!   `fluid_node::validation::impact`): the peak at sensor 1 against the experiment's median
+//!   (H = 300 mm) and the impulse against its median (H = 600 mm), every fluid solver.
 //!
 //! The fluid runs at dt factor 1 also give the convergence curve `--target-error` inverts
 //! (`fluid_convergence.csv`, see `resolution`).
@@ -28,7 +31,7 @@ pub struct ChartArgs {
     /// Where the CSV, SVG and PNG files go.
     #[arg(long, default_value = "docs/charts")]
     pub out: PathBuf,
-    /// Only these charts (fluid, solid, coupled); default all three.
+    /// Only these charts (fluid, solid, coupled, loads); default all four.
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
     /// Redraw the charts from the CSV files already in --out, running nothing.
@@ -51,6 +54,16 @@ const SOLID_CHART: (&str, &str, &str) = (
     "solid_speed_accuracy",
     "Block on a 30° incline (φ = 20°): sliding distance error against wall time",
     "|d(1 s) − d_ref| / d_ref",
+);
+const PEAK_CHART: (&str, &str, &str) = (
+    "loads_peak_speed_accuracy",
+    "Dam break on a wall (Lobovský, H = 300 mm): sensor-1 peak error against wall time",
+    "|peak − median| / median",
+);
+const IMPULSE_CHART: (&str, &str, &str) = (
+    "loads_impulse_speed_accuracy",
+    "Dam break on a wall (Lobovský, H = 600 mm): sensor-1 impulse error against wall time",
+    "|impulse − median| / median",
 );
 const COUPLED_CHART: (&str, &str, &str) = (
     "coupled_speed_accuracy",
@@ -78,6 +91,8 @@ struct Plan {
     /// time).
     coupled_solid: fn() -> Vec<&'static str>,
     coupled_end: f64,
+    /// The impact runs' particles per water height.
+    impact_per_h: &'static [usize],
     /// One finer run of the default fluid solver (the registry's first) with explicit DDA, parallel: the 3 % check.
     coupled_fine: Option<f64>,
 }
@@ -91,6 +106,7 @@ const FULL: Plan = Plan {
     coupled_fluid: || fluid_node::REGISTRY.names(),
     coupled_solid: || solid_node::REGISTRY.names(),
     coupled_end: 1.0,
+    impact_per_h: &[8, 15, 30],
     coupled_fine: Some(0.01),
 };
 
@@ -105,6 +121,7 @@ const QUICK: Plan = Plan {
     // The paper's scheme only.
     coupled_solid: || vec![solid_node::verification::EXPLICIT],
     coupled_end: 1.0,
+    impact_per_h: &[8, 15],
     coupled_fine: None,
 };
 
@@ -129,7 +146,14 @@ fn run_inner(args: &ChartArgs) -> Result<(), String> {
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let mode = if args.quick { "quick" } else { "full" };
     if args.replot {
-        for c in [FLUID_CHART, FLUID_SELF_CHART, SOLID_CHART, COUPLED_CHART] {
+        for c in [
+            FLUID_CHART,
+            FLUID_SELF_CHART,
+            SOLID_CHART,
+            COUPLED_CHART,
+            PEAK_CHART,
+            IMPULSE_CHART,
+        ] {
             match chart::read_samples(&args.out.join(c.0)) {
                 Ok(samples) => {
                     println!("{}", c.1);
@@ -149,6 +173,63 @@ fn run_inner(args: &ChartArgs) -> Result<(), String> {
     if wanted(args, "coupled") {
         coupled(plan, &args.out, mode)?;
     }
+    if wanted(args, "loads") {
+        loads(plan, &args.out, mode)?;
+    }
+    Ok(())
+}
+
+/// The loads on a wall: every fluid solver at each resolution of the plan, the sensor-1 peak
+/// at H = 300 mm and the impulse at H = 600 mm against the experiment's medians, with the
+/// 1 ms sensor window of `fluid-validate`.
+fn loads(plan: &Plan, out: &Path, mode: &str) -> Result<(), String> {
+    use fluid_node::validation::{
+        IMPACT_WINDOW, ImpactCase, LOBOVSKY_H300, LOBOVSKY_H600_S1_IMPACT_TIME,
+        LOBOVSKY_H600_S1_IMPULSE, impact,
+    };
+    println!("loads: Lobovský dam break on a wall, sensor 1 ({mode} sweep)");
+    let (mut peaks, mut impulses) = (Vec::new(), Vec::new());
+    for solver in fluid_node::REGISTRY.names() {
+        for &per_h in plan.impact_per_h {
+            for height in [0.3, 0.6] {
+                let case = ImpactCase::new(height, per_h, Some(IMPACT_WINDOW));
+                let start = std::time::Instant::now();
+                let r = impact(solver, &case);
+                let wall_seconds = start.elapsed().as_secs_f64();
+                let error = match &r {
+                    Ok(r) if height == 0.3 => r.pulses[0].map_or(f64::NAN, |p| {
+                        (p.peak - LOBOVSKY_H300[0].median).abs() / LOBOVSKY_H300[0].median
+                    }),
+                    Ok(r) => r
+                        .impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME)
+                        .map_or(f64::NAN, |i| {
+                            (i.0 - LOBOVSKY_H600_S1_IMPULSE).abs() / LOBOVSKY_H600_S1_IMPULSE
+                        }),
+                    Err(_) => f64::NAN,
+                };
+                println!(
+                    "  {solver:<8} H = {height} m  H/dx = {per_h:>3}  {wall_seconds:>8.2} s  {}",
+                    match &r {
+                        Ok(_) => format!("error {error:.3}"),
+                        Err(e) => format!("FAILED: {e}"),
+                    }
+                );
+                let sample = Sample {
+                    series: solver.into(),
+                    params: format!("H/dx={per_h}{}", if r.is_err() { " failed" } else { "" }),
+                    wall_seconds,
+                    error,
+                };
+                if height == 0.3 {
+                    peaks.push(sample);
+                } else {
+                    impulses.push(sample);
+                }
+            }
+        }
+    }
+    draw(out, PEAK_CHART, &peaks)?;
+    draw(out, IMPULSE_CHART, &impulses)?;
     Ok(())
 }
 
