@@ -462,11 +462,19 @@ mod tests {
             known_limitation("muller", Some(Walls::Penalty), coarse),
             None
         );
-        // The WCSPH impact peak: above the experiment's band at the full plan's H/dx = 30 only.
+        // The WCSPH impact peak: above the experiment's band at the full plan's H/dx = 30 only,
+        // and not converging over the study's resolutions; the Riemann flux's, at every one.
         assert!(known_limitation("wcsph", None, ImpactPeak { per_h: 30 }).is_some());
         assert_eq!(
             known_limitation("wcsph", None, ImpactPeak { per_h: 15 }),
             None
         );
+        for solver in ["wcsph", "riemann"] {
+            assert!(known_limitation(solver, None, ImpactPeakGrowth).is_some());
+        }
+        assert!(known_limitation("riemann", None, ImpactPeak { per_h: 15 }).is_some());
+        for c in all {
+            assert_eq!(known_limitation("riemann", None, c), None, "{c:?}");
+        }
     }
 }
