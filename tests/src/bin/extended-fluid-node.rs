@@ -2,7 +2,7 @@
 //! ([`tests::extension::lite`]), added from outside the `fluid-node` crate: the built-in
 //! methods' entries and one line for the new one.
 
-use fluid_node::methods::{dfsph::Dfsph, muller::Muller, wcsph::Wcsph};
+use fluid_node::methods::{dfsph::Dfsph, muller::Muller, riemann::Riemann, wcsph::Wcsph};
 use fluid_node::sph::SphSolver;
 use shared::registry::Registry;
 use shared::solver::{FluidSolver, SetupContext, SolverError};
@@ -14,6 +14,7 @@ static REGISTRY: Registry<dyn SphSolver> = Registry {
         fluid_node::entry::<Wcsph>(),
         fluid_node::entry::<Muller>(),
         fluid_node::entry::<Dfsph>(),
+        fluid_node::entry::<Riemann>(),
         fluid_node::entry::<Lite>(),
     ],
 };
