@@ -53,8 +53,8 @@
 //!   larger of its sum and the ρ* the last step predicted for it (the continuity equation's
 //!   density, which has no deficit): the surface then holds, Example 1's gauges follow WCSPH's
 //!   in deep water, and the floating block's draft comes within 3 % of Archimedes' (−2.9 %,
-//!   −3.4 % with the summed density: packed top layers weigh more per height, so the block
-//!   rides high; docs/VALIDATION.md; the runs: docs/journal/2026-11-performance.md, "DFSPH
+//!   −3.4 % with the summed density, whose packed top layers weigh more per height;
+//!   docs/VALIDATION.md; the runs: docs/journal/2026-11-performance.md, "DFSPH
 //!   against WCSPH on the default scene: a resolution study", and
 //!   docs/journal/2026-11-28-hostile-inputs.md, 29 Nov). `continued_surface = false` gives the
 //!   summed density everywhere, as SPlisHSPlasH.
