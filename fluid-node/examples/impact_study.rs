@@ -2,9 +2,12 @@
 //! (2014) dam-break run, its sensors' pulses, and optionally the probe series as CSV.
 //!
 //! `cargo run --release -p fluid-node --example impact_study -- H PER_H [--window W]
-//! [--solver NAME] [--param 'key = value']... [--csv FILE]`
+//! [--solver NAME] [--param 'key = value']... [--end-star T] [--csv FILE]`; with H = 0.6 also
+//! sensor 1's impulse against the paper's median (the impulse row of `fluid-validate`).
 
-use fluid_node::validation::{ImpactCase, LOBOVSKY_H300, impact};
+use fluid_node::validation::{
+    ImpactCase, LOBOVSKY_H300, LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, impact,
+};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -46,6 +49,17 @@ fn main() {
             ),
             None => println!("  {}: no pulse", s.name),
         }
+    }
+    // The paper's impulse is for H = 600 mm (`fluid-validate`'s impulse row).
+    if (case.height - 0.6).abs() < 1e-9
+        && let Some((impulse, onset)) = r.impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME)
+    {
+        println!(
+            "  s1 impulse over the impact time ({:.0} ms) from the onset at t* {:.3}: {impulse:.1} Pa·s ({:+.1} % of the median)",
+            1e3 * LOBOVSKY_H600_S1_IMPACT_TIME,
+            onset * star,
+            100.0 * (impulse / LOBOVSKY_H600_S1_IMPULSE - 1.0)
+        );
     }
     if let Some(path) = csv {
         let mut out = String::from("time,s1,s2,s3,s4\n");

@@ -219,10 +219,12 @@ fn soft_floating_block_takes_the_hydrostatic_strain() {
 /// sub-cycling inside it with the water's loads held. (With WCSPH the fluid's step is the
 /// shorter one, so sub-cycling changes nothing there.) The drafts agree within 2 % of the
 /// reference (measured 0.6–1.4 %; the block heaves by ±3 mm about its draft, so a half-second
-/// mean is good to about 1 %), and both are within 4 %: DFSPH floats this block 3.5 % high
-/// single-rate, WCSPH 2.2 % (docs/VALIDATION.md, DFSPH). The loads relaxed by an artificial
+/// mean is good to about 1 %). Single-rate at DFSPH's defaults the draft is within the 3 % of
+/// the WCSPH test (−2.86 %, with the continued surface density, the default since 29 Nov 2026;
+/// −3.38 % with the summed density, whose packed top layers weigh more per height), multi-rate
+/// within 4 % (−2.88 %); WCSPH −2.1 % (docs/VALIDATION.md, DFSPH). The loads relaxed by an artificial
 /// added mass (`--added-mass 1`, which this block does not need) move the draft by less than
-/// 2 % of the reference too (measured 0.9 %: the relaxed loads lag two steps, so the heave
+/// 2 % of the reference too (measured 1.7 %: the relaxed loads lag two steps, so the heave
 /// dies out more slowly).
 #[test]
 fn floating_block_dfsph_gives_the_same_draft_multi_rate() {
@@ -248,11 +250,16 @@ fn floating_block_dfsph_gives_the_same_draft_multi_rate() {
         "drafts differ by {:.2} % of the reference",
         100.0 * (multi.0 - single.0).abs()
     );
-    for (what, (error, _)) in [("single-rate", single), ("multi-rate", multi)] {
+    // Single-rate, DFSPH's defaults, within the 3 % of the WCSPH test (issue 44; −2.86 % with
+    // the continued surface density, −3.38 % with the summed); multi-rate within 4 %.
+    for (what, (error, _), tolerance) in
+        [("single-rate", single, 0.03), ("multi-rate", multi, 0.04)]
+    {
         assert!(
-            error.abs() < 0.04,
-            "{what}: draft error {:.2} %",
-            100.0 * error
+            error.abs() < tolerance,
+            "{what}: draft error {:.2} % (tolerance {:.0} %)",
+            100.0 * error,
+            100.0 * tolerance
         );
     }
     assert!(

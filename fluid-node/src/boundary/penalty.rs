@@ -209,6 +209,50 @@ impl Penalty {
         }
     }
 
+    /// A fixed wall that cannot be crossed: every particle (`owned` or not: the same on every
+    /// rank holding it) that the step has moved closer than `clearance` to a fixed block's face,
+    /// or into the block, is put back at `clearance` in front of that face (the face of largest
+    /// signed distance, as [`Obstacle::distance`]) and loses the velocity it had into it, v·n < 0
+    /// (the no-penetration condition v·n = 0 of an incompressible fluid at a fixed wall,
+    /// imposed directly: the position correction of Ihmsen, Akinci, Gissler & Teschner 2010,
+    /// "Boundary handling and adaptive time-stepping for PCISPH", and the direct forcing of
+    /// Becker, Tessendorf & Teschner 2009, both inelastic). Eq. 22 and the boundary particles
+    /// hold water at rest half a spacing off the face; this is for what they cannot stop within
+    /// a step. Returns how many particles it moved. The fixed blocks near each cell are those of
+    /// [`Self::apply`].
+    pub fn keep_out(
+        &mut self,
+        particles: &mut Particles,
+        grid: &CellGrid,
+        clearance: Real,
+    ) -> usize {
+        let near = self
+            .fixed_near
+            .get_or_insert_with(|| NearBlocks::new(&self.obstacles, grid));
+        let obstacles = &self.obstacles;
+        particles
+            .position
+            .par_iter_mut()
+            .zip(particles.velocity.par_iter_mut())
+            .with_max_len(tasks::PARTICLES)
+            .map(|(x, v)| {
+                let mut moved = 0;
+                for &b in near.of(grid.cell_index(x)) {
+                    let (d, n) = obstacles[b as usize].distance(x);
+                    if d < clearance {
+                        *x += n * (clearance - d);
+                        let vn = v.dot(&n);
+                        if vn < 0.0 {
+                            *v -= n * vn;
+                        }
+                        moved = 1;
+                    }
+                }
+                moved
+            })
+            .sum()
+    }
+
     /// Writes the Eq. 22 force of all blocks on each particle into `particles.penalty`, and the
     /// opposite force and its torque about the centroid, summed per moving block, into `loads`.
     /// A particle's forces are summed the fixed blocks first, then the moving ones, each in

@@ -3,10 +3,10 @@
 //! solve, positions), the loads on the blocks and the stable step.
 
 use super::{
-    ABSURD_DENSITY_ERROR, BLOCKS_IN_SOLVE, DEFAULT_CFL, DEFICIENT_FRACTION, Dfsph, DfsphConstants,
-    DfsphParams, MIRROR, PRESSURE_STUDY, SURFACE_FRACTION, SolveStats, WALL_PRESSURE,
-    blocks_in_solve, density_stiffness, divergence_stiffness, halo, hydrostatic,
-    lattice_neighbours, stiffnesses,
+    ABSURD_DENSITY_ERROR, BLOCKS_IN_SOLVE, CONTINUED_SURFACE, DEFAULT_CFL, DEFICIENT_FRACTION,
+    Dfsph, DfsphConstants, DfsphParams, MIRROR, PRESSURE_STUDY, SURFACE_FRACTION, SolveStats,
+    WALL_CLEARANCE, WALL_PRESSURE, blocks_in_solve, density_stiffness, divergence_stiffness, halo,
+    hydrostatic, lattice_neighbours, stiffnesses,
 };
 use crate::core::neighbors::PairValues;
 use crate::core::particles::Particles;
@@ -40,7 +40,7 @@ impl SphMethod for Dfsph {
         let deficient_below = (spec.deficient_fraction.unwrap_or(DEFICIENT_FRACTION)
             * lattice_neighbours(kernel.support(), dx) as Real)
             .round() as usize;
-        let surface_below = if spec.continued_surface.unwrap_or(false) {
+        let surface_below = if spec.continued_surface.unwrap_or(CONTINUED_SURFACE) {
             (SURFACE_FRACTION * lattice_neighbours(kernel.support(), dx) as Real).round() as usize
         } else {
             0
@@ -236,6 +236,9 @@ impl SphMethod for Dfsph {
         for (i, [r]) in halo(&mut sys.share, |i| [predicted[i]]) {
             density[i as usize] = r;
         }
+        // No particle through a fixed wall (module doc, "Walls that cannot be crossed").
+        sys.penalty
+            .keep_out(&mut sys.particles, &sys.grid, WALL_CLEARANCE * self.dx);
         sys.phases.stop(Phase::Integration, t);
         self.stats = SolveStats {
             density_iterations: it,

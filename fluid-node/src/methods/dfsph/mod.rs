@@ -48,13 +48,25 @@
 //!   gravity packing the top layers until their sums reach ρ0: the surface sinks slowly (0.07
 //!   spacings in 4 s of still water with mirrored walls; 0.15 with the walls' pressure
 //!   extrapolated, which lost Example 1 a quarter spacing, 2.5 cm, in its first 6 s).
-//!   `continued_surface = true` (experimental, off by default) lets a particle with fewer than
-//!   [`SURFACE_FRACTION`] of a full lattice's neighbours keep the larger of its sum and the ρ*
-//!   the last step predicted for it (the continuity equation's density, which has no deficit):
-//!   the surface then holds, Example 1's gauges follow WCSPH's in deep water, and the floating
-//!   block's draft comes closer to Archimedes' (docs/VALIDATION.md; the runs:
-//!   docs/journal/2026-11-performance.md, "DFSPH against WCSPH on the default scene: a
-//!   resolution study"). Not yet the default: the validation tables have not been rerun with it.
+//!   `continued_surface` ([`CONTINUED_SURFACE`], the default since 29 Nov 2026) lets a
+//!   particle with fewer than [`SURFACE_FRACTION`] of a full lattice's neighbours keep the
+//!   larger of its sum and the ρ* the last step predicted for it (the continuity equation's
+//!   density, which has no deficit): the surface then holds, Example 1's gauges follow WCSPH's
+//!   in deep water, and the floating block's draft comes within 3 % of Archimedes' (−2.9 %,
+//!   −3.4 % with the summed density, whose packed top layers weigh more per height;
+//!   docs/VALIDATION.md; the runs: docs/journal/2026-11-performance.md, "DFSPH
+//!   against WCSPH on the default scene: a resolution study", and
+//!   docs/journal/2026-11-28-hostile-inputs.md, 29 Nov). `continued_surface = false` gives the
+//!   summed density everywhere, as SPlisHSPlasH.
+//! - Walls that cannot be crossed: after the position update no particle is closer than
+//!   [`WALL_CLEARANCE`]·dx to a fixed block's face, and one put back there loses its velocity
+//!   into the face ([`crate::boundary::penalty::Penalty::keep_out`]: the position correction of
+//!   Ihmsen et al. 2010 and the direct forcing of Becker et al. 2009). The summed density cannot
+//!   stop it: in a corner the water's quarter of the kernel support is empty, so a particle of
+//!   a thin surge reaches the face with ρ* below ρ0 and only Eq. 22 against it. The Lobovský
+//!   surge (H = 300 mm, H/dx = 15) pushed one through the right wall's face at t = 0.469 s
+//!   (0.6 m/s into it, 0.3 dx off the floor) and stopped the run; at H = 600 mm, H/dx = 30,
+//!   likewise.
 //! - Warm start: each solve starts from half the stiffness of the last step where the particle is
 //!   compressed (the papers' warm start; the ½ and the test on compression as SPlisHSPlasH).
 //! - Stopping: mean compression below `density_tolerance` (0.05 %, at least two iterations) and
@@ -224,6 +236,11 @@ fn stiffnesses(p: &Particles) -> (&[Real], &[Real]) {
 /// Fraction of the last step's stiffness a solve starts from (the papers' warm start;
 /// SPlisHSPlasH's 0.5).
 pub const WARM_START: Real = 0.5;
+/// Closest a particle may come to a fixed block's face, over dx
+/// ([`crate::boundary::penalty::Penalty::keep_out`]; module doc, "Walls that cannot be
+/// crossed"): water at rest sits half a spacing off it, within Eq. 22's margin of a quarter
+/// spacing only when pressed, so the correction acts only on what Eq. 22 could not stop.
+pub const WALL_CLEARANCE: Real = 0.125;
 /// A particle with fewer neighbours (fluid and boundary, within the support) than this fraction
 /// of a full lattice's is left out of the divergence solve: its Dρ/Dt is set to zero. A spray
 /// droplet or a thin sheet has few neighbours, so its factor β is large, and two converging
@@ -232,6 +249,8 @@ pub const WARM_START: Real = 0.5;
 /// The rule and its threshold are SPlisHSPlasH's (`TimeStepDFSPH::computeDensityChange`: fewer
 /// than 20 neighbours in 3D with support 2·dx, where a full lattice gives 33): 20/33 ≈ 0.6.
 pub const DEFICIENT_FRACTION: Real = 0.6;
+/// Default of `[fluid.dfsph] continued_surface` (module doc).
+pub const CONTINUED_SURFACE: bool = true;
 /// `continued_surface`: a particle with fewer neighbours than this fraction of a full
 /// lattice's is taken to be within a support of the free surface (an interior particle of
 /// disordered water keeps ~95–105 %).

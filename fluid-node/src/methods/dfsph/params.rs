@@ -30,10 +30,10 @@ pub struct DfsphParams {
     /// A particle with fewer neighbours than this fraction of a full lattice's is left out of
     /// the divergence solve (spray; [`DEFICIENT_FRACTION`]); default 0.6, 0 disables.
     pub deficient_fraction: Option<f64>,
-    /// Experimental: a particle near the free surface (fewer neighbours than
-    /// [`SURFACE_FRACTION`] of a full lattice's) keeps the larger of its summed density and the
-    /// density the last step predicted for it (continuity), so gravity cannot pack the surface
-    /// layers whose sums are deficient; default false (the summed density, as SPlisHSPlasH).
+    /// A particle near the free surface (fewer neighbours than [`SURFACE_FRACTION`] of a full
+    /// lattice's) keeps the larger of its summed density and the density the last step
+    /// predicted for it (continuity), so gravity cannot pack the surface layers whose sums are
+    /// deficient; default true. False: the summed density everywhere, as SPlisHSPlasH.
     pub continued_surface: Option<bool>,
     /// Free blocks move inside the two pressure solves (their inertia in the solve, Gissler et
     /// al. 2019), so the water's answer to a block's motion is not one step late; default
