@@ -469,12 +469,14 @@ mod tests {
             known_limitation("wcsph", None, ImpactPeak { per_h: 15 }),
             None
         );
-        for solver in ["wcsph", "riemann"] {
+        for solver in ["wcsph", "riemann", "dfsph"] {
             assert!(known_limitation(solver, None, ImpactPeakGrowth).is_some());
         }
-        assert!(known_limitation("riemann", None, ImpactPeak { per_h: 15 }).is_some());
-        for c in all {
-            assert_eq!(known_limitation("riemann", None, c), None, "{c:?}");
+        for solver in ["riemann", "dfsph"] {
+            assert!(known_limitation(solver, None, ImpactPeak { per_h: 15 }).is_some());
+            for c in all {
+                assert_eq!(known_limitation(solver, None, c), None, "{solver} {c:?}");
+            }
         }
     }
 }
