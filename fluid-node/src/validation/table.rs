@@ -209,8 +209,15 @@ pub fn validate_solver(
 
 /// The impact-pressure rows for `solver` (Lobovský et al. 2014): the peak at sensor 1 against
 /// the H = 300 mm percentiles, and the impulse at sensor 1 against the H = 600 mm median.
-pub fn validate_impact(solver: &str, plan: &Plan, mut log: impl FnMut(&str)) -> Vec<Row> {
+pub fn validate_impact(solver: &str, plan: &Plan, log: impl FnMut(&str)) -> Vec<Row> {
+    impact_rows(solver, plan, log).0
+}
+
+/// [`validate_impact`]'s rows and the sensor-1 peak at H = 300 mm [Pa] (None when that run
+/// failed or saw no pulse).
+fn impact_rows(solver: &str, plan: &Plan, mut log: impl FnMut(&str)) -> (Vec<Row>, Option<f64>) {
     let mut rows = Vec::new();
+    let mut peak_seen = None;
     let per_h = plan.impact_per_h;
     let s1 = LOBOVSKY_H300[0];
     let mbar = |p: f64| format!("{:.1} mbar", p / 100.0);
@@ -234,6 +241,7 @@ pub fn validate_impact(solver: &str, plan: &Plan, mut log: impl FnMut(&str)) -> 
             r.particles, r.steps, r.seconds
         ));
         if height == 0.3 {
+            peak_seen = pulse.map(|p| p.peak);
             let peak = pulse.map_or(0.0, |p| p.peak);
             rows.push(Row {
                 case: name,
@@ -268,7 +276,7 @@ pub fn validate_impact(solver: &str, plan: &Plan, mut log: impl FnMut(&str)) -> 
             });
         }
     }
-    rows
+    (rows, peak_seen)
 }
 
 /// The resolutions of the impact-pressure study (`fluid-validate --only impact-study`):
@@ -291,14 +299,8 @@ pub fn validate_impact_study(solver: &str, per_h: &[usize], mut log: impl FnMut(
             impact_per_h: n,
             ..Plan::QUICK
         };
-        let these = validate_impact(solver, &plan, &mut log);
-        // The peak row's measured value ("123.4 mbar"), None for a run that failed.
-        peaks.push(
-            these
-                .iter()
-                .find(|r| r.quantity == "peak pressure")
-                .and_then(|r| r.measured.trim_end_matches(" mbar").parse::<f64>().ok()),
-        );
+        let (these, peak) = impact_rows(solver, &plan, &mut log);
+        peaks.push(peak.map(|p| p / 100.0));
         rows.extend(these);
     }
     let growth = peaks
@@ -309,20 +311,17 @@ pub fn validate_impact_study(solver: &str, per_h: &[usize], mut log: impl FnMut(
         })
         .collect::<Option<Vec<f64>>>();
     let shown = |p: &Option<f64>| p.map_or("failed".to_string(), |p| format!("{p:.1}"));
-    let (measured, error, pass) = match growth {
+    let measured = peaks.iter().map(shown).collect::<Vec<_>>().join(" → ");
+    let (error, pass) = match growth {
         Some(g) if !g.is_empty() => {
             let worst = g.iter().copied().fold(f64::MIN, f64::max);
             (
-                peaks.iter().map(shown).collect::<Vec<_>>().join(" → "),
                 format!("largest finer ÷ coarser {worst:.2}"),
                 worst <= 1.0 + PEAK_GROWTH_TOLERANCE,
             )
         }
-        _ => (
-            peaks.iter().map(shown).collect::<Vec<_>>().join(" → "),
-            "-".into(),
-            false,
-        ),
+        // A run that failed (or one resolution only): no verdict of growth.
+        _ => ("-".into(), false),
     };
     rows.push(Row {
         case: format!(
