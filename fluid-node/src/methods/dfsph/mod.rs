@@ -48,7 +48,7 @@
 //!   gravity packing the top layers until their sums reach ρ0: the surface sinks slowly (0.07
 //!   spacings in 4 s of still water with mirrored walls; 0.15 with the walls' pressure
 //!   extrapolated, which lost Example 1 a quarter spacing, 2.5 cm, in its first 6 s).
-//!   `continued_surface` ([`CONTINUED_SURFACE`], the default since 29 Nov 2026) lets a
+//!   `continued_surface` ([`CONTINUED_SURFACE`]: off by default) lets a
 //!   particle with fewer than [`SURFACE_FRACTION`] of a full lattice's neighbours keep the
 //!   larger of its sum and the ρ* the last step predicted for it (the continuity equation's
 //!   density, which has no deficit): the surface then holds, Example 1's gauges follow WCSPH's
@@ -56,8 +56,10 @@
 //!   −3.4 % with the summed density, whose packed top layers weigh more per height;
 //!   docs/VALIDATION.md; the runs: docs/journal/2026-11-performance.md, "DFSPH
 //!   against WCSPH on the default scene: a resolution study", and
-//!   docs/journal/2026-11-28-hostile-inputs.md, 29 Nov). `continued_surface = false` gives the
-//!   summed density everywhere, as SPlisHSPlasH.
+//!   docs/journal/2026-11-28-hostile-inputs.md, 29 Nov). It is not the default: with it the
+//!   jointed slide (`scenes/jointed_slide.toml`, `--fluid-solver dfsph --solid-substeps 20
+//!   --dt-max 0.002`) stops at t = 1.0 s, its density solve diverging (mean compression past
+//!   10 %), where the summed density completes it (docs/journal/2026-11-29-impact-pressures.md).
 //! - Walls that cannot be crossed: after the position update no particle is closer than
 //!   [`WALL_CLEARANCE`]·dx to a fixed block's face, and one put back there loses its velocity
 //!   into the face ([`crate::boundary::penalty::Penalty::keep_out`]: the position correction of
@@ -250,7 +252,7 @@ pub const WALL_CLEARANCE: Real = 0.125;
 /// than 20 neighbours in 3D with support 2·dx, where a full lattice gives 33): 20/33 ≈ 0.6.
 pub const DEFICIENT_FRACTION: Real = 0.6;
 /// Default of `[fluid.dfsph] continued_surface` (module doc).
-pub const CONTINUED_SURFACE: bool = true;
+pub const CONTINUED_SURFACE: bool = false;
 /// `continued_surface`: a particle with fewer neighbours than this fraction of a full
 /// lattice's is taken to be within a support of the free surface (an interior particle of
 /// disordered water keeps ~95–105 %).
