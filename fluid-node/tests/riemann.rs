@@ -4,7 +4,8 @@
 use fluid_node::validation::{scene_errors, still_water_scene};
 
 /// `[fluid.riemann]` takes WCSPH's parameters but not the artificial viscosity and δ-SPH
-/// whose work its Riemann solver does: those are refused by name, with the fix.
+/// whose work its Riemann solver does: those are refused by name, with the fix; its own
+/// `wall_limiter` (the walls' dissipation) is not WCSPH's.
 #[test]
 fn riemann_parameters_are_checked() {
     let scene = still_water_scene("riemann", 0.1, 0.025, 0.1, None);
@@ -12,7 +13,7 @@ fn riemann_parameters_are_checked() {
     let checked = |extra: &str| scene_errors(&format!("{text}\n[fluid.riemann]\n{extra}\n"));
     assert_eq!(
         checked(
-            "sound_speed = 20.0\ngamma = 7.0\nsmoothing_ratio = 1.3\ncfl = 0.2\nskin = 0.1\nintegrator = \"symplectic\""
+            "sound_speed = 20.0\ngamma = 7.0\nsmoothing_ratio = 1.3\ncfl = 0.2\nskin = 0.1\nintegrator = \"symplectic\"\nwall_limiter = 10.0"
         ),
         ""
     );
@@ -21,6 +22,7 @@ fn riemann_parameters_are_checked() {
         ("delta = 0.1", "delta"),
         ("sound_speed = -1.0", "sound_speed"),
         ("skin = 2.0", "skin"),
+        ("wall_limiter = -1.0", "wall_limiter"),
     ] {
         let e = checked(bad);
         assert!(
@@ -30,6 +32,14 @@ fn riemann_parameters_are_checked() {
     }
     let e = checked("flux = \"riemann\"");
     assert!(e.contains("fluid.riemann") && e.contains("flux"), "{e}");
+    // The walls' dissipation is the Riemann solver's: `wcsph` refuses it by name.
+    let scene = still_water_scene("wcsph", 0.1, 0.025, 0.1, None);
+    let text = toml::to_string(&scene).unwrap();
+    let e = scene_errors(&format!("{text}\n[fluid.wcsph]\nwall_limiter = 10.0\n"));
+    assert!(
+        e.contains("fluid.wcsph.wall_limiter") && e.contains("fix"),
+        "{e}"
+    );
 }
 
 /// The impact study's rows (`fluid-validate --only impact-study-riemann` runs H/dx = 15, 30,

@@ -286,7 +286,25 @@ impl BodyParticles {
         pair: impl Fn(usize, Real, Real, &Vector, Real) -> Vector + Sync,
         split: Option<(&Share, &CellGrid)>,
     ) {
+        self.react_moving(
+            fluid,
+            support,
+            |i, _, pw, rw, r, len| pair(i, pw, rw, r, len),
+            split,
+        );
+    }
+
+    /// [`Self::react`] with the wall particle's velocity: `pair(f, v_w, p_w, ρ_w, r_fw, r)`
+    /// (for a force that depends on the pair's relative velocity).
+    pub fn react_moving(
+        &mut self,
+        fluid: &[Vector],
+        support: Real,
+        pair: impl Fn(usize, &Vector, Real, Real, &Vector, Real) -> Vector + Sync,
+        split: Option<(&Share, &CellGrid)>,
+    ) {
         let s2 = support * support;
+        let velocity = &self.velocity;
         let set = &self.set;
         self.reaction.resize(set.active.len(), Vector::zeros());
         self.reaction
@@ -301,7 +319,7 @@ impl BodyParticles {
                     let r = fluid[i] - xw;
                     let r2 = r.norm_squared();
                     if r2 < s2 {
-                        f -= pair(i, pw, rw, &r, r2.sqrt());
+                        f -= pair(i, &velocity[w], pw, rw, &r, r2.sqrt());
                     }
                 }
                 *out = f;

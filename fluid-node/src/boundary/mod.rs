@@ -268,6 +268,19 @@ impl Boundary {
         }
     }
 
+    /// [`Self::react`] with the wall particle's velocity: see [`BodyParticles::react_moving`].
+    pub fn react_moving(
+        &mut self,
+        fluid: &[Vector],
+        support: Real,
+        pair: impl Fn(usize, &Vector, Real, Real, &Vector, Real) -> Vector + Sync,
+        split: Option<(&crate::ranks::share::Share, &CellGrid)>,
+    ) {
+        if let Some(b) = &mut self.moving {
+            b.react_moving(fluid, support, pair, split);
+        }
+    }
+
     /// Adds the last [`Self::react`] to the moving blocks' loads.
     pub fn add_loads(&self, loads: &mut [BlockLoad]) {
         if let Some(b) = &self.moving {

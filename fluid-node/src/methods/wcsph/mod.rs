@@ -49,6 +49,10 @@ pub struct WcsphParams {
     /// Verlet skin of the neighbour lists, as a fraction of the kernel support; default 0.1
     /// ([`WCSPH_SKIN`]); 0 rebuilds the lists at every step.
     pub skin: Option<f64>,
+    /// `riemann` only: η of the dissipation limiter of the fluid–wall pairs, along each fluid
+    /// particle's wall normal (Zhang, Hu & Adams 2017, §3.3; [`riemann::WALL_ETA`]); default
+    /// [`riemann::WALL_ETA`], 0 disables the wall's dissipation.
+    pub wall_limiter: Option<f64>,
 }
 
 /// How a pair exchanges momentum and mass: the method `wcsph` (artificial viscosity and
@@ -64,6 +68,21 @@ pub enum Flux {
 
 impl SolverParams for WcsphParams {
     fn check(&self, c: &mut ParamCheck) {
+        self.check_shared(c);
+        if let Some(v) = self.wall_limiter {
+            c.fail(
+                "wall_limiter",
+                v,
+                "is a parameter of riemann only (the wall dissipation of its Riemann solver)",
+                "remove it, or use solver = \"riemann\"",
+            );
+        }
+    }
+}
+
+impl WcsphParams {
+    /// The checks of the parameters `wcsph` and `riemann` share.
+    pub fn check_shared(&self, c: &mut ParamCheck) {
         c.positive(
             "sound_speed",
             self.sound_speed,
@@ -144,6 +163,8 @@ pub struct WcsphConstants {
     pub h: Real,
     pub integrator: Integrator,
     pub flux: Flux,
+    /// η of the Riemann flux's wall dissipation (0: none; always 0 for the artificial flux).
+    pub wall_limiter: Real,
 }
 
 #[derive(serde::Serialize, serde::Deserialize)]
@@ -186,6 +207,10 @@ impl Wcsph {
             h,
             integrator: spec.integrator,
             flux,
+            wall_limiter: match flux {
+                Flux::Artificial => 0.0,
+                Flux::Riemann => spec.wall_limiter.unwrap_or(riemann::WALL_ETA),
+            },
         };
         let g = init.gravity.norm();
         // Hydrostatic start: the Tait density of the pressure ρ0·g·depth.
@@ -308,7 +333,13 @@ impl Wcsph {
                 );
             }
             Flux::Riemann => {
-                let rc = riemann::RiemannConstants::new(kernel, rho0, prm.sound_speed, g);
+                let rc = riemann::RiemannConstants::new(
+                    kernel,
+                    rho0,
+                    prm.sound_speed,
+                    prm.wall_limiter,
+                    g,
+                );
                 pair_rates(
                     sys,
                     near,
@@ -545,6 +576,48 @@ impl SphMethod for Wcsph {
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
         let flux = self.constants.flux;
         let split = sys.share.as_ref().map(|s| (s, &sys.grid));
+        let rc = riemann::RiemannConstants::new(
+            kernel,
+            self.rest_density,
+            self.constants.sound_speed,
+            self.constants.wall_limiter,
+            sys.gravity,
+        );
+        if flux == Flux::Riemann && rc.wall_limiter > 0.0 {
+            // The wall's dissipation along each fluid particle's normal to the moving blocks
+            // (riemann::boundary_sums, which takes it over the particle's moving neighbours
+            // alone, as here): n_i = Σ_b ∇W_ib / |Σ_b ∇W_ib|.
+            let support = kernel.support();
+            let boundary = &sys.boundary;
+            let normals: Vec<Vector> = (0..p.len())
+                .into_par_iter()
+                .map(|i| {
+                    let mut s = Vector::zeros();
+                    boundary.for_each_moving_neighbor(i, |b| {
+                        let r = p.position[i] - b.position();
+                        let len = r.norm();
+                        if len < support {
+                            s += r * kernel.gradient_factor(len);
+                        }
+                    });
+                    let n = s.norm();
+                    if n > 0.0 { s / n } else { s }
+                })
+                .collect();
+            sys.boundary.react_moving(
+                &p.position,
+                kernel.support(),
+                |i, vw, pw, rw, r, len| {
+                    let (ri, pi, n) = (p.density[i], p.pressure[i], normals[i]);
+                    let f = kernel.gradient_factor(len);
+                    let u = 2.0 * (p.velocity[i] - vw).dot(&n);
+                    let d = riemann::wall_pair_dissipation(&rc, ri, rw, u);
+                    (r * (-riemann::wall_pair(pi, ri, pw, rw)) + n * (d * len)) * (f * m * m)
+                },
+                split,
+            );
+            return;
+        }
         sys.boundary.react(
             &p.position,
             kernel.support(),
