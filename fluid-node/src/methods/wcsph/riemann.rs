@@ -47,7 +47,8 @@ pub const ETA: Real = 3.0;
 /// not published. Zhang et al.'s η = 3 at the walls left the Lobovský impact peak growing with
 /// resolution (86 → 128 → 158 mbar at H/dx = 15, 30, 60), the unlimited acoustic solver (η → ∞,
 /// β = c0) raised it (138 → 179 at 15, 30); η = 10 gives 112 → 117 → 127, inside the
-/// experiment's band (docs/journal/2026-11-29-impact-pressures.md).
+/// experiment's band. A tuned value: η = 7 and 14 leave the band (142 mbar at H/dx = 30, 154
+/// at 60; docs/journal/2026-11-29-impact-pressures.md).
 pub const WALL_ETA: Real = 10.0;
 
 /// A fluid particle's (or a boundary particle's) record for the Riemann loop: s0 = ρ − ρ0,
