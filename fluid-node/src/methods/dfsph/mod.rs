@@ -58,8 +58,10 @@
 //!   against WCSPH on the default scene: a resolution study", and
 //!   docs/journal/2026-11-28-hostile-inputs.md, 29 Nov). It is not the default: with it the
 //!   jointed slide (`scenes/jointed_slide.toml`, `--fluid-solver dfsph --solid-substeps 20
-//!   --dt-max 0.002`) stops at t = 1.0 s, its density solve diverging (mean compression past
-//!   10 %), where the summed density completes it (docs/journal/2026-11-29-impact-pressures.md).
+//!   --dt-max 0.002`) stops at t = 1.0 s, its pressure solves diverging next to the blocks
+//!   (the divergence solve first, its free blocks' loads with it; then the density solve's mean
+//!   compression passes 10 %), where the summed density completes it; what was tried against
+//!   it: docs/journal/2026-11-29-impact-pressures.md.
 //! - Walls that cannot be crossed: after the position update no particle is closer than
 //!   [`WALL_CLEARANCE`]·dx to a fixed block's face, and one put back there loses its velocity
 //!   into the face ([`crate::boundary::penalty::Penalty::keep_out`]: the position correction of

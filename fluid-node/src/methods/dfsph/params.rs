@@ -34,7 +34,7 @@ pub struct DfsphParams {
     /// lattice's) keeps the larger of its summed density and the density the last step
     /// predicted for it (continuity), so gravity cannot pack the surface layers whose sums are
     /// deficient; default false (the summed density everywhere, as SPlisHSPlasH): with it the
-    /// jointed slide's density solve diverges at t = 1.0 s (module doc).
+    /// jointed slide's pressure solves diverge at t = 1.0 s (module doc).
     pub continued_surface: Option<bool>,
     /// Free blocks move inside the two pressure solves (their inertia in the solve, Gissler et
     /// al. 2019), so the water's answer to a block's motion is not one step late; default

@@ -31,8 +31,8 @@
 //! over its list of each set (fixed, moving). Along n_i only the normal approach is damped; the
 //! flow along the floor is not (along e_ij, with the wall particle's velocity mirrored, the
 //! term acted as friction there: the dam break's front did not reach the far wall). η_w is
-//! `[fluid.riemann] wall_limiter`, by default [`WALL_ETA`] (not Zhang et al.'s η = 3: why at
-//! [`WALL_ETA`]); a moving block takes the exact reverse ([`wall_pair`],
+//! `[fluid.riemann] wall_limiter`, by default [`WALL_ETA`], the fluid pairs' η = 3 (why not
+//! another: [`WALL_ETA`]); a moving block takes the exact reverse ([`wall_pair`],
 //! [`wall_pair_dissipation`], `Wcsph::react`).
 
 use crate::core::lanes::{L, Packed, block, gather, sum};
@@ -43,13 +43,15 @@ use shared::math::{Real, Vector};
 /// The dissipation limiter's η (Zhang, Hu & Adams 2017, Eq. 18).
 pub const ETA: Real = 3.0;
 
-/// The default η of the fluid–wall pairs' limiter (`[fluid.riemann] wall_limiter`): chosen,
-/// not published. Zhang et al.'s η = 3 at the walls left the Lobovský impact peak growing with
-/// resolution (86 → 128 → 158 mbar at H/dx = 15, 30, 60), the unlimited acoustic solver (η → ∞,
-/// β = c0) raised it (138 → 179 at 15, 30); η = 10 gives 112 → 117 → 127, inside the
-/// experiment's band. A tuned value: η = 7 and 14 leave the band (142 mbar at H/dx = 30, 154
-/// at 60; docs/journal/2026-11-29-impact-pressures.md).
-pub const WALL_ETA: Real = 10.0;
+/// The default η of the fluid–wall pairs' limiter (`[fluid.riemann] wall_limiter`): the fluid
+/// pairs' [`ETA`], Zhang et al.'s one limiter for both. With it the Lobovský impact peak is
+/// 86 → 128 → 158 mbar at H/dx = 15, 30, 60 (without the walls' dissipation 138 → 210 → 183):
+/// lower, inside the experiment's band at 15 and 30, still growing. A scan of η_w (3, 5, 7, 10,
+/// 14, 20, ∞) found one value, 10, inside the band at all three (112 → 117 → 127), but its
+/// neighbours 7 and 14 leave it (142 mbar at H/dx = 30, 154 at 60): a tuned pass on a crest
+/// that moves ±20 % with η_w, not a converged peak, so it is not the default
+/// (docs/journal/2026-11-29-impact-pressures.md).
+pub const WALL_ETA: Real = ETA;
 
 /// A fluid particle's (or a boundary particle's) record for the Riemann loop: s0 = ρ − ρ0,
 /// s1 = p.
