@@ -111,6 +111,18 @@ impl RiemannConstants {
         }
     }
 
+    /// F = ∇W/r of Wendland C2 (negative) at distance r (r2 = r²), zero outside the support
+    /// and on padding lanes (`live` false).
+    #[inline(always)]
+    fn gradient(&self, r: f32, r2: f32, live: bool) -> f32 {
+        let t = 1.0 - r * self.half_inv_h;
+        if r2 < self.s2 && live {
+            self.gradient_scale * (t * t * t)
+        } else {
+            0.0
+        }
+    }
+
     /// P* − p̄ = β ρ̄ ΔU/2 for the jump ΔU = U_L − U_R (zero where the pair separates).
     #[inline(always)]
     fn dissipation(&self, rho_bar: f32, du: f32) -> f32 {
@@ -150,13 +162,7 @@ pub fn fluid_sums(
             let (rx, ry, rz) = (xi - x[k], yi - y[k], zi - z[k]);
             let r2 = rx * rx + ry * ry + rz * rz;
             let r = r2.sqrt();
-            let t = 1.0 - r * c.half_inv_h;
-            // F = ∇W/r (negative), zero outside the support and on padding lanes.
-            let f = if r2 < c.s2 && k < n {
-                c.gradient_scale * (t * t * t)
-            } else {
-                0.0
-            };
+            let f = c.gradient(r, r2, k < n);
             let rj = c.rest_density + drj[k];
             let rho_bar = 0.5 * (ri + rj);
             let vr = (vxi - vxj[k]) * rx + (vyi - vyj[k]) * ry + (vzi - vzj[k]) * rz;
@@ -215,12 +221,7 @@ pub fn boundary_sums(
             for k in 0..L {
                 let (rx, ry, rz) = (xi - x[k], yi - y[k], zi - z[k]);
                 let r2 = rx * rx + ry * ry + rz * rz;
-                let t = 1.0 - r2.sqrt() * c.half_inv_h;
-                let f = if r2 < c.s2 && k < n {
-                    c.gradient_scale * (t * t * t)
-                } else {
-                    0.0
-                };
+                let f = c.gradient(r2.sqrt(), r2, k < n);
                 nx[k] += f * rx;
                 ny[k] += f * ry;
                 nz[k] += f * rz;
@@ -243,12 +244,7 @@ pub fn boundary_sums(
             let (rx, ry, rz) = (xi - x[k], yi - y[k], zi - z[k]);
             let r2 = rx * rx + ry * ry + rz * rz;
             let r = r2.sqrt();
-            let t = 1.0 - r * c.half_inv_h;
-            let f = if r2 < c.s2 && k < n {
-                c.gradient_scale * (t * t * t)
-            } else {
-                0.0
-            };
+            let f = c.gradient(r, r2, k < n);
             let rb = c.rest_density + drb[k];
             let (wx, wy, wz) = (vxi - vxb[k], vyi - vyb[k], vzi - vzb[k]);
             let vr = wx * rx + wy * ry + wz * rz;
