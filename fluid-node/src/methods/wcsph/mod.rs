@@ -576,14 +576,15 @@ impl SphMethod for Wcsph {
         let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
         let flux = self.constants.flux;
         let split = sys.share.as_ref().map(|s| (s, &sys.grid));
-        let rc = riemann::RiemannConstants::new(
-            kernel,
-            self.rest_density,
-            self.constants.sound_speed,
-            self.constants.wall_limiter,
-            sys.gravity,
-        );
-        if flux == Flux::Riemann && rc.wall_limiter > 0.0 {
+        // (`wall_limiter` is 0 for the artificial flux.)
+        if self.constants.wall_limiter > 0.0 {
+            let rc = riemann::RiemannConstants::new(
+                kernel,
+                self.rest_density,
+                self.constants.sound_speed,
+                self.constants.wall_limiter,
+                sys.gravity,
+            );
             // The wall's dissipation along each fluid particle's normal to the moving blocks
             // (riemann::boundary_sums, which takes it over the particle's moving neighbours
             // alone, as here): n_i = Σ_b ∇W_ib / |Σ_b ∇W_ib|.
