@@ -48,7 +48,7 @@ pub trait SphMethod:
     /// At a new pose of the moving blocks: their boundary pressures, then the water's force on
     /// them, pair by pair the reverse of this method's pressure force on the fluid
     /// ([`crate::boundary::Boundary::react`]).
-    fn react(&self, sys: &mut FluidSystem);
+    fn react(&mut self, sys: &mut FluidSystem);
 
     /// Whether this method moves the free blocks within its step, so that its loads are the
     /// forces of the step just taken ([`shared::solver::FluidSolver::loads_follow_step`]).

@@ -83,7 +83,7 @@
 //!         Ok(StepReport::default())
 //!     }
 //!
-//!     fn react(&self, _sys: &mut FluidSystem) {}
+//!     fn react(&mut self, _sys: &mut FluidSystem) {}
 //!
 //!     fn kernel(&self) -> &WendlandC2 {
 //!         &self.kernel

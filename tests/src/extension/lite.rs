@@ -185,7 +185,7 @@ impl SphMethod for Lite {
         Ok(StepReport::default())
     }
 
-    fn react(&self, sys: &mut FluidSystem) {
+    fn react(&mut self, sys: &mut FluidSystem) {
         // The wall pressures at the blocks' new pose, then each pair's pressure force with its
         // sign reversed onto the block (r = x_i − x_wall).
         sys.boundary.update_moving(

@@ -274,7 +274,7 @@ impl SphMethod for Dfsph {
         })
     }
 
-    fn react(&self, sys: &mut FluidSystem) {
+    fn react(&mut self, sys: &mut FluidSystem) {
         // The reverse of the pressure force the fluid takes from each moving boundary particle,
         // m·(−m (k_i + k_b) ∇W_ib) with k_i = k_ρ + k_v of the last step and k_b the wall's
         // at the new pose (module doc): mirrored, k_i + H_ib (k_i for k̄_i: summed over a

@@ -349,7 +349,7 @@ impl SphMethod for Muller {
         Ok(report)
     }
 
-    fn react(&self, sys: &mut FluidSystem) {
+    fn react(&mut self, sys: &mut FluidSystem) {
         // The pressures of the last evaluation (Eq. 12 sums are recomputed at the start of the
         // step) and the wall pressures extrapolated at the new pose.
         sys.boundary.update_moving(

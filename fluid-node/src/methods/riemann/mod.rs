@@ -75,7 +75,7 @@ impl SphMethod for Riemann {
         self.0.step(sys, dt)
     }
 
-    fn react(&self, sys: &mut FluidSystem) {
+    fn react(&mut self, sys: &mut FluidSystem) {
         self.0.react(sys)
     }
 

@@ -181,6 +181,10 @@ pub struct Wcsph {
     /// costs one line fetch rather than five. Not checkpointed: scratch.
     #[serde(skip)]
     near: Vec<Packed>,
+    /// Each fluid particle's unit normal to the moving blocks in [`SphMethod::react`] (the
+    /// Riemann flux's wall dissipation): scratch, kept so that the step does not allocate.
+    #[serde(skip)]
+    wall_normals: Vec<Vector>,
 }
 
 impl Wcsph {
@@ -245,6 +249,7 @@ impl Wcsph {
             limits,
             verlet_step: 0,
             near: Vec::new(),
+            wall_normals: Vec::new(),
         };
         Ok((scheme, layout))
     }
@@ -564,7 +569,7 @@ impl SphMethod for Wcsph {
         Ok(StepReport::default())
     }
 
-    fn react(&self, sys: &mut FluidSystem) {
+    fn react(&mut self, sys: &mut FluidSystem) {
         // Exactly the reverse of what the coming predictor applies to the fluid.
         sys.boundary.update_moving(
             &self.kernel,
@@ -590,21 +595,21 @@ impl SphMethod for Wcsph {
             // alone, as here): n_i = Σ_b ∇W_ib / |Σ_b ∇W_ib|.
             let support = kernel.support();
             let boundary = &sys.boundary;
-            let normals: Vec<Vector> = (0..p.len())
-                .into_par_iter()
-                .map(|i| {
-                    let mut s = Vector::zeros();
-                    boundary.for_each_moving_neighbor(i, |b| {
-                        let r = p.position[i] - b.position();
-                        let len = r.norm();
-                        if len < support {
-                            s += r * kernel.gradient_factor(len);
-                        }
-                    });
-                    let n = s.norm();
-                    if n > 0.0 { s / n } else { s }
-                })
-                .collect();
+            let normals = &mut self.wall_normals;
+            normals.resize(p.len(), Vector::zeros());
+            normals.par_iter_mut().enumerate().for_each(|(i, normal)| {
+                let mut s = Vector::zeros();
+                boundary.for_each_moving_neighbor(i, |b| {
+                    let r = p.position[i] - b.position();
+                    let len = r.norm();
+                    if len < support {
+                        s += r * kernel.gradient_factor(len);
+                    }
+                });
+                let n = s.norm();
+                *normal = if n > 0.0 { s / n } else { s };
+            });
+            let normals = &self.wall_normals;
             sys.boundary.react_moving(
                 &p.position,
                 kernel.support(),
