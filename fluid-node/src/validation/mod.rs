@@ -34,19 +34,53 @@ pub use still_water::*;
 pub use table::*;
 pub use terrain_basin::*;
 
-/// A scratch run directory, removed on drop.
+/// Prefix of every [`TempRunDir`] in the system's temporary directory.
+const TEMP_PREFIX: &str = "rockwave-fluid-";
+
+/// A scratch run directory, removed on drop. Its name carries the process id
+/// (`rockwave-fluid-<tag>-<pid>-<random>`), so that a run killed before its drop (SIGTERM or
+/// SIGKILL of `fluid-validate`, `coupler chart`, an example) leaves a directory the next one
+/// recognises as orphaned and removes ([`remove_orphans`]).
 pub struct TempRunDir(tempfile::TempDir);
 
 impl TempRunDir {
     pub fn new(tag: &str) -> std::io::Result<Self> {
+        remove_orphans(&std::env::temp_dir());
         let dir = tempfile::Builder::new()
-            .prefix(&format!("rockwave-fluid-{tag}-"))
+            .prefix(&format!("{TEMP_PREFIX}{tag}-{}-", std::process::id()))
             .tempdir()?;
         Ok(Self(dir))
     }
     pub fn path(&self) -> &Path {
         self.0.path()
     }
+}
+
+/// Removes the run directories in `tmp` left by processes that no longer exist (no
+/// `/proc/<pid>`); directories of live processes, and names without a process id (older
+/// versions), are left alone. Best effort: a directory that cannot be read or removed is skipped.
+pub fn remove_orphans(tmp: &Path) {
+    let Ok(entries) = std::fs::read_dir(tmp) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        if let Some(pid) = name.to_str().and_then(owner_pid)
+            && !Path::new(&format!("/proc/{pid}")).exists()
+        {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
+}
+
+/// The process id in a [`TempRunDir`] name `rockwave-fluid-<tag>-<pid>-<random>`: the last
+/// all-digit field before the random suffix.
+fn owner_pid(name: &str) -> Option<u32> {
+    let rest = name.strip_prefix(TEMP_PREFIX)?;
+    let mut fields = rest.rsplitn(3, '-');
+    let (_random, pid) = (fields.next()?, fields.next()?);
+    fields.next()?;
+    pid.parse().ok()
 }
 
 /// Builds solver `name` from the registry for `scene`, writing into `dir`, with no peer.
@@ -138,4 +172,44 @@ pub fn fluid_table(solver: &str, dx: f64, walls: Option<Walls>) -> String {
         .map(|w| format!("walls = \"{}\"\n", w.as_str()))
         .unwrap_or_default();
     format!("[fluid]\nsolver = \"{solver}\"\ndx = {dx}\n{walls}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run directory whose process is gone is removed; one of a live process, and one whose
+    /// name carries no process id, are kept.
+    #[test]
+    fn orphaned_run_directories_are_removed_and_live_ones_kept() {
+        let tmp = tempfile::tempdir().unwrap();
+        // No process has an id above the kernel's pid_max.
+        let pid_max: u64 = std::fs::read_to_string("/proc/sys/kernel/pid_max")
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
+        let dead = tmp
+            .path()
+            .join(format!("{TEMP_PREFIX}impact-{}-aB3xYz", pid_max + 1));
+        let live = tmp
+            .path()
+            .join(format!("{TEMP_PREFIX}impact-{}-aB3xYz", std::process::id()));
+        let old = tmp.path().join(format!("{TEMP_PREFIX}impact-aB3xYz"));
+        for d in [&dead, &live, &old] {
+            std::fs::create_dir(d).unwrap();
+            std::fs::write(d.join("probes.csv"), "time\n").unwrap();
+        }
+        remove_orphans(tmp.path());
+        assert!(!dead.exists(), "the dead process's directory is left");
+        assert!(live.exists() && old.exists());
+        let made = TempRunDir::new("sweep").unwrap();
+        assert_eq!(
+            made.path()
+                .file_name()
+                .and_then(|n| n.to_str())
+                .and_then(owner_pid),
+            Some(std::process::id())
+        );
+    }
 }
