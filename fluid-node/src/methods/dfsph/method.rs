@@ -109,6 +109,9 @@ impl SphMethod for Dfsph {
             damping: Vec::new(),
             near: Vec::new(),
             mobility: Vec::new(),
+            k_best: Vec::new(),
+            motion_best: Vec::new(),
+            loads_best: Vec::new(),
         };
         Ok((scheme, layout))
     }
@@ -174,7 +177,7 @@ impl SphMethod for Dfsph {
         let t = sys.phases.lap(Phase::Blocks, t);
         // Algorithm 1's divergence solve (Algorithm 2), rotated to the start on the current velocities.
         let kv = std::mem::take(divergence_stiffness(&mut sys.particles));
-        let (div_it, div_err, kv) = self.solve(sys, dt, false, kv);
+        let (div_it, div_err, kv, div_kept) = self.solve(sys, dt, false, kv);
         *divergence_stiffness(&mut sys.particles) = kv;
         let t = sys.phases.lap(Phase::DivergenceSolve, t);
         // Non-pressure forces and predicted velocities.
@@ -197,7 +200,7 @@ impl SphMethod for Dfsph {
         let t = sys.phases.lap(Phase::Blocks, t);
         // The constant-density solve (Algorithm 3) on v*.
         let kd = std::mem::take(density_stiffness(&mut sys.particles));
-        let (it, err, kd) = self.solve(sys, dt, true, kd);
+        let (it, err, kd, kept) = self.solve(sys, dt, true, kd);
         *density_stiffness(&mut sys.particles) = kd;
         let t = sys.phases.lap(Phase::DensitySolve, t);
         // Positions. The pressure the step applied, p = (k_ρ + k_v)ρ², for output and
@@ -268,6 +271,19 @@ impl SphMethod for Dfsph {
                 100.0 * div_err,
                 100.0 * c.divergence_tolerance
             ));
+        }
+        // A solve that began to diverge went back to its iterate of smallest error (module
+        // doc, "Stopping"), which may be within the tolerance: said either way.
+        for (what, kept, n, error) in [
+            ("divergence", div_kept, div_it, div_err),
+            ("density", kept, it, err),
+        ] {
+            if let Some(i) = kept {
+                warnings.push(format!(
+                    "dfsph: {what} solve diverging: its iterate of smallest error kept (iteration {i} of {n}, mean error {:.3} %)",
+                    100.0 * error
+                ));
+            }
         }
         Ok(StepReport {
             warning: (!warnings.is_empty()).then(|| warnings.join("; ")),

@@ -1,7 +1,7 @@
 //! One implicit solve of DFSPH: the divergence solve (2017 Algorithm 2) or the constant-density
 //! solve (Algorithm 3), warm-started Jacobi iterations on the stiffness.
 
-use super::{Dfsph, WARM_START, halo, total};
+use super::{DIVERGED, Dfsph, WARM_START, halo, total};
 use crate::system::FluidSystem;
 use rayon::prelude::*;
 use shared::math::{Real, Vector};
@@ -10,15 +10,17 @@ impl Dfsph {
     /// One implicit solve, 2017 Algorithm 2 (divergence, `density` false) or Algorithm 3
     /// (constant density): warm start, then Jacobi iterations on the stiffness until the mean
     /// error is below the tolerance (at least 1 resp. 2 iterations) or the cap. The accumulated
-    /// stiffness is left in `k` (per particle, the warm start read from it). Returns
-    /// (iterations, final mean error).
+    /// stiffness is left in `k` (per particle, the warm start read from it). A solve whose
+    /// error grows past [`DIVERGED`] times the smallest it reached, or that ends at the cap
+    /// above it, returns to the iterate of that smallest error (module doc, "Stopping").
+    /// Returns (iterations, final mean error, k, the iteration kept if it went back).
     pub(super) fn solve(
         &mut self,
         sys: &mut FluidSystem,
         dt: Real,
         density: bool,
         mut k: Vec<Real>,
-    ) -> (usize, Real, Vec<Real>) {
+    ) -> (usize, Real, Vec<Real>, Option<usize>) {
         let c = self.constants;
         let (tolerance, min_iterations, scale) = if density {
             (c.density_tolerance, 2, 1.0 / (dt * dt))
@@ -74,6 +76,10 @@ impl Dfsph {
         }
         let mut err = self.predict(sys, dt, density);
         let mut it = 0;
+        // The iterate of the smallest error so far: its iteration, error, stiffness and the
+        // free blocks' motion and loads (the velocities follow from the stiffness).
+        let (mut best_it, mut best_err) = (0, err);
+        self.keep_best(&k, blocks);
         // How far the free blocks' loads are from converged (module doc, "Blocks in the solve").
         let mut block_left = if blocks { Real::INFINITY } else { 0.0 };
         while (it < min_iterations
@@ -118,9 +124,51 @@ impl Dfsph {
             }
             err = self.predict(sys, dt, density);
             it += 1;
+            if err < best_err {
+                (best_it, best_err) = (it, err);
+                self.keep_best(&k, blocks);
+            } else if err > tolerance && err > DIVERGED * best_err {
+                // Diverging (module doc, "Stopping").
+                break;
+            }
+        }
+        let mut kept = None;
+        if err > tolerance && err > best_err {
+            // Diverging, or stopped at the cap above an earlier iterate: back to the best one.
+            // The velocity change is linear in the stiffness, so applying k_best − k undoes the
+            // iterations since (to rounding); the blocks take their motion and loads then.
+            // The halo's k too: its increments were shared, so k_best − k is its owner's.
+            dk.par_iter_mut()
+                .zip(k.par_iter_mut())
+                .zip(self.k_best.par_iter())
+                .for_each(|((d, k), &b)| {
+                    *d = b - *k;
+                    *k = b;
+                });
+            self.apply(sys, &dk, dt);
+            self.share_velocities(sys, false);
+            if blocks && let Some(bodies) = sys.boundary.bodies_mut() {
+                self.motion.clone_from(&self.motion_best);
+                self.loads.clone_from(&self.loads_best);
+                bodies.nudge(&self.motion);
+                self.update_flux(sys);
+            }
+            err = self.predict(sys, dt, density);
+            kept = Some(best_it);
         }
         self.dk = dk;
-        (it, err, k)
+        (it, err, k, kept)
+    }
+
+    /// Keeps the current iterate as the best one of the solve: the stiffness `k` and, with
+    /// `blocks`, the free blocks' motion and loads so far.
+    fn keep_best(&mut self, k: &[Real], blocks: bool) {
+        self.k_best.resize(k.len(), 0.0);
+        self.k_best.copy_from_slice(k);
+        if blocks {
+            self.motion_best.clone_from(&self.motion);
+            self.loads_best.clone_from(&self.loads);
+        }
     }
 }
 
