@@ -235,7 +235,7 @@ fn dfsph_parameters_are_checked() {
     let checked = |extra: &str| scene_errors(&format!("{text}\n[fluid.dfsph]\n{extra}\n"));
     assert_eq!(
         checked(
-            "cfl = 0.4\ndensity_tolerance = 0.05\ndivergence_tolerance = 0.1\nmax_iterations = 100\nviscosity = 0.01\npressure_tolerance = 5.0\ndeficient_fraction = 0.6"
+            "cfl = 0.4\ndensity_tolerance = 0.05\ndivergence_tolerance = 0.1\nmax_iterations = 100\nviscosity = 0.01\npressure_tolerance = 5.0\ndeficient_fraction = 0.6\nrelaxation = 0.5"
         ),
         ""
     );
@@ -249,6 +249,8 @@ fn dfsph_parameters_are_checked() {
         ("smoothing_ratio = 0.1", "smoothing_ratio"),
         ("pressure_tolerance = 0.0", "pressure_tolerance"),
         ("deficient_fraction = 1.5", "deficient_fraction"),
+        ("relaxation = 0.0", "relaxation"),
+        ("relaxation = 1.5", "relaxation"),
     ] {
         let e = checked(bad);
         assert!(

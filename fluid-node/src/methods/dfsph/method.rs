@@ -4,9 +4,9 @@
 
 use super::{
     ABSURD_DENSITY_ERROR, BLOCKS_IN_SOLVE, CONTINUED_SURFACE, DEFAULT_CFL, DEFICIENT_FRACTION,
-    Dfsph, DfsphConstants, DfsphParams, MIRROR, PRESSURE_STUDY, SURFACE_FRACTION, SolveStats,
-    WALL_CLEARANCE, WALL_PRESSURE, blocks_in_solve, density_stiffness, divergence_stiffness, halo,
-    hydrostatic, lattice_neighbours, stiffnesses,
+    Dfsph, DfsphConstants, DfsphParams, MIRROR, PRESSURE_STUDY, RELAXATION, SURFACE_FRACTION,
+    SolveStats, WALL_CLEARANCE, WALL_PRESSURE, blocks_in_solve, density_stiffness,
+    divergence_stiffness, halo, hydrostatic, lattice_neighbours, stiffnesses,
 };
 use crate::core::neighbors::PairValues;
 use crate::core::particles::Particles;
@@ -53,6 +53,7 @@ impl SphMethod for Dfsph {
             // Off unless asked for (module doc, "Known limits").
             pressure_tolerance: spec.pressure_tolerance.map_or(Real::INFINITY, |t| 0.01 * t),
             max_iterations: spec.max_iterations.unwrap_or(100).max(1) as usize,
+            relaxation: spec.relaxation.unwrap_or(RELAXATION),
             viscosity: spec.viscosity.unwrap_or(0.01),
             h,
         };

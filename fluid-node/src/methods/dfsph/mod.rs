@@ -63,6 +63,40 @@
 //!   stopped the run ("mean compression limit exceeded") until a diverging solve went back to
 //!   its best iterate ("Stopping", below); the summed density does not reach that state
 //!   (docs/journal/2026-11-29-impact-pressures.md).
+//! - Walls that cannot be crossed: after the position update no particle is closer than
+//!   [`WALL_CLEARANCE`]·dx to a fixed block's face, and one put back there loses its velocity
+//!   into the face ([`crate::boundary::penalty::Penalty::keep_out`]: the position correction of
+//!   Ihmsen et al. 2010 and the direct forcing of Becker et al. 2009). The summed density cannot
+//!   stop it: in a corner the water's quarter of the kernel support is empty, so a particle of
+//!   a thin surge reaches the face with ρ* below ρ0 and only Eq. 22 against it. The Lobovský
+//!   surge (H = 300 mm, H/dx = 15) pushed one through the right wall's face at t = 0.469 s
+//!   (0.6 m/s into it, 0.3 dx off the floor) and stopped the run; at H = 600 mm, H/dx = 30,
+//!   likewise.
+//! - Relaxed Jacobi: an iteration adds e_i·β_i·ω of the stiffness, with the papers' ω = 1 until
+//!   an iteration leaves the mean error above the tolerance and larger than it found it; from
+//!   then on, for the rest of that solve, ω = `relaxation` ([`RELAXATION`], 0.5, the relaxed
+//!   Jacobi of IISPH: Ihmsen et al. 2014, "Implicit incompressible SPH", IEEE TVCG 20(3)). Why:
+//!   β_i is the exact diagonal of the system (the DFSPH factor), and Jacobi converges only on the
+//!   modes with ω·λ < 2, λ the eigenvalues of D⁻¹A. On a regular lattice with Wendland C2 at
+//!   h = 1.3 dx the largest is λ ≈ 4.2, a pressure wave 4–5 dx long (2.6 at h = dx, 6.2 at
+//!   h = 1.5 dx: [`jacobi_lattice_eigenvalue`]), so at ω = 1 such a mode comes back ×3.2 larger
+//!   and of the other sign each iteration. Let the stiffness fall again where an iteration
+//!   overshot (k ≥ 0 kept) and the Lobovský column (H/dx = 60) diverges in its first solve. The
+//!   papers' solve stays bounded only because it corrects compression alone and never lowers a
+//!   stiffness: what an overshoot expands stays expanded, and the velocity it was given stays
+//!   in the flow. Where the error mostly sits in long waves (λ ≪ 1, the usual case) the
+//!   overshoot is a small part and the mean error falls; when it rises instead, the short waves
+//!   lead. The 4-layer slab of the impact study is such a case: a wave 4 dx long is its own
+//!   width between the walls (its layer modes' λ ≈ 2.4 and 3.1), and in the column at rest at
+//!   H/dx = 60 one density solve (t = 0.040 s) raised the mean error from 0.052 to 0.31 % over
+//!   its 100 iterations, the middle layers pushed out and the outer ones in, 1–5 m/s across the
+//!   slab, until the density bound stopped the run. Relaxed from the first growing iteration,
+//!   the run completes (docs/journal/2026-11-29-impact-pressures.md, "DFSPH at H/dx = 60").
+//!   Not relaxed from the start: ω = 0.5 in every iteration also completes it, but halves what
+//!   an iteration does to the long waves, so the solves stop less converged in the modes that
+//!   couple a free block: the floating block (ρ_b/ρ_w = 0.5) then met the added-mass watch at
+//!   t = 0.6 s, and the light block's lagged loads (`blocks_in_solve = false`) no longer showed
+//!   their instability.
 //! - Warm start: each solve starts from half the stiffness of the last step where the particle is
 //!   compressed (the papers' warm start; the ½ and the test on compression as SPlisHSPlasH).
 //! - Stopping: mean compression below `density_tolerance` (0.05 %, at least two iterations) and
@@ -192,7 +226,7 @@ mod solve;
 use crate::core::exact_sum::{ExactSum, combine, exact_sums};
 use crate::core::neighbors::PairValues;
 use crate::core::particles::Particles;
-use crate::kernels::WendlandC2;
+use crate::kernels::{Kernel, WendlandC2};
 use crate::methods::SphMethod;
 use crate::ranks::share::Share;
 use crate::system::FluidSystem;
@@ -258,6 +292,10 @@ pub const WALL_CLEARANCE: Real = 0.125;
 /// The rule and its threshold are SPlisHSPlasH's (`TimeStepDFSPH::computeDensityChange`: fewer
 /// than 20 neighbours in 3D with support 2·dx, where a full lattice gives 33): 20/33 ≈ 0.6.
 pub const DEFICIENT_FRACTION: Real = 0.6;
+/// Default of `[fluid.dfsph] relaxation`: the Jacobi relaxation ω of a solve once an iteration
+/// has raised its mean error above the tolerance (module doc, "Relaxed Jacobi"; IISPH's ω,
+/// Ihmsen et al. 2014).
+pub const RELAXATION: Real = 0.5;
 /// Default of `[fluid.dfsph] continued_surface` (module doc): on, for the surface's level and
 /// the floating block's draft; the jointed slide, which stopped with it, completes since a
 /// diverging solve goes back to its best iterate ([`DIVERGED`]).
@@ -313,6 +351,9 @@ pub struct DfsphConstants {
     /// (infinite: off).
     pub pressure_tolerance: Real,
     pub max_iterations: usize,
+    /// Jacobi relaxation ω of a solve once its mean error grew ([`RELAXATION`]; checkpoint
+    /// format 11).
+    pub relaxation: Real,
     /// XSPH ε.
     pub viscosity: Real,
     pub h: Real,
@@ -427,6 +468,44 @@ pub struct Dfsph {
     loads_best: Vec<BlockLoad>,
 }
 
+/// The largest eigenvalue λ of D⁻¹A, the Jacobi iteration matrix of DFSPH's pressure system
+/// (A: stiffness to density change, D its diagonal, the DFSPH factor's inverse), over pressure
+/// plane waves k_j = sin(q·x_j) on a full cubic lattice of spacing dx (module doc, "Relaxed
+/// Jacobi"). On the lattice Σ_j ∇W_ij = 0, so a wave's velocity is −dt m Σ_j k_j ∇W_ij and its
+/// density change, per unit of the diagonal m² Σ_j |∇W_ij|², is
+/// λ(q) = |Σ_j sin(q·r_j) ∇W(r_j)|² / Σ_j |∇W(r_j)|²; the Jacobi iteration converges on a mode
+/// only if ω λ < 2. Scanned over q ∈ [0, π/dx]³ on a 13³ grid.
+pub fn jacobi_lattice_eigenvalue(kernel: &impl Kernel, dx: Real) -> Real {
+    let support = kernel.support();
+    let n = (support / dx).ceil() as i64;
+    let mut offsets = Vec::new();
+    for i in -n..=n {
+        for j in -n..=n {
+            for k in -n..=n {
+                let r = Vector::new(i as Real, j as Real, k as Real) * dx;
+                let len = r.norm();
+                if (i, j, k) != (0, 0, 0) && len < support {
+                    offsets.push((r, r * kernel.gradient_factor(len)));
+                }
+            }
+        }
+    }
+    let diagonal: Real = offsets.iter().map(|(_, g)| g.norm_squared()).sum();
+    let steps = 12;
+    let mut largest: Real = 0.0;
+    for a in 0..=steps {
+        for b in 0..=steps {
+            for c in 0..=steps {
+                let q = Vector::new(a as Real, b as Real, c as Real)
+                    * (std::f64::consts::PI / (steps as Real * dx));
+                let s: Vector = offsets.iter().map(|(r, g)| g * q.dot(r).sin()).sum();
+                largest = largest.max(s.norm_squared() / diagonal);
+            }
+        }
+    }
+    largest
+}
+
 /// Neighbours within `support` of a particle inside a full cubic lattice of spacing dx (itself
 /// not counted).
 pub fn lattice_neighbours(support: Real, dx: Real) -> usize {
@@ -485,5 +564,24 @@ impl Dfsph {
     /// 1 with mirrored walls (their pairs' second stiffness is solved for), else 0.
     fn mirror(&self) -> Real {
         if self.mirrored { 1.0 } else { 0.0 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The lattice's worst Jacobi mode (module doc, "Relaxed Jacobi"): beyond 2 for every
+    /// smoothing ratio tried, so plain Jacobi (ω = 1) overshoots it; the default relaxation
+    /// brings ω·λ from 4.2 to 2.1 at the default h = 1.3 dx.
+    #[test]
+    fn plain_jacobi_overshoots_the_lattices_short_pressure_waves() {
+        let dx = 0.01;
+        let lambda = |ratio: Real| jacobi_lattice_eigenvalue(&WendlandC2::new(ratio * dx), dx);
+        let (l10, l13, l15) = (lambda(1.0), lambda(1.3), lambda(1.5));
+        assert!((2.5..2.7).contains(&l10), "{l10}");
+        assert!((4.1..4.3).contains(&l13), "{l13}");
+        assert!((6.1..6.4).contains(&l15), "{l15}");
+        assert!(RELAXATION * l13 < 2.2, "{}", RELAXATION * l13);
     }
 }

@@ -21,6 +21,11 @@ pub struct DfsphParams {
     /// less than this, Σ|Δk|/Σ|k| [%]; default off. 5 halves the step-to-step pressure noise
     /// (for pressure studies against fixed walls; see the module doc before coupling with it).
     pub pressure_tolerance: Option<f64>,
+    /// Jacobi relaxation ω, in (0, 1], of a pressure solve once an iteration has left its mean
+    /// error above the tolerance and larger than before (plain Jacobi until then); default 0.5
+    /// (IISPH's relaxed Jacobi). 1: plain Jacobi throughout, the papers', which overshoots the
+    /// short pressure waves of a regular lattice (module doc, "Relaxed Jacobi").
+    pub relaxation: Option<f64>,
     /// Iteration cap of each solve; default 100.
     pub max_iterations: Option<i64>,
     /// XSPH viscosity coefficient ε (0 disables, ≤ 1); default 0.01.
@@ -82,6 +87,16 @@ impl SolverParams for DfsphParams {
                     &format!("e.g. {field} = {example} (per cent)"),
                 );
             }
+        }
+        if let Some(w) = self.relaxation
+            && !(w.is_finite() && w > 0.0 && w <= 1.0)
+        {
+            c.fail(
+                "relaxation",
+                w,
+                "must be a Jacobi relaxation in (0, 1]",
+                "e.g. relaxation = 0.5 (the default); 1 keeps plain Jacobi throughout",
+            );
         }
         if let Some(w) = &self.wall_pressure
             && !WALL_PRESSURE.contains(&w.as_str())

@@ -80,6 +80,10 @@ impl Dfsph {
         // free blocks' motion and loads (the velocities follow from the stiffness).
         let (mut best_it, mut best_err) = (0, err);
         self.keep_best(&k, blocks);
+        // Plain Jacobi (ω = 1, the papers') until an iteration leaves the mean error above the
+        // tolerance and larger than it found it: then the overshooting modes lead (module doc,
+        // "Relaxed Jacobi"), and the rest of the solve is relaxed.
+        let mut omega = 1.0;
         // How far the free blocks' loads are from converged (module doc, "Blocks in the solve").
         let mut block_left = if blocks { Real::INFINITY } else { 0.0 };
         while (it < min_iterations
@@ -89,8 +93,8 @@ impl Dfsph {
             && it < c.max_iterations
         {
             // κ_i = (ρ*_i − ρ0)·α_i/dt² (Algorithm 3) or (Dρ_i/Dt)·α_i/dt (Algorithm 2), here
-            // divided by ρ_i: k_i = error_i·β_i·scale.
-            // Damped next to a free block in the solve (`block_damping`).
+            // divided by ρ_i: k_i = error_i·β_i·scale, relaxed by ω once the error grew (module
+            // doc, "Relaxed Jacobi"). Damped next to a free block in the solve (`block_damping`).
             let damping = blocks.then_some(&self.damping[..]);
             let owned = sys.owned();
             dk.par_iter_mut()
@@ -101,7 +105,7 @@ impl Dfsph {
                     if owned.is_some_and(|o| !o[i]) {
                         return;
                     }
-                    *d = e * b * scale * damping.map_or(1.0, |w| w[i]);
+                    *d = e * b * scale * omega * damping.map_or(1.0, |w| w[i]);
                     *k += *d;
                 });
             // The halo's increments: `apply` reads them of the neighbours, the blocks of
@@ -122,7 +126,11 @@ impl Dfsph {
                 block_left = self.move_blocks(sys, dt, false, |i, _, _, _| dk[i] + kbar[i]);
                 self.kbar = kbar;
             }
+            let last = err;
             err = self.predict(sys, dt, density);
+            if err > tolerance && err > last {
+                omega = c.relaxation;
+            }
             it += 1;
             if err < best_err {
                 (best_it, best_err) = (it, err);
