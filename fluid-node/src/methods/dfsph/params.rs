@@ -181,4 +181,22 @@ mod tests {
             "{text}"
         );
     }
+
+    /// `relaxation` takes a Jacobi relaxation in (0, 1]; 0, a value past 1 (which would
+    /// amplify the overshooting modes it is there to damp) and NaN are refused by name.
+    #[test]
+    fn relaxation_outside_zero_to_one_is_refused_by_name() {
+        for ok in ["0.5", "1.0", "0.25"] {
+            let p = params(&format!("relaxation = {ok}")).unwrap();
+            assert_eq!(p.relaxation, Some(ok.parse().unwrap()));
+        }
+        for bad in ["0.0", "1.5", "-0.5", "nan"] {
+            let errors = params(&format!("relaxation = {bad}")).unwrap_err();
+            let text = errors[0].to_string();
+            assert!(
+                text.contains("fluid.dfsph.relaxation") && text.contains("(0, 1]"),
+                "{bad}: {text}"
+            );
+        }
+    }
 }
