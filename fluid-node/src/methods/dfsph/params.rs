@@ -57,15 +57,26 @@ pub struct DfsphParams {
 
 impl SolverParams for DfsphParams {
     fn check(&self, c: &mut ParamCheck) {
-        if let Some(v) = self.cfl
-            && !(v.is_finite() && v > 0.0 && v <= 1.0)
-        {
-            c.fail(
+        // The two fractions in (0, 1].
+        for (field, value, why, example) in [
+            (
                 "cfl",
-                v,
+                self.cfl,
                 "must be a finite number in (0, 1] (a particle may not cross more than its diameter per step)",
                 "e.g. cfl = 0.4",
-            );
+            ),
+            (
+                "relaxation",
+                self.relaxation,
+                "must be a Jacobi relaxation in (0, 1]",
+                "e.g. relaxation = 0.5 (the default); 1 keeps plain Jacobi throughout",
+            ),
+        ] {
+            if let Some(v) = value
+                && !(v.is_finite() && v > 0.0 && v <= 1.0)
+            {
+                c.fail(field, v, why, example);
+            }
         }
         for (field, value, example, most) in [
             ("density_tolerance", self.density_tolerance, "0.05", 10.0),
@@ -87,16 +98,6 @@ impl SolverParams for DfsphParams {
                     &format!("e.g. {field} = {example} (per cent)"),
                 );
             }
-        }
-        if let Some(w) = self.relaxation
-            && !(w.is_finite() && w > 0.0 && w <= 1.0)
-        {
-            c.fail(
-                "relaxation",
-                w,
-                "must be a Jacobi relaxation in (0, 1]",
-                "e.g. relaxation = 0.5 (the default); 1 keeps plain Jacobi throughout",
-            );
         }
         if let Some(w) = &self.wall_pressure
             && !WALL_PRESSURE.contains(&w.as_str())
