@@ -52,6 +52,18 @@ fn main() {
             None => println!("  {}: no pulse", s.name),
         }
     }
+    // How far sensor 1 swings about its level through the impact (docs/VALIDATION.md, "What
+    // the DFSPH peak is").
+    if let (Some((mean, sd)), Some((_, onset))) = (
+        r.spread(0, LOBOVSKY_H600_S1_IMPACT_TIME),
+        r.impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME),
+    ) {
+        println!(
+            "  s1 over the impact time ({:.0} ms) from the onset at t* {:.3}: mean {mean:.0} Pa, standard deviation {sd:.0} Pa",
+            1e3 * LOBOVSKY_H600_S1_IMPACT_TIME,
+            onset * star
+        );
+    }
     // The paper's impulse is for H = 600 mm (`fluid-validate`'s impulse row).
     if (case.height - 0.6).abs() < 1e-9
         && let Some((impulse, onset)) = r.impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME)

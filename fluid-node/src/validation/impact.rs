@@ -305,6 +305,21 @@ impl Impact {
         Some((integral(&self.times, &p, t0, t0 + duration), t0))
     }
 
+    /// The mean and standard deviation [Pa] of sensor `k`'s rows over `duration` from the
+    /// impact's onset (each row one probe window's average): how far a reading swings about
+    /// its level through the impact (DFSPH's peak, docs/VALIDATION.md "Impact pressure").
+    pub fn spread(&self, k: usize, duration: f64) -> Option<(f64, f64)> {
+        let (p, i) = self.onset(k)?;
+        let j = self
+            .times
+            .partition_point(|&t| t <= self.times[i] + duration);
+        let rows = &p[i..j];
+        let n = rows.len() as f64;
+        let mean = rows.iter().sum::<f64>() / n;
+        let variance = rows.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
+        Some((mean, variance.sqrt()))
+    }
+
     /// The first impact's [`pulse`] at sensor `k`: over the experiment's impact time
     /// ([`LOBOVSKY_H600_S1_IMPACT_TIME`]) from the onset, so a later splash or reflection is not
     /// taken for the peak.
@@ -372,6 +387,28 @@ mod tests {
         assert!((p.impulse - 15.0).abs() < 1e-9, "{p:?}");
         // A dry sensor (NaN) reads nothing.
         assert_eq!(pulse(&ts, &vec![f64::NAN; ts.len()]), None);
+    }
+
+    /// Rows 0, 0, 1000, 3000, 1000, 3000 Pa at 1 s spacing: the onset (≥ 0.1 ρ0 g H = 294 Pa at
+    /// H = 0.3 m) is row 2; over 2 s from it three rows, mean 5000/3, the population's
+    /// standard deviation sqrt(8/9)·1000; over 10 s all four, mean 2000, sd 1000.
+    #[test]
+    fn the_spread_is_taken_from_the_onset_over_the_duration() {
+        let series = vec![0.0, f64::NAN, 1000.0, 3000.0, 1000.0, 3000.0];
+        let r = Impact {
+            case: ImpactCase::new(0.3, 10, None),
+            times: (0..6).map(|k| k as f64).collect(),
+            series: vec![series],
+            pulses: Vec::new(),
+            particles: 0,
+            steps: 0,
+            seconds: 0.0,
+        };
+        let (mean, sd) = r.spread(0, 2.0).unwrap();
+        assert!((mean - 5000.0 / 3.0).abs() < 1e-9, "{mean}");
+        assert!((sd - (8.0f64 / 9.0).sqrt() * 1000.0).abs() < 1e-9, "{sd}");
+        let (mean, sd) = r.spread(0, 10.0).unwrap();
+        assert!((mean - 2000.0).abs() < 1e-9 && (sd - 1000.0).abs() < 1e-9);
     }
 
     #[test]
