@@ -38,8 +38,8 @@ fn the_wall_probe_sees_the_impact_and_its_impulse() {
 /// and stop the run: the summed density of a particle in the corner misses the water's quarter
 /// of its support, so the solve let it reach the face. With fixed walls that cannot be
 /// crossed (`Penalty::keep_out`) both complete, and at H = 600 mm, H/dx = 30 sensor 1's
-/// impulse is within the validation's ±25 % of the paper's median (measured +9.2 %; +16 % at
-/// H/dx = 8, +72 % at H/dx = 15: no coarser run is within it).
+/// impulse is within the validation's ±25 % of the paper's median (measured −3.4 % in the
+/// tank's width, 8 layers; +7.5 % in 4 layers; +72 % at H/dx = 15: the coarser run is not).
 #[test]
 fn dfsph_completes_the_impact_and_its_impulse() {
     let mut case = ImpactCase::new(0.3, 15, Some(IMPACT_WINDOW));

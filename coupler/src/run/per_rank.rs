@@ -20,7 +20,9 @@ use shared::scene::{FieldError, Scene, fluid_ranks_problem};
 pub const SUPPORT_OVER_DX: f64 = 2.6;
 /// Grid cells of the halo on each side of a slab: the particles within two cells of a cut are
 /// copied to the neighbour, and the cut falls inside a column (at an eighth of one) that both
-/// ranks hold whole: half a column more on average.
+/// ranks hold whole: half a column more on average. The second cell is held whole only in a
+/// scene with moving blocks; without, only where a wall is near (a third of the halo fewer in
+/// `fluid-bench`'s tank): there this is an upper estimate.
 pub const HALO_CELLS: f64 = 2.5;
 /// Narrowest slab, in grid cells: a slab narrower than its two halos would hold more copies
 /// than particles of its own, and trade most of its water every step.

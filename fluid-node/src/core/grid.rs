@@ -155,8 +155,9 @@ impl CellGrid {
         self.index(self.coords(p))
     }
 
+    /// The index of the cell at `c` (column, row, layer).
     #[inline]
-    fn index(&self, c: [usize; 3]) -> usize {
+    pub fn index(&self, c: [usize; 3]) -> usize {
         c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
     }
 

@@ -6,7 +6,8 @@
 //! On one rank the particles are counting-sorted by cell, stably: after sort k they are in the
 //! order (cell at sort k, place after sort k − 1). A particle's place after a sort is named by
 //! a key, (cell, index within the cell), which any rank holding the whole cell computes alike.
-//! Every rank holds whole cells (whole grid columns along the cut axis), so a rank that puts
+//! Every rank holds whole cells (grid columns along the cut axis, whole but for the outer
+//! halo column, of which it holds the cells next to a wall: [`Share::holds`]), so a rank that puts
 //! its particles in key order and then counting-sorts them by cell gets the one-rank order
 //! restricted to its particles. Its neighbour lists are then the one-rank lists, entry by entry
 //! (the eight-lane pair loops see every neighbour in the same lane), and every sum over a
@@ -88,6 +89,10 @@ pub struct Share {
     axis: usize,
     /// The cuts: from [`Self::first_cut`] on.
     slabs: Option<Slabs>,
+    /// Per grid cell: whether a fixed wall particle is in it or in a cell next to it (the 26
+    /// about it), the cells of an outer halo column a rank holds ([`Self::holds`]); None with
+    /// moving blocks, whose particles move between sorts: then it holds the column whole.
+    near_wall: Option<Vec<bool>>,
     /// Per local particle (sorted order): whether this rank owns it.
     pub owned: Vec<bool>,
     /// Per local particle: its key (module doc).
@@ -125,10 +130,16 @@ struct Window {
 }
 
 impl Share {
-    /// The share of rank `comm.rank()` of `global_len` particles on `grid`; fails when the
+    /// The share of rank `comm.rank()` of `global_len` particles on `grid`, with the fixed
+    /// wall particles at `walls` (None when blocks move: [`Self::holds`]); fails when the
     /// grid has fewer columns along the cut axis than there are ranks (the coupler refuses
     /// such a run before it starts; ranks started by hand hear it here).
-    pub fn new(comm: Arc<dyn Comm>, grid: &CellGrid, global_len: usize) -> Result<Self, String> {
+    pub fn new(
+        comm: Arc<dyn Comm>,
+        grid: &CellGrid,
+        global_len: usize,
+        walls: Option<&[Vector]>,
+    ) -> Result<Self, String> {
         let dims = grid.dims();
         let axis = if dims[1] > dims[0] { 1 } else { 0 };
         Slabs::balanced(axis, &vec![0; BINS * dims[axis]], comm.size())?;
@@ -136,6 +147,7 @@ impl Share {
             comm: Clocked::new(comm),
             axis,
             slabs: None,
+            near_wall: walls.map(|w| near_walls(grid, w)),
             owned: Vec::new(),
             key: Vec::new(),
             links: Vec::new(),
@@ -195,6 +207,22 @@ impl Share {
         grid.part(x, self.axis, BINS * grid.dims()[self.axis])
     }
 
+    /// Whether rank q holds the cell of `x` under `slabs`: a cell of its inner columns
+    /// ([`Slabs::inner`]), or of the outer halo columns next to a wall. The outer column is
+    /// there for the wall particles of the inner one, whose Adami extrapolation reads the water
+    /// within a cell of them; the rest of it no sum of q's reads (a third of the halo in the
+    /// bench's tank, `fluid-bench --ranks`). Every rank answers alike for every q.
+    #[inline]
+    fn holds(&self, slabs: &Slabs, q: usize, grid: &CellGrid, x: &Vector) -> bool {
+        let c = self.column(grid, x);
+        slabs.inner(q).contains(&c)
+            || (slabs.held(q).contains(&c)
+                && self
+                    .near_wall
+                    .as_ref()
+                    .is_none_or(|m| m[grid.cell_index(x)]))
+    }
+
     /// The rank owning the point `x` (instruments read where they stand).
     pub fn owner_at(&self, grid: &CellGrid, x: &Vector) -> usize {
         let slabs = self.slabs.as_ref().expect("the first cut made the slabs");
@@ -232,21 +260,22 @@ impl Share {
             self.stats.rebalances += 1;
         }
         let after = self.slabs.as_ref().unwrap();
-        let (size, held) = (self.comm.size(), after.held(me));
+        let size = self.comm.size();
         let mut bundles: Vec<Vec<u8>> = vec![Vec::new(); size];
         let mut kept: Vec<u32> = Vec::with_capacity(p.len());
         for i in 0..p.len() {
-            let now = self.column(grid, &p.position[i]);
-            if held.contains(&now) {
+            let now = &p.position[i];
+            if self.holds(after, me, grid, now) {
                 kept.push(i as u32);
             }
             if !self.owned[i] {
                 continue;
             }
             // The rank that owned the particle at the last sort sends it where it is new.
-            let then = sorted_at.get(i).map_or(now, |x| self.column(grid, x));
+            let then = sorted_at.get(i).unwrap_or(now);
             for (q, bundle) in bundles.iter_mut().enumerate() {
-                if q != me && after.held(q).contains(&now) && !before.held(q).contains(&then) {
+                if q != me && self.holds(after, q, grid, now) && !self.holds(&before, q, grid, then)
+                {
                     encode(p, i, self.key[i], bundle);
                 }
             }
@@ -320,13 +349,13 @@ impl Share {
         let slabs = self.slabs.as_ref().unwrap();
         self.links.clear();
         for q in (0..self.comm.size()).filter(|&q| q != me) {
-            let (held, own) = (slabs.held(q), slabs.owned(q));
+            let own = slabs.owned(q);
             let mut link = Link {
                 rank: q,
                 ..Link::default()
             };
             for (k, x) in sorted_at.iter().enumerate() {
-                if self.owned[k] && held.contains(&self.column(grid, x)) {
+                if self.owned[k] && self.holds(slabs, q, grid, x) {
                     link.send.push(k as u32);
                 } else if !self.owned[k] && own.contains(&self.part(grid, x)) {
                     link.receive.push(k as u32);
@@ -625,9 +654,9 @@ impl Share {
         }
         let slabs = Slabs::balanced(self.axis, &counts, self.comm.size())?;
         let me = self.rank();
-        let (held, own) = (slabs.held(me), slabs.owned(me));
+        let own = slabs.owned(me);
         let keep: Vec<usize> = (0..positions.len())
-            .filter(|&i| held.contains(&self.column(grid, &positions[i])))
+            .filter(|&i| self.holds(&slabs, me, grid, &positions[i]))
             .collect();
         self.key = keep.iter().map(|&i| i as u64).collect();
         self.owned = keep
@@ -685,6 +714,36 @@ impl Share {
     }
 }
 
+/// Per cell of `grid`: whether one of the wall particles at `walls` lies in it or in one of
+/// the 26 cells about it (a wall particle off the grid counts in the cell it is clamped to,
+/// whose neighbours still hold all the water within a cell of it).
+fn near_walls(grid: &CellGrid, walls: &[Vector]) -> Vec<bool> {
+    let mut walled = vec![false; grid.cell_count()];
+    for x in walls {
+        walled[grid.cell_index(x)] = true;
+    }
+    let d = grid.dims();
+    let mut near = vec![false; walled.len()];
+    for k in 0..d[2] {
+        for j in 0..d[1] {
+            for i in 0..d[0] {
+                if !walled[grid.index([i, j, k])] {
+                    continue;
+                }
+                let span = |c: usize, n: usize| c.saturating_sub(1)..(c + 2).min(n);
+                for kk in span(k, d[2]) {
+                    for jj in span(j, d[1]) {
+                        for ii in span(i, d[0]) {
+                            near[grid.index([ii, jj, kk])] = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    near
+}
+
 /// Particle i's hand-over state: position, velocity, density, pressure, acceleration, dρ/dt,
 /// and the three one-step-back arrays ([`STATE`] words).
 fn state(p: &Particles, i: usize) -> [Real; STATE] {
@@ -725,4 +784,46 @@ fn set_state(q: &mut Particles, i: usize, w: &[Real]) {
 fn encode(p: &Particles, i: usize, key: u64, out: &mut Vec<u8>) {
     wire::put_f64(out, state(p, i));
     wire::put_u64(out, [key]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cells an outer halo column keeps: a wall particle's cell and the 26 about it; a
+    /// wall particle off the grid counts in the cell it is clamped to.
+    #[test]
+    fn the_cells_near_a_wall_are_its_own_and_the_26_about_it() {
+        // A unit box in cells of 0.25 m, one cell of padding on each side: 6 a side.
+        let grid = CellGrid::new(Vector::zeros(), Vector::repeat(1.0), 0.25).unwrap();
+        assert_eq!(grid.dims(), [6, 6, 6]);
+        let marked = |walls: &[Vector]| -> Vec<[usize; 3]> {
+            let near = near_walls(&grid, walls);
+            let mut cells = Vec::new();
+            for k in 0..6 {
+                for j in 0..6 {
+                    for i in 0..6 {
+                        if near[grid.index([i, j, k])] {
+                            cells.push([i, j, k]);
+                        }
+                    }
+                }
+            }
+            cells
+        };
+        // In cell (2, 3, 1): 27 cells, all within one of it.
+        let at = Vector::new(0.4, 0.6, 0.1);
+        assert_eq!(grid.coords(&at), [2, 3, 1]);
+        let cells = marked(&[at]);
+        assert_eq!(cells.len(), 27);
+        assert!(cells.iter().all(|c| {
+            (c[0] as i64 - 2).abs() <= 1 && (c[1] as i64 - 3).abs() <= 1 && c[2] <= 2
+        }));
+        // Far below the grid: clamped to the bottom layer, whose cells and the layer above
+        // are marked (3 × 3 × 2).
+        let cells = marked(&[Vector::new(0.4, 0.6, -2.0)]);
+        assert_eq!(cells.len(), 18);
+        assert!(cells.iter().all(|c| c[2] <= 1));
+        assert!(marked(&[]).is_empty());
+    }
 }

@@ -1,7 +1,8 @@
 //! The cuts: each rank owns a slab along one axis (the domain's longest horizontal one), cut
 //! where the measured work divides evenly. A cut falls between two of the [`BINS`] parts of a
-//! grid column, so the slabs balance to an eighth of a column; a rank holds whole columns
-//! (its own, the one a cut splits, and [`HALO`] beyond on each side).
+//! grid column, so the slabs balance to an eighth of a column; a rank holds whole cells: the
+//! columns its parts lie in and the next on each side whole, and, in the [`HALO`]th column
+//! beyond, the cells a wall is near (`crate::ranks::share`).
 
 use std::ops::Range;
 
@@ -9,7 +10,8 @@ use std::ops::Range;
 /// skin) holds every neighbour of an owned particle; the second holds the neighbours of the wall
 /// particles in the first, whose extrapolated pressures (Adami et al. 2012) an owned particle
 /// reads. With two, every sum a rank computes for its own particles sees the same neighbours
-/// as on one rank, so no pressure needs a message of its own.
+/// as on one rank, so no pressure needs a message of its own. Of the second column only the
+/// cells next to a wall are needed ([`Slabs::inner`] is held whole).
 pub const HALO: usize = 2;
 
 /// The parts of a grid column a cut may fall between: a power of two, so a point's part
@@ -88,11 +90,22 @@ impl Slabs {
         self.cuts[r]..self.cuts[r + 1]
     }
 
-    /// The columns rank r holds: those its parts lie in and [`HALO`] on each side.
+    /// The columns rank r holds cells of: those its parts lie in and [`HALO`] on each side.
     pub fn held(&self, r: usize) -> Range<usize> {
+        self.reach(r, HALO)
+    }
+
+    /// The columns rank r holds whole: those its parts lie in and one on each side (every
+    /// neighbour of its particles).
+    pub fn inner(&self, r: usize) -> Range<usize> {
+        self.reach(r, 1)
+    }
+
+    /// The columns rank r's parts lie in and `beyond` more on each side.
+    fn reach(&self, r: usize, beyond: usize) -> Range<usize> {
         let own = self.owned(r);
         let columns = *self.cuts.last().unwrap() / BINS;
-        (own.start / BINS).saturating_sub(HALO)..((own.end - 1) / BINS + 1 + HALO).min(columns)
+        (own.start / BINS).saturating_sub(beyond)..((own.end - 1) / BINS + 1 + beyond).min(columns)
     }
 
     /// The rank owning part `b`.
@@ -161,9 +174,10 @@ mod tests {
         assert_eq!(s.owned(0), 0..36);
         assert_eq!(s.owned(1), 36..80);
         assert_eq!((s.owner(35), s.owner(36), s.owner(79)), (0, 1, 1));
-        // Both hold the split column and two more beyond it.
+        // Both hold the split column and two more beyond it, the first of them whole.
         assert_eq!(s.held(0), 0..7);
         assert_eq!(s.held(1), 2..10);
+        assert_eq!((s.inner(0), s.inner(1)), (0..6, 3..10));
         assert!((s.imbalance(&work) - 80.0 / 76.0).abs() < 1e-12);
         // No work: equal slabs.
         let s = Slabs::balanced(1, &[0; 5 * BINS], 5).unwrap();

@@ -140,8 +140,15 @@ impl FluidSystem {
         let terrain = eq22.terrain(init);
         let lead = ranks.as_ref().is_none_or(|c| c.rank() == 0);
         let recorder = setup::recorder(ctx, init, lead)?;
+        // The outer halo column holds the cells next to the fixed walls, or all of it when
+        // blocks move (their particles move between sorts).
+        let walls = match (&bodies, &fixed) {
+            (Some(_), _) => None,
+            (None, Some(w)) => Some(&w.position[..]),
+            (None, None) => Some(&[][..]),
+        };
         let mut share = ranks
-            .map(|c| Share::new(c, &grid, init.fill.positions.len()))
+            .map(|c| Share::new(c, &grid, init.fill.positions.len(), walls))
             .transpose()
             .map_err(SolverError::Failed)?;
         // On several ranks, only this rank's slab and halo of the filled water become particles.

@@ -30,6 +30,9 @@ use super::*;
 pub const TANK_LENGTH: f64 = 1.61;
 /// Water column length [m].
 pub const COLUMN_LENGTH: f64 = 0.6;
+/// The tank's width [m]: the slab is as wide, to the nearest whole particle layer
+/// ([`ImpactCase::new`]).
+pub const TANK_WIDTH: f64 = 0.15;
 /// The sensors' sensing face, 4.2 mm across (docs/REFERENCES.md §1.3, second-hand): each probe
 /// reads the mean over that disk on the wall ([`shared::scene::ProbeFace`]).
 pub const SENSOR_DIAMETER: f64 = 0.0042;
@@ -109,7 +112,8 @@ pub struct ImpactCase {
     pub end_star: f64,
     /// The scene's largest step (`[time] dt_max`) [s]: 1 ms, the probe window's length.
     pub dt_max: f64,
-    /// Particle layers across the slab, between its side walls: [`SLAB_LAYERS`].
+    /// Particle layers across the slab, between its side walls: the tank's width
+    /// ([`TANK_WIDTH`]) at every resolution, at least [`SLAB_LAYERS`].
     pub layers: usize,
     /// Extra lines for the solver's parameter table (`[fluid.<solver>]`), e.g. `delta = 0.0`.
     pub params: String,
@@ -118,15 +122,20 @@ pub struct ImpactCase {
 impl ImpactCase {
     /// H, H/dx and the window, with the defaults: the run to t·sqrt(g/H) = 4.5 (the first
     /// impact, at t·sqrt(g/H) ≈ 1.5 for H = 600 mm and 2.4 for 300 mm in our runs, and its
-    /// decay), no extra parameters.
+    /// decay), the experiment's width, no extra parameters.
+    ///
+    /// The width is held as dx shrinks: a slab of a fixed number of layers narrows with each
+    /// refinement, and the peak moves with the width by −35 to +60 % (docs/VALIDATION.md,
+    /// "The slab's width"), so a resolution study at fixed layers mixes two changes.
     pub fn new(height: f64, per_h: usize, window: Option<f64>) -> Self {
+        let dx = height / per_h as f64;
         Self {
             height,
             per_h,
             window,
             end_star: 4.5,
             dt_max: 1e-3,
-            layers: SLAB_LAYERS,
+            layers: ((TANK_WIDTH / dx).round() as usize).max(SLAB_LAYERS),
             params: String::new(),
         }
     }
@@ -421,10 +430,13 @@ mod tests {
         let face = s.probes[0].face.expect("a sensing face");
         assert_eq!((face.diameter, face.normal), (0.0042, [-1.0, 0.0, 0.0]));
         assert!((s.probes[3].position[2] - 0.08).abs() < 1e-12);
-        // The step cap is the window's length and the slab SLAB_LAYERS spacings wide, unless
-        // the study asks for others (the experiment's 150 mm: 15 layers at H/dx = 30).
+        // The step cap is the window's length and the slab the tank's width (150 mm: 5
+        // layers of 30 mm), at least SLAB_LAYERS (8 of 37.5 mm at H = 600 mm, H/dx = 16,
+        // not 4), unless the study asks for others.
         assert_eq!(s.time.dt_max, 1e-3);
-        assert!((s.domain.max[1] - SLAB_LAYERS as f64 * case.dx()).abs() < 1e-12);
+        assert!((s.domain.max[1] - 5.0 * case.dx()).abs() < 1e-12);
+        assert_eq!(ImpactCase::new(0.6, 16, None).layers, SLAB_LAYERS);
+        assert_eq!(ImpactCase::new(0.3, 60, None).layers, 30);
         let other = ImpactCase {
             dt_max: 2.5e-4,
             layers: 15,

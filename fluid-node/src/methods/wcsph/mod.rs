@@ -676,10 +676,10 @@ impl SphMethod for Wcsph {
 
     /// The weakly compressible impact peak is the first crest of an acoustic ringing at the
     /// wall that does not converge with resolution and depends on c0 (docs/VALIDATION.md
-    /// "Impact pressure"): above the experiment's band from H/dx = 30 (2.5× the H/dx = 15
-    /// peak there); at H/dx = 15 the kernel still smears it into the band.
+    /// "Impact pressure"): above the experiment's band at every resolution of the study in
+    /// the tank's width (only a slab 4 layers wide smears it into the band at H/dx = 15).
     fn known_limitation(check: &str, per_h: usize) -> Option<&'static str> {
-        let peak = check == Check::ImpactPeak { per_h }.name() && per_h >= 30;
+        let peak = check == Check::ImpactPeak { per_h }.name();
         (peak || check == Check::ImpactPeakGrowth.name()).then_some(
             "WCSPH impact peak is an acoustic crest that does not converge with resolution; the impulse is the check",
         )

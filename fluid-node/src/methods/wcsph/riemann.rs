@@ -44,13 +44,14 @@ use shared::math::{Real, Vector};
 pub const ETA: Real = 3.0;
 
 /// The default η of the fluid–wall pairs' limiter (`[fluid.riemann] wall_limiter`): the fluid
-/// pairs' [`ETA`], Zhang et al.'s one limiter for both. With it the Lobovský impact peak is
-/// 86 → 128 → 158 mbar at H/dx = 15, 30, 60 (without the walls' dissipation 138 → 210 → 183):
-/// lower, inside the experiment's band at 15 and 30, still growing. A scan of η_w (3, 5, 7, 10,
-/// 14, 20, ∞) found one value, 10, inside the band at all three (112 → 117 → 127), but its
-/// neighbours 7 and 14 leave it (142 mbar at H/dx = 30, 154 at 60): a tuned pass on a crest
-/// that moves ±20 % with η_w, not a converged peak, so it is not the default
-/// (docs/journal/2026-11-29-impact-pressures.md).
+/// pairs' [`ETA`], Zhang et al.'s one limiter for both. With it the Lobovský impact peak, in
+/// a slab 4 layers wide, is 86 → 128 → 158 mbar at H/dx = 15, 30, 60 (without the walls'
+/// dissipation 138 → 210 → 183): lower, inside the experiment's band at 15 and 30, still
+/// growing; in the tank's 150 mm width 126 → 191 → 202 (docs/VALIDATION.md). A scan of η_w
+/// (3, 5, 7, 10, 14, 20, ∞) in the 4-layer slab found one value, 10, inside the band at all
+/// three (112 → 117 → 127), but its neighbours 7 and 14 leave it (142 mbar at H/dx = 30, 154
+/// at 60): a tuned pass on a crest that moves ±20 % with η_w, not a converged peak, so it is
+/// not the default (docs/journal/2026-11-29-impact-pressures.md).
 pub const WALL_ETA: Real = ETA;
 
 /// A fluid particle's (or a boundary particle's) record for the Riemann loop: s0 = ρ − ρ0,
