@@ -5,10 +5,10 @@
 //!
 //! The tank is 1.61 m long; the water column is 0.6 m long and H high against the left wall,
 //! released at once (the experiment's gate lift is not modelled). The pressure sensors sit on
-//! the right wall at heights z above the bed, on its centre line. The paper's tank is 0.15 m wide so that the flow stays quasi-2D: it
-//! is modelled, as the Martin & Moyce case, as a slab of [`SLAB_LAYERS`] particle layers between
-//! free-slip side walls ([`ImpactCase::layers`]): a 2D flow in the mean, but not in the peak,
-//! which moves by −35 to +60 % between 4 layers and the experiment's width
+//! the right wall at heights z above the bed, on its centre line. The paper's tank is 0.15 m
+//! wide so that the flow stays quasi-2D: it is modelled at that width between free-slip side
+//! walls, [`TANK_WIDTH`]/dx particle layers at every resolution ([`ImpactCase::layers`]); a
+//! slab of a fixed 4 layers, as in the Martin & Moyce case, moves the peak by −35 to +60 %
 //! (docs/VALIDATION.md, "Impact pressure", "The slab's width").
 //!
 //! Measured per sensor, on the probe's `probes.csv` series (rows every [`ROW_INTERVAL`], each
