@@ -503,9 +503,13 @@ fn checkpointing_on_two_ranks(
             child.try_wait().unwrap().is_none(),
             "{tag}: the run ended before a checkpoint"
         );
+        // A finished coupler file only: `coupler-*.ckpt.partial` is one still being written
+        // (renamed into place when whole), and killing the run then leaves no checkpoint.
         std::fs::read_dir(dir.join("checkpoints")).is_ok_and(|d| {
-            d.flatten()
-                .any(|e| e.file_name().to_string_lossy().starts_with("coupler-"))
+            d.flatten().any(|e| {
+                let name = e.file_name().to_string_lossy().into_owned();
+                name.starts_with("coupler-") && name.ends_with(".ckpt")
+            })
         })
     });
     assert!(checkpointed, "{tag}: no checkpoint within 120 s");
