@@ -38,8 +38,8 @@ pub struct DfsphParams {
     /// A particle near the free surface (fewer neighbours than [`SURFACE_FRACTION`] of a full
     /// lattice's) keeps the larger of its summed density and the density the last step
     /// predicted for it (continuity), so gravity cannot pack the surface layers whose sums are
-    /// deficient; default false (the summed density everywhere, as SPlisHSPlasH): with it the
-    /// jointed slide's pressure solves diverge at t = 1.0 s (module doc).
+    /// deficient; default true ([`CONTINUED_SURFACE`]); false: the summed density everywhere,
+    /// as SPlisHSPlasH (module doc).
     pub continued_surface: Option<bool>,
     /// Free blocks move inside the two pressure solves (their inertia in the solve, Gissler et
     /// al. 2019), so the water's answer to a block's motion is not one step late; default
