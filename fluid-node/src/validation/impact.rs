@@ -447,4 +447,68 @@ mod tests {
         assert!((s.domain.max[1] - 15.0 * case.dx()).abs() < 1e-12);
         assert!((s.probes[0].position[1] - 7.5 * case.dx()).abs() < 1e-12);
     }
+
+    /// scenes/validation/lobovsky_impact.toml is `fluid-validate`'s H/dx = 30 case as a scene
+    /// for the coupler: the tank, water, walls, lid and sensors of [`impact_scene`] (every
+    /// number to 10⁻⁹ of itself), its step cap and output interval, and its end to the file's
+    /// four digits. So the file follows the study (it once stayed a 4-layer slab without the
+    /// sensors' faces after the study took the tank's width).
+    #[test]
+    fn the_shipped_scene_is_the_studys_case_at_h_dx_30() {
+        let path = "scenes/validation/lobovsky_impact.toml";
+        let text = include_str!("../../../scenes/validation/lobovsky_impact.toml");
+        let mut file = Scene::parse(text, path).expect("the shipped scene parses");
+        let made = impact_scene("wcsph", &ImpactCase::new(0.3, 30, Some(1e-3)));
+        let end = (file.time.end - made.time.end).abs();
+        assert!(
+            end < 1e-4,
+            "{path}: end {} s, the study's {} s",
+            file.time.end,
+            made.time.end
+        );
+        assert_eq!(
+            file.output.interval, made.output.interval,
+            "{path}: output interval"
+        );
+        // What the file adds for a reader and a coupler run: its description and no frames.
+        (file.time.end, file.description, file.output) =
+            (made.time.end, made.description.clone(), made.output.clone());
+        let value = |s: &Scene| toml::Value::try_from(s).expect("a scene serialises");
+        close(&value(&file), &value(&made), path);
+    }
+
+    /// Panics unless `a` and `b` have the same keys, lengths and values, numbers to 10⁻⁹ of
+    /// their size (the generated scene's 1.61 + 0.1 is not the file's 1.71 to the bit).
+    fn close(a: &toml::Value, b: &toml::Value, at: &str) {
+        use toml::Value::{Array, Float, Integer, Table};
+        let number = |v: &toml::Value| match v {
+            Float(x) => Some(*x),
+            Integer(i) => Some(*i as f64),
+            _ => None,
+        };
+        match (a, b) {
+            (Table(x), Table(y)) => {
+                let keys = |t: &toml::Table| t.keys().cloned().collect::<Vec<_>>();
+                assert_eq!(keys(x), keys(y), "{at}: keys");
+                for (k, v) in x {
+                    close(v, &y[k], &format!("{at}.{k}"));
+                }
+            }
+            (Array(x), Array(y)) => {
+                assert_eq!(x.len(), y.len(), "{at}: length");
+                for (i, (v, w)) in x.iter().zip(y).enumerate() {
+                    close(v, w, &format!("{at}[{i}]"));
+                }
+            }
+            _ => match (number(a), number(b)) {
+                (Some(x), Some(y)) => {
+                    assert!(
+                        (x - y).abs() <= 1e-9 * x.abs().max(y.abs()),
+                        "{at}: {x} against {y}"
+                    )
+                }
+                _ => assert_eq!(a, b, "{at}"),
+            },
+        }
+    }
 }
