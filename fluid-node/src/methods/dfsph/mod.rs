@@ -276,6 +276,15 @@ fn stiffnesses(p: &Particles) -> (&[Real], &[Real]) {
     (&p.density0, &p.density_rate)
 }
 
+/// The widest kernel DFSPH takes, h/dx (`[fluid.dfsph] smoothing_ratio`). The lattice's
+/// shortest pressure wave grows λ per plain Jacobi iteration ([`jacobi_lattice_eigenvalue`]:
+/// 4.2 at the default 1.3, 10.5 at 1.8, 14.3 at 2.0). Up to 1.8 the relaxed solves hold
+/// (the Lobovský column at H/dx = 15 completes with no diverging solve, the impact's mean wall
+/// pressure as at 1.3); at 1.9 some diverge, and at 2.0 both solves diverge from their first
+/// iteration in the column at rest, go back to no pressure, and the water collapses (5 bar at
+/// the far wall at t = 0.09 s): measured 29 Nov 2026 (docs/VALIDATION.md, "DFSPH").
+pub const MAX_SMOOTHING_RATIO: Real = 1.8;
+
 /// Fraction of the last step's stiffness a solve starts from (the papers' warm start;
 /// SPlisHSPlasH's 0.5).
 pub const WARM_START: Real = 0.5;

@@ -1,5 +1,6 @@
 //! `[fluid.dfsph]`: the divergence-free solver's parameters and their checks.
 
+use super::MAX_SMOOTHING_RATIO;
 use serde::Deserialize;
 use shared::registry::{ParamCheck, SolverParams};
 
@@ -30,7 +31,8 @@ pub struct DfsphParams {
     pub max_iterations: Option<i64>,
     /// XSPH viscosity coefficient ε (0 disables, ≤ 1); default 0.01.
     pub viscosity: Option<f64>,
-    /// Smoothing length h over dx (Wendland C2 support 2h); default 1.3.
+    /// Smoothing length h over dx (Wendland C2 support 2h); default 1.3, at most
+    /// [`MAX_SMOOTHING_RATIO`].
     pub smoothing_ratio: Option<f64>,
     /// A particle with fewer neighbours than this fraction of a full lattice's is left out of
     /// the divergence solve (spray; [`DEFICIENT_FRACTION`]); default 0.6, 0 disables.
@@ -140,13 +142,17 @@ impl SolverParams for DfsphParams {
             );
         }
         if let Some(r) = self.smoothing_ratio
-            && !(r.is_finite() && (0.5..=4.0).contains(&r))
+            && !(r.is_finite() && (0.5..=MAX_SMOOTHING_RATIO).contains(&r))
         {
             c.fail(
                 "smoothing_ratio",
                 r,
-                "must be a finite number in [0.5, 4] (the support 2h must reach the nearest neighbours)",
-                "e.g. smoothing_ratio = 1.3",
+                &format!(
+                    "must be a finite number in [0.5, {MAX_SMOOTHING_RATIO}] for dfsph: the support 2h must reach the nearest neighbours, and past h = {MAX_SMOOTHING_RATIO} dx its Jacobi pressure solves diverge from their first iteration in water at rest (at 2.0 each goes back to no pressure and the water collapses onto the walls)"
+                ),
+                &format!(
+                    "e.g. smoothing_ratio = 1.3 (the default), at most {MAX_SMOOTHING_RATIO}; or a wider kernel with solver = \"wcsph\""
+                ),
             );
         }
     }
@@ -181,6 +187,26 @@ mod tests {
                 && text.contains("\"mirrored\" or \"extrapolated\""),
             "{text}"
         );
+    }
+
+    /// `smoothing_ratio` up to [`MAX_SMOOTHING_RATIO`]; a wider kernel, whose solves diverge
+    /// (module doc of [`MAX_SMOOTHING_RATIO`]), is refused by name with the largest that works.
+    #[test]
+    fn a_kernel_wider_than_the_solves_take_is_refused_by_name() {
+        for ok in ["0.5", "1.3", "1.8"] {
+            let p = params(&format!("smoothing_ratio = {ok}")).unwrap();
+            assert_eq!(p.smoothing_ratio, Some(ok.parse().unwrap()));
+        }
+        for bad in ["2.0", "0.4", "nan"] {
+            let errors = params(&format!("smoothing_ratio = {bad}")).unwrap_err();
+            let text = errors[0].to_string();
+            assert!(
+                text.contains("fluid.dfsph.smoothing_ratio")
+                    && text.contains("[0.5, 1.8]")
+                    && text.contains("at most 1.8"),
+                "{bad}: {text}"
+            );
+        }
     }
 
     /// `relaxation` takes a Jacobi relaxation in (0, 1]; 0, a value past 1 (which would
