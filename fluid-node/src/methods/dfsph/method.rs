@@ -434,10 +434,10 @@ impl SphMethod for Dfsph {
         }
     }
 
-    /// Its wall pressure fluctuates through the whole impact (a standard deviation of 32–36
-    /// mbar about a 111 ms mean of 48–71 mbar, most of it the divergence solve's share of
-    /// p = (k_ρ + k_v)ρ²; not the step length, the solves' tolerances or Eq. 22), and the peak
-    /// is the largest fluctuation: in the tank's width inside the experiment's band at
+    /// Its wall pressure fluctuates through the whole impact (in the tank's width a standard
+    /// deviation of 24–33 mbar about a 111 ms mean of 41–73 mbar, most of it the divergence
+    /// solve's share of p = (k_ρ + k_v)ρ²; not the step length, the solves' tolerances or
+    /// Eq. 22), and the peak is the largest fluctuation: inside the experiment's band at
     /// H/dx = 15, above it from 30, and growing (docs/VALIDATION.md, "Impact pressure:
     /// resolution study"), while the mean over the impact settles.
     fn known_limitation(check: &str, per_h: usize) -> Option<&'static str> {

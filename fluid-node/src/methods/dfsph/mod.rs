@@ -281,7 +281,7 @@ fn stiffnesses(p: &Particles) -> (&[Real], &[Real]) {
 /// 4.2 at the default 1.3, 10.5 at 1.8, 14.3 at 2.0). Up to 1.8 the relaxed solves hold
 /// (the Lobovský column at H/dx = 15 completes with no diverging solve, the impact's mean wall
 /// pressure as at 1.3); at 1.9 some diverge, and at 2.0 both solves diverge from their first
-/// iteration in the column at rest, go back to no pressure, and the water collapses (5 bar at
+/// iteration in the column at rest, go back to no pressure, and the water collapses (5.5 bar at
 /// the far wall at t = 0.09 s): measured 29 Nov 2026 (docs/VALIDATION.md, "DFSPH").
 pub const MAX_SMOOTHING_RATIO: Real = 1.8;
 
