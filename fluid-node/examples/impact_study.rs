@@ -2,7 +2,7 @@
 //! (2014) dam-break run, its sensors' pulses, and optionally the probe series as CSV.
 //!
 //! `cargo run --release -p fluid-node --example impact_study -- H PER_H [--window W]
-//! [--solver NAME] [--param 'key = value']... [--end-star T] [--dt-max S] [--layers N] [--csv FILE]`; with H = 0.6 also
+//! [--solver NAME] [--param 'key = value']... [--end-star T] [--dt-max S] [--layers N] [--grid-shift M] [--csv FILE]`; with H = 0.6 also
 //! sensor 1's impulse against the paper's median (the impulse row of `fluid-validate`).
 
 use fluid_node::validation::{
@@ -26,6 +26,7 @@ fn main() {
             "--end-star" => case.end_star = v.parse().expect("t·sqrt(g/H)"),
             "--dt-max" => case.dt_max = v.parse().expect("largest step [s]"),
             "--layers" => case.layers = v.parse().expect("particle layers across the slab"),
+            "--grid-shift" => case.grid_shift = v.parse().expect("grid shift [m]"),
             o => panic!("unknown option {o}"),
         }
         i += 2;

@@ -459,3 +459,36 @@ fn dfsph_moves_a_free_block_to_the_same_bits_on_one_two_and_three_ranks() {
         assert_eq!(got_loads, &loads, "{n} ranks: the block's loads");
     }
 }
+
+/// A solve that does nothing, step after step, stops the run by name (`methods/dfsph/stall.rs`):
+/// the widest kernel the solves take (`smoothing_ratio = 1.8`) with plain Jacobi
+/// (`relaxation = 1.0`), both accepted, leaves the Lobovský column (H = 0.3 m, H/dx = 15) unheld
+/// from its third step (the 8-layer still-water column of the tests above is held). Without
+/// the rule it ran 50 steps compressing (its mean error 0.08 → 6.5 %) and stopped on the
+/// density bound, a message that points at the step.
+#[test]
+fn a_solve_that_does_nothing_step_after_step_stops_the_run_by_name() {
+    let mut case = ImpactCase::new(0.3, 15, Some(1e-3));
+    case.params = "smoothing_ratio = 1.8\nrelaxation = 1.0".into();
+    let scene = impact_scene("dfsph", &case);
+    let dir = TempRunDir::new("stall").unwrap();
+    let mut s = REGISTRY.build("dfsph", &ctx_for(&scene, &dir)).unwrap();
+    let mut steps = 0;
+    let err = loop {
+        let dt = s.dt_proposal().min(scene.time.dt_max);
+        match s.advance(dt) {
+            Ok(_) => steps += 1,
+            Err(e) => break e.to_string(),
+        }
+        assert!(steps < 300, "still running after {steps} steps");
+    };
+    eprintln!("stopped after {steps} steps: {err}");
+    assert!(
+        err.contains("dfsph: the constant-density solve has done nothing for 10 steps in a row")
+            && err.contains("relaxation = 0.5 (the default; this run has 1)")
+            && err.contains("smoothing_ratio = 1.3 (the default; this run has 1.80)"),
+        "{err}"
+    );
+    // Stopped by the rule, before the density bound (1.3 ρ0) could.
+    assert!(steps < 60, "{steps} steps");
+}

@@ -117,6 +117,11 @@ pub struct ImpactCase {
     pub layers: usize,
     /// Extra lines for the solver's parameter table (`[fluid.<solver>]`), e.g. `delta = 0.0`.
     pub params: String,
+    /// How far the neighbour grid's cells are moved [m] (the domain's lower corner moves down
+    /// and back by it; water, walls and probes stay): another order of every sum, so a run of
+    /// the same case that parts from the others after a few steps, as the experiment's
+    /// repeated runs part (docs/VALIDATION.md, "Impact pressure", "Run to run"). 0: none.
+    pub grid_shift: f64,
 }
 
 impl ImpactCase {
@@ -137,6 +142,7 @@ impl ImpactCase {
             dt_max: 1e-3,
             layers: ((TANK_WIDTH / dx).round() as usize).max(SLAB_LAYERS),
             params: String::new(),
+            grid_shift: 0.0,
         }
     }
 
@@ -188,8 +194,13 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
     } else {
         format!("[fluid.{solver}]\n{}\n", case.params)
     };
+    let min = if case.grid_shift == 0.0 {
+        "0.0, 0.0, 0.0".to_string()
+    } else {
+        format!("{0}, {0}, {0}", -case.grid_shift)
+    };
     let text = format!(
-        "name = \"lobovsky_impact\"\n[time]\nend = {end}\ndt_max = {dt_max}\n[domain]\nmin = [0.0, 0.0, 0.0]\nmax = [{TANK_LENGTH}, {w}, {domain_top}]\n\
+        "name = \"lobovsky_impact\"\n[time]\nend = {end}\ndt_max = {dt_max}\n[domain]\nmin = [{min}]\nmax = [{TANK_LENGTH}, {w}, {domain_top}]\n\
          [output]\ninterval = {interval}\n{fluid}\n{params}[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [{COLUMN_LENGTH}, {w}, {h}] }}\n\n{tank}{lid}{probes}",
         domain_top = top + 0.1,
         dt_max = case.dt_max,
@@ -446,6 +457,20 @@ mod tests {
         assert_eq!(s.time.dt_max, 2.5e-4);
         assert!((s.domain.max[1] - 15.0 * case.dx()).abs() < 1e-12);
         assert!((s.probes[0].position[1] - 7.5 * case.dx()).abs() < 1e-12);
+        // A grid shift moves the domain's lower corner only.
+        let shifted = impact_scene(
+            "dfsph",
+            &ImpactCase {
+                grid_shift: 0.013,
+                ..other.clone()
+            },
+        );
+        assert_eq!(shifted.domain.min, [-0.013; 3]);
+        assert_eq!(shifted.domain.max, s.domain.max);
+        assert_eq!(
+            format!("{:?}{:?}", shifted.probes, shifted.blocks),
+            format!("{:?}{:?}", s.probes, s.blocks)
+        );
     }
 
     /// scenes/validation/lobovsky_impact.toml is `fluid-validate`'s H/dx = 30 case as a scene

@@ -2,6 +2,7 @@
 //! Algorithm 1, rotated: densities and factors, divergence solve, non-pressure forces, density
 //! solve, positions), the loads on the blocks and the stable step.
 
+use super::stall::STALLED_STEPS;
 use super::{
     ABSURD_DENSITY_ERROR, BLOCKS_IN_SOLVE, CONTINUED_SURFACE, DEFAULT_CFL, DEFICIENT_FRACTION,
     Dfsph, DfsphConstants, DfsphParams, MIRROR, PRESSURE_STUDY, RELAXATION, SURFACE_FRACTION,
@@ -113,6 +114,7 @@ impl SphMethod for Dfsph {
             k_best: Vec::new(),
             motion_best: Vec::new(),
             loads_best: Vec::new(),
+            stalls: Default::default(),
         };
         Ok((scheme, layout))
     }
@@ -284,6 +286,27 @@ impl SphMethod for Dfsph {
                     "dfsph: {what} solve diverging: its iterate of smallest error kept (iteration {i} of {n}, mean error {:.3} %)",
                     100.0 * error
                 ));
+            }
+        }
+        // A solve that did nothing, step after step, is not holding the water (`stall.rs`).
+        for ((stall, what), (kept, error, tolerance)) in self
+            .stalls
+            .iter_mut()
+            .zip(["divergence-free", "constant-density"])
+            .zip([
+                (div_kept, div_err, c.divergence_tolerance),
+                (kept, err, c.density_tolerance),
+            ])
+        {
+            let n = stall.note(kept, error, tolerance);
+            if n >= STALLED_STEPS {
+                return Err(SolverError::Unstable(format!(
+                    "dfsph: the {what} solve has done nothing for {n} steps in a row (each went back to its starting iterate, mean error now {:.3} %, tolerance {:.3} %): its Jacobi iteration diverges from the first iteration on this particle arrangement, so the water is no longer held and compresses step after step; use [fluid.dfsph] relaxation = {RELAXATION} (the default; this run has {}) or a narrower kernel, smoothing_ratio = 1.3 (the default; this run has {:.2})",
+                    100.0 * error,
+                    100.0 * tolerance,
+                    c.relaxation,
+                    c.h / self.dx
+                )));
             }
         }
         Ok(StepReport {

@@ -118,6 +118,9 @@
 //!   iterations); there the solves had met their tolerance already and iterated on for the
 //!   blocks' loads ([`BLOCK_TOLERANCE`]), and the iterates kept had errors of 0.004 % and
 //!   0.002 % (the run completes: three solves in two of its 1 000 steps went back).
+//!   A solve that goes back to its *starting* iterate with its error above the tolerance
+//!   applied nothing of its own; one that does so `STALLED_STEPS` (10) steps in a row stops
+//!   the run, naming the solve and the fix (`stall.rs`).
 //! - Spray: a particle with fewer neighbours (fluid and boundary) than 60 % of a full lattice's
 //!   is left out of the divergence solve ([`DEFICIENT_FRACTION`], SPlisHSPlasH's rule). Its
 //!   factor β is large, and the solve would throw two converging droplets apart. A mean compression above 10 % after the solve stops the run as unstable
@@ -222,6 +225,7 @@ mod method;
 mod params;
 mod passes;
 mod solve;
+mod stall;
 
 use crate::core::exact_sum::{ExactSum, combine, exact_sums};
 use crate::core::neighbors::PairValues;
@@ -475,6 +479,10 @@ pub struct Dfsph {
     motion_best: Vec<(Vector, Vector)>,
     #[serde(skip)]
     loads_best: Vec<BlockLoad>,
+    /// The divergence and density solves' runs of stalled steps ([`stall`]). Not checkpointed:
+    /// a resumed run counts afresh (a stall stops a run within [`stall::STALLED_STEPS`] steps).
+    #[serde(skip)]
+    stalls: [stall::Stall; 2],
 }
 
 /// The largest eigenvalue λ of D⁻¹A, the Jacobi iteration matrix of DFSPH's pressure system
