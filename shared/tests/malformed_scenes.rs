@@ -691,6 +691,24 @@ fn cases() -> Vec<Case> {
             "normal = [0.0, 0.0, 0.0]",
         ),
         case(
+            "probe inside a fixed block",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [5.03, 0.4, 0.05]",
+            ),
+            "probe[0].position",
+            "5.03",
+        ),
+        case(
+            "probe face turned into its wall",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [5.0, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [0.0, 0.0, 1.0] }",
+            ),
+            "probe[0].face.normal",
+            "normal = [0.0, 0.0, 1.0]",
+        ),
+        case(
             "probe face with a misspelt field",
             edit(
                 "position = [4.95, 0.4, 0.05]",
@@ -845,4 +863,37 @@ fn the_frame_cap_names_its_override_and_the_overlap_names_both_blocks() {
         "[[block]]\nname = \"paddle\"\nkind = \"kinematic\"\nshape = { type = \"box\", min = [4.8, 0.3, 0.6], max = [5.0, 0.5, 0.8] }\nmotion = { type = \"sine\", amplitude = [0.1, 0.0, 0.0], period = 2.0 }",
     );
     Scene::parse(&touching, "touching.toml").unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// A probe's face on a wall is fine with the wall's normal; turned into the wall, the error
+/// says how many of its points are inside which block, and the fix.
+#[test]
+fn a_face_turned_into_its_wall_names_the_block_and_the_normal_to_give() {
+    let on_wall = |normal: &str| {
+        edit(
+            "position = [4.95, 0.4, 0.05]",
+            &format!(
+                "position = [5.0, 0.4, 0.05]\nface = {{ diameter = 0.0042, normal = {normal} }}"
+            ),
+        )
+    };
+    Scene::parse(&on_wall("[-1.0, 0.0, 0.0]"), "facing.toml").unwrap_or_else(|e| panic!("{e}"));
+    // A face's normal may point either way along the wall's.
+    Scene::parse(&on_wall("[2.0, 0.0, 0.0]"), "facing.toml").unwrap_or_else(|e| panic!("{e}"));
+    let Err(SceneError::Invalid { errors, .. }) =
+        Scene::parse(&on_wall("[0.0, 1.0, 0.0]"), "turned.toml")
+    else {
+        panic!("a face half inside the far wall accepted");
+    };
+    let e = errors
+        .iter()
+        .find(|e| e.path == "probe[0].face.normal")
+        .expect("probe[0].face.normal named")
+        .to_string();
+    // With the normal along y the disk lies in x–z: the points at x > 5.0 are in the wall.
+    assert!(
+        e.contains("puts 3 of the face's 7 points inside fixed block 'far_wall'")
+            && e.contains("normal = [-1.0, 0.0, 0.0]"),
+        "{e}"
+    );
 }

@@ -1,7 +1,10 @@
 //! The instruments: `[[gauge]]`, `[[runup]]` and `[[probe]]` (names, boxes, windows, and that
-//! each lies inside the domain).
+//! each lies inside the domain, and no probe reads inside a fixed block).
 
 use super::checker::Checker;
+use crate::geometry::Polyhedron;
+use crate::math::Point;
+use crate::scene::BlockKind;
 use crate::scene::error::Seg;
 use crate::scene::schema::Scene;
 
@@ -10,14 +13,73 @@ use crate::scene::schema::Scene;
 /// rounding of the time (t·2⁻⁵²) holds no reading, so every row would be NaN.
 const MIN_PROBE_WINDOW: f64 = 1e-6;
 
+/// How deep inside a fixed block a probe's point may lie [m]: a sensor sits on a wall's face,
+/// which the rounding of the block's frame moves by ~10⁻¹⁶ m.
+const PROBE_IN_WALL: f64 = 1e-9;
+
 /// Every instrument, in this order: the names (and a run-up's box, a probe's window) of the
-/// gauges, run-ups and probes; then the gauges.csv columns; then where gauges and probes lie.
-pub(super) fn check(c: &mut Checker, s: &Scene) {
+/// gauges, run-ups and probes; then the gauges.csv columns; then where gauges and probes lie
+/// (`polys`: each block's shape, None where it is not one).
+pub(super) fn check(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
     gauges(c, s);
     runups(c, s);
     probes(c, s);
     gauge_columns(c, s);
     placement(c, s);
+    probes_in_walls(c, s, polys);
+}
+
+/// No point a probe reads (its position, or its face's seven) inside a fixed block: no water
+/// ever reaches there, so the point reads dry for ever, and on a face a dry point counts as
+/// 0 Pa in the mean (a face turned into its wall reads about half the pressure, with no other
+/// sign of it).
+fn probes_in_walls(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
+    let walls: Vec<(&str, &Polyhedron)> = s
+        .blocks
+        .iter()
+        .zip(polys)
+        .filter(|(b, _)| b.kind == BlockKind::Fixed)
+        .filter_map(|(b, p)| p.as_ref().map(|p| (b.name.as_str(), p)))
+        .collect();
+    // Depth of a world point inside a block (negative: outside).
+    let depth = |p: &Polyhedron, x: [f64; 3]| -> f64 {
+        -p.plane_distance(&(Point::from(x) - p.centroid.coords)).0
+    };
+    for (i, probe) in s.probes.iter().enumerate() {
+        let points: Vec<[f64; 3]> = match probe.face {
+            Some(f) if f.diameter > 0.0 && f.normal.iter().any(|&n| n != 0.0) => {
+                f.points(probe.position).iter().map(|(x, _)| *x).collect()
+            }
+            _ => vec![probe.position],
+        };
+        let Some((name, inside, deepest)) = walls.iter().find_map(|(name, p)| {
+            let d: Vec<f64> = points.iter().map(|&x| depth(p, x)).collect();
+            let inside = d.iter().filter(|&&d| d > PROBE_IN_WALL).count();
+            (inside > 0).then(|| (*name, inside, d.iter().cloned().fold(0.0, f64::max)))
+        }) else {
+            continue;
+        };
+        c.key("probe", |c| {
+            c.at(Seg::Index(i), |c| match probe.face {
+                Some(f) if points.len() > 1 => c.key("face", |c| c.fail(
+                    "normal",
+                    f.normal,
+                    &format!(
+                        "puts {inside} of the face's 7 points inside fixed block '{name}' (up to {deepest:.2e} m deep), where no water reaches: they read 0 Pa for ever and the face's mean with them"
+                    ),
+                    "give the face the wall's normal at the sensor (e.g. normal = [-1.0, 0.0, 0.0] on a wall facing −x), with the probe's position on the wall's face",
+                )),
+                _ => c.fail(
+                    "position",
+                    probe.position,
+                    &format!(
+                        "lies inside fixed block '{name}' ({deepest:.2e} m deep), where no water reaches: the probe would read dry for ever"
+                    ),
+                    "put the probe on the block's face or in the water",
+                ),
+            })
+        });
+    }
 }
 
 /// `[[gauge]]` names: plain and unique.

@@ -40,6 +40,6 @@ pub(super) fn validate(s: &Scene) -> Vec<FieldError> {
     let block_names: Vec<&str> = s.blocks.iter().map(|b| b.name.as_str()).collect();
     c.errors
         .extend(terrain::check(&s.terrain, &s.domain, &block_names));
-    instruments::check(&mut c, s);
+    instruments::check(&mut c, s, &polys);
     c.errors
 }
