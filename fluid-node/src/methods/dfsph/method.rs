@@ -2,6 +2,7 @@
 //! Algorithm 1, rotated: densities and factors, divergence solve, non-pressure forces, density
 //! solve, positions), the loads on the blocks and the stable step.
 
+use super::SMOOTHING_RATIO;
 use super::stall::STALLED_STEPS;
 use super::{
     ABSURD_DENSITY_ERROR, BLOCKS_IN_SOLVE, CONTINUED_SURFACE, DEFAULT_CFL, DEFICIENT_FRACTION,
@@ -35,7 +36,7 @@ impl SphMethod for Dfsph {
     fn new(spec: DfsphParams, init: &Initial) -> Result<(Self, Layout), SolverError> {
         let dx = init.fluid.dx;
         let rho0 = init.fluid.density;
-        let h = spec.smoothing_ratio.unwrap_or(1.3) * dx;
+        let h = spec.smoothing_ratio.unwrap_or(SMOOTHING_RATIO) * dx;
         let kernel = WendlandC2::new(h);
         let mass = rho0 * dx.powi(3);
         let rest_density = lattice_density(&kernel, dx, mass);
@@ -301,7 +302,7 @@ impl SphMethod for Dfsph {
             let n = stall.note(kept, error, tolerance);
             if n >= STALLED_STEPS {
                 return Err(SolverError::Unstable(format!(
-                    "dfsph: the {what} solve has done nothing for {n} steps in a row (each went back to its starting iterate, mean error now {:.3} %, tolerance {:.3} %): its Jacobi iteration diverges from the first iteration on this particle arrangement, so the water is no longer held and compresses step after step; use [fluid.dfsph] relaxation = {RELAXATION} (the default; this run has {}) or a narrower kernel, smoothing_ratio = 1.3 (the default; this run has {:.2})",
+                    "dfsph: the {what} solve has done nothing for {n} steps in a row (each went back to its starting iterate, mean error now {:.3} %, tolerance {:.3} %): its Jacobi iteration diverges from the first iteration on this particle arrangement, so the water is no longer held and compresses step after step; use [fluid.dfsph] relaxation = {RELAXATION} (the default; this run has {}) or a narrower kernel, smoothing_ratio = {SMOOTHING_RATIO} (the default; this run has {:.2})",
                     100.0 * error,
                     100.0 * tolerance,
                     c.relaxation,

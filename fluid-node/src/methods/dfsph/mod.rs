@@ -285,9 +285,14 @@ fn stiffnesses(p: &Particles) -> (&[Real], &[Real]) {
 /// 4.2 at the default 1.3, 10.5 at 1.8, 14.3 at 2.0). Up to 1.8 the relaxed solves hold
 /// (the Lobovský column at H/dx = 15 completes with no diverging solve, the impact's mean wall
 /// pressure as at 1.3); at 1.9 some diverge, and at 2.0 both solves diverge from their first
-/// iteration in the column at rest, go back to no pressure, and the water collapses (5.5 bar at
-/// the far wall at t = 0.09 s): measured 29 Nov 2026 (docs/VALIDATION.md, "DFSPH").
+/// iteration in the column at rest and go back to their starting iterate: the water compresses
+/// for 20 steps, then one solve catches up at once and throws it apart (5.5 bar at the far
+/// wall at t = 0.09 s): measured 29 Nov 2026 (docs/VALIDATION.md, "DFSPH", "The widest
+/// kernel"). A solve that does nothing step after step now stops the run (`stall.rs`).
 pub const MAX_SMOOTHING_RATIO: Real = 1.8;
+
+/// The default h/dx (`smoothing_ratio`).
+pub const SMOOTHING_RATIO: Real = 1.3;
 
 /// Fraction of the last step's stiffness a solve starts from (the papers' warm start;
 /// SPlisHSPlasH's 0.5).

@@ -1,6 +1,6 @@
 //! `[fluid.dfsph]`: the divergence-free solver's parameters and their checks.
 
-use super::MAX_SMOOTHING_RATIO;
+use super::{MAX_SMOOTHING_RATIO, SMOOTHING_RATIO};
 use serde::Deserialize;
 use shared::registry::{ParamCheck, SolverParams};
 
@@ -31,8 +31,8 @@ pub struct DfsphParams {
     pub max_iterations: Option<i64>,
     /// XSPH viscosity coefficient ε (0 disables, ≤ 1); default 0.01.
     pub viscosity: Option<f64>,
-    /// Smoothing length h over dx (Wendland C2 support 2h); default 1.3, at most
-    /// [`MAX_SMOOTHING_RATIO`].
+    /// Smoothing length h over dx (Wendland C2 support 2h); default [`SMOOTHING_RATIO`], at
+    /// most [`MAX_SMOOTHING_RATIO`].
     pub smoothing_ratio: Option<f64>,
     /// A particle with fewer neighbours than this fraction of a full lattice's is left out of
     /// the divergence solve (spray; [`DEFICIENT_FRACTION`]); default 0.6, 0 disables.
@@ -148,10 +148,10 @@ impl SolverParams for DfsphParams {
                 "smoothing_ratio",
                 r,
                 &format!(
-                    "must be a finite number in [0.5, {MAX_SMOOTHING_RATIO}] for dfsph: the support 2h must reach the nearest neighbours, and past h = {MAX_SMOOTHING_RATIO} dx its Jacobi pressure solves diverge from their first iteration in water at rest (at 2.0 each goes back to no pressure and the water collapses onto the walls)"
+                    "must be a finite number in [0.5, {MAX_SMOOTHING_RATIO}] for dfsph: the support 2h must reach the nearest neighbours, and past h = {MAX_SMOOTHING_RATIO} dx its Jacobi pressure solves diverge from their first iteration in water at rest (at 2.0 they do nothing for 20 steps while the water compresses, then one catches up and throws it apart)"
                 ),
                 &format!(
-                    "e.g. smoothing_ratio = 1.3 (the default), at most {MAX_SMOOTHING_RATIO}; or a wider kernel with solver = \"wcsph\""
+                    "e.g. smoothing_ratio = {SMOOTHING_RATIO} (the default), at most {MAX_SMOOTHING_RATIO}; or a wider kernel with solver = \"wcsph\""
                 ),
             );
         }
