@@ -6,7 +6,8 @@
 //! sensor 1's impulse against the paper's median (the impulse row of `fluid-validate`).
 
 use fluid_node::validation::{
-    ImpactCase, LOBOVSKY_H300, LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, impact,
+    ImpactCase, LOBOVSKY_H300, LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE,
+    RINGING_SPAN, impact, integral,
 };
 
 fn main() {
@@ -63,6 +64,30 @@ fn main() {
             "  s1 over the impact time ({:.0} ms) from the onset at t* {:.3}: mean {mean:.0} Pa, standard deviation {sd:.0} Pa",
             1e3 * LOBOVSKY_H600_S1_IMPACT_TIME,
             onset * star
+        );
+    }
+    // The period the wall rings at after the peak (docs/VALIDATION.md, "What the Riemann
+    // crest is").
+    // And the highest mean over one such period (a box that removes the ringing and its
+    // harmonics), within the impact time from the onset: not a reading of ours, a diagnosis.
+    if let (Some(period), Some((_, onset))) = (
+        r.ringing_period(0),
+        r.impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME),
+    ) {
+        let p: Vec<f64> = r.series[0]
+            .iter()
+            .map(|&v| if v.is_finite() { v } else { 0.0 })
+            .collect();
+        let boxed = r
+            .times
+            .iter()
+            .filter(|&&t| t >= onset + period && t <= onset + LOBOVSKY_H600_S1_IMPACT_TIME)
+            .map(|&t| integral(&r.times, &p, t - period, t) / period)
+            .fold(f64::NEG_INFINITY, f64::max);
+        println!(
+            "  s1 rings every {:.1} ms after its peak (the autocorrelation over {:.0} ms); its highest mean over one period: {boxed:.0} Pa",
+            1e3 * period,
+            1e3 * (RINGING_SPAN.0 + RINGING_SPAN.1)
         );
     }
     // The paper's impulse is for H = 600 mm (`fluid-validate`'s impulse row).

@@ -22,7 +22,9 @@
 //! - the pressure impulse I = ∫ p dt over the experiment's median impact time (rise + decay)
 //!   from the onset ([`Impact::impulse`]). The paper integrates over each run's own impact
 //!   time; our half-peak crossings sit on acoustic oscillations (docs/VALIDATION.md "Impact
-//!   pressure"), so the experiment's span is used instead of ours.
+//!   pressure"), so the experiment's span is used instead of ours;
+//! - the period the sensor rings at after the peak ([`Impact::ringing_period`]): a diagnosis
+//!   of the weakly compressible solvers' crest, not a reading to compare.
 
 use super::*;
 
@@ -288,6 +290,47 @@ pub fn integral(ts: &[f64], p: &[f64], a: f64, b: f64) -> f64 {
         .sum()
 }
 
+/// How long after a peak, and from how long before it, [`ringing_period`] reads the series [s].
+pub const RINGING_SPAN: (f64, f64) = (0.005, 0.045);
+
+/// The period [s] of the oscillation that follows the peak at `t_peak` in the series (t, p):
+/// the lag of the autocorrelation's first positive maximum past its first zero, over
+/// [`RINGING_SPAN`] around the peak resampled every 0.1 ms (the mean removed). A weakly
+/// compressible run's wall pressure rings after the impact at a period set by its sound speed
+/// and the thickness of the layer that stops (docs/VALIDATION.md, "What the Riemann crest
+/// is"); None when the series does not cover the span or nothing repeats within it.
+pub fn ringing_period(ts: &[f64], p: &[f64], t_peak: f64) -> Option<f64> {
+    const STEP: f64 = 1e-4;
+    let (t0, t1) = (t_peak - RINGING_SPAN.0, t_peak + RINGING_SPAN.1);
+    if ts.len() < 2 || t0 < ts[0] || t1 > ts[ts.len() - 1] {
+        return None;
+    }
+    let n = ((t1 - t0) / STEP).round() as usize;
+    let at = |t: f64| {
+        let i = ts.partition_point(|&x| x < t).clamp(1, ts.len() - 1);
+        let s = (t - ts[i - 1]) / (ts[i] - ts[i - 1]);
+        p[i - 1] + s * (p[i] - p[i - 1])
+    };
+    let mut x: Vec<f64> = (0..n).map(|k| at(t0 + k as f64 * STEP)).collect();
+    let mean = x.iter().sum::<f64>() / n as f64;
+    x.iter_mut().for_each(|v| *v -= mean);
+    // Lags up to half the span, so each is averaged over at least half of it.
+    let r: Vec<f64> = (0..n / 2)
+        .map(|l| {
+            x[..n - l]
+                .iter()
+                .zip(&x[l..])
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+                / (n - l) as f64
+        })
+        .collect();
+    let zero = r.iter().position(|&v| v < 0.0)?;
+    (zero + 1..r.len() - 1)
+        .find(|&l| r[l] > 0.0 && r[l] >= r[l - 1] && r[l] > r[l + 1])
+        .map(|l| l as f64 * STEP)
+}
+
 /// An impact run: each sensor's probe series and its pulse.
 #[derive(Debug, Clone)]
 pub struct Impact {
@@ -340,6 +383,17 @@ impl Impact {
         Some((mean, variance.sqrt()))
     }
 
+    /// The period [s] at which sensor `k` rings after its first impact's peak
+    /// ([`ringing_period`]); None without a pulse or a repeat.
+    pub fn ringing_period(&self, k: usize) -> Option<f64> {
+        let peak = self.pulses[k]?;
+        let p: Vec<f64> = self.series[k]
+            .iter()
+            .map(|&v| if v.is_finite() { v } else { 0.0 })
+            .collect();
+        ringing_period(&self.times, &p, peak.t_peak)
+    }
+
     /// The first impact's [`pulse`] at sensor `k`: over the experiment's impact time
     /// ([`LOBOVSKY_H600_S1_IMPACT_TIME`]) from the onset, so a later splash or reflection is not
     /// taken for the peak.
@@ -382,6 +436,44 @@ pub fn impact(solver: &str, case: &ImpactCase) -> Result<Impact, SolverError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A step load with a decaying ringing on top, sampled unevenly: the period comes back
+    /// within 5 % (the step and the decay pull the autocorrelation's maximum in by 0.2 ms
+    /// here); a series that only decays does not ring.
+    #[test]
+    fn a_ringing_step_gives_back_its_period() {
+        let (t_peak, period) = (0.4, 0.0065);
+        let ts: Vec<f64> = (0..3000)
+            .map(|i| 0.3 + 2.7e-4 * i as f64 + 1e-5 * ((i * 7) % 5) as f64)
+            .collect();
+        let ring = |t: f64| {
+            let s = t - t_peak;
+            if s < 0.0 {
+                0.0
+            } else {
+                1e4 * (1.0 + (-s / 0.02).exp() * (std::f64::consts::TAU * s / period).cos())
+            }
+        };
+        let ps: Vec<f64> = ts.iter().map(|&t| ring(t)).collect();
+        let got = ringing_period(&ts, &ps, t_peak).expect("it rings");
+        assert!(
+            (got - period).abs() <= 0.05 * period,
+            "period {got} s against {period} s"
+        );
+        let decay: Vec<f64> = ts
+            .iter()
+            .map(|&t| {
+                if t < t_peak {
+                    0.0
+                } else {
+                    1e4 * (-(t - t_peak) / 0.01).exp()
+                }
+            })
+            .collect();
+        assert_eq!(ringing_period(&ts, &decay, t_peak), None);
+        // Too close to the end of the series to read the span.
+        assert_eq!(ringing_period(&ts, &ps, ts[ts.len() - 10]), None);
+    }
 
     #[test]
     fn a_triangle_pulse_has_its_rise_decay_and_area() {
