@@ -2,6 +2,11 @@
 //! - CFL: C·h/(c + v_max) (sound crossing a smoothing length; Monaghan 1992),
 //! - force: C·sqrt(h/|a|_max) (no particle moves more than ~h under its acceleration),
 //! - viscous: 0.125·h²/ν (explicit diffusion; Morris et al. 1997),
+//! - density diffusion: 0.125·h²/D with D = δ·h·c0, the δ-SPH term's diffusivity (Molteni &
+//!   Colagrossi 2009), the same explicit bound as the viscous one: 0.125·h/(δ·c0), which binds
+//!   past δ = 0.625 at the default Courant number 0.2 (a dam break at δ = 0.8 stopped on the
+//!   density bound without it and runs with it; docs/VALIDATION.md, "Defaults derived from the
+//!   scene"),
 //! - penalty: ½·2/sqrt(K_S/m), the explicit limit of the Eq. 22 spring halved for its damper.
 
 use shared::math::Real;
@@ -15,6 +20,8 @@ pub struct StepLimits {
     pub sound_speed: Real,
     /// Kinematic viscosity acting in the scheme [m²/s] (0 for none).
     pub viscosity: Real,
+    /// Diffusivity of the density diffusion [m²/s], δ·h·c0 for δ-SPH (0 for none).
+    pub diffusivity: Real,
     /// Eq. 22 spring K_S [N/m] and particle mass [kg].
     pub penalty_stiffness: Real,
     pub mass: Real,
@@ -28,6 +35,7 @@ pub enum Limit {
     Cfl,
     Force,
     Viscous,
+    Diffusion,
     Penalty,
 }
 
@@ -46,6 +54,9 @@ impl StepLimits {
         if self.viscosity > 0.0 {
             take(0.125 * self.h * self.h / self.viscosity, Limit::Viscous);
         }
+        if self.diffusivity > 0.0 {
+            take(0.125 * self.h * self.h / self.diffusivity, Limit::Diffusion);
+        }
         if self.penalty_stiffness > 0.0 {
             take((self.mass / self.penalty_stiffness).sqrt(), Limit::Penalty);
         }
@@ -63,6 +74,7 @@ mod tests {
             h: 0.01,
             sound_speed: 20.0,
             viscosity: 1e-6,
+            diffusivity: 0.1 * 0.01 * 20.0,
             penalty_stiffness: 1.0,
             mass: 1e-3,
             cfl: 0.2,
@@ -80,6 +92,14 @@ mod tests {
             .1,
             Limit::Viscous
         );
+        // δ = 0.8 at the default Courant number: 0.125 h/(δ c0) < 0.2 h/c0.
+        let (dt, l) = StepLimits {
+            diffusivity: 0.8 * 0.01 * 20.0,
+            ..base
+        }
+        .propose(0.0, 9.81);
+        assert_eq!(l, Limit::Diffusion);
+        assert!((dt - 0.125 * 0.01 / (0.8 * 20.0)).abs() < 1e-15);
         let stiff = StepLimits {
             penalty_stiffness: 1e6,
             ..base

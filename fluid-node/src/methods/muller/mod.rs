@@ -281,6 +281,8 @@ impl SphMethod for Muller {
             h,
             sound_speed: sound,
             viscosity: viscosity / rho0,
+            // No density diffusion in this scheme.
+            diffusivity: 0.0,
             // Set in `start`, once the system has chosen the Eq. 22 spring.
             penalty_stiffness: 0.0,
             mass,

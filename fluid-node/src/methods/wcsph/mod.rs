@@ -229,6 +229,11 @@ impl Wcsph {
             h,
             sound_speed: c0,
             viscosity: init.fluid.kinematic_viscosity,
+            // δ-SPH's density diffusion (the artificial flux only: the Riemann flux has none).
+            diffusivity: match flux {
+                Flux::Artificial => constants.delta * h * c0,
+                Flux::Riemann => 0.0,
+            },
             // Set in `start`, once the system has chosen the Eq. 22 spring.
             penalty_stiffness: 0.0,
             mass: rho0 * dx.powi(3),
