@@ -66,10 +66,9 @@ fn main() {
             onset * star
         );
     }
-    // The period the wall rings at after the peak (docs/VALIDATION.md, "What the Riemann
-    // crest is").
-    // And the highest mean over one such period (a box that removes the ringing and its
-    // harmonics), within the impact time from the onset: not a reading of ours, a diagnosis.
+    // The period the wall rings at after the peak, and the highest mean over one such period
+    // (a box that removes the ringing and its harmonics) within the impact time from the
+    // onset: a diagnosis, not a reading (docs/VALIDATION.md, "What the Riemann crest is").
     if let (Some(period), Some((_, onset))) = (
         r.ringing_period(0),
         r.impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME),
