@@ -7,7 +7,7 @@
 
 use fluid_node::validation::{
     ImpactCase, LOBOVSKY_H300, LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE,
-    RINGING_SPAN, impact, integral,
+    RINGING_SPAN, dry_as_zero, impact, integral,
 };
 
 fn main() {
@@ -73,10 +73,7 @@ fn main() {
         r.ringing_period(0),
         r.impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME),
     ) {
-        let p: Vec<f64> = r.series[0]
-            .iter()
-            .map(|&v| if v.is_finite() { v } else { 0.0 })
-            .collect();
+        let p = dry_as_zero(&r.series[0]);
         let boxed = r
             .times
             .iter()

@@ -231,10 +231,7 @@ pub struct Pulse {
 /// its highest reading, the half-peak crossings around it, and the impulse over the impact time.
 /// None without a positive reading.
 pub fn pulse(ts: &[f64], ps: &[f64]) -> Option<Pulse> {
-    let p: Vec<f64> = ps
-        .iter()
-        .map(|&v| if v.is_finite() { v } else { 0.0 })
-        .collect();
+    let p = dry_as_zero(ps);
     let (ip, &peak) = p.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
     if peak <= 0.0 {
         return None;
@@ -269,6 +266,13 @@ pub fn pulse(ts: &[f64], ps: &[f64]) -> Option<Pulse> {
         decay,
         impulse: integral(ts, &p, t_peak - rise, t_peak + decay),
     })
+}
+
+/// A probe's readings with a dry one (NaN: no water within the kernel's reach) as 0 Pa.
+pub fn dry_as_zero(ps: &[f64]) -> Vec<f64> {
+    ps.iter()
+        .map(|&v| if v.is_finite() { v } else { 0.0 })
+        .collect()
 }
 
 /// ∫ p dt over [a, b] of the piecewise-linear series (t, p) (trapezoids, clipped to [a, b]).
@@ -349,10 +353,7 @@ impl Impact {
     /// Sensor `k`'s readings with a dry (NaN) reading as 0 Pa, and the index of the impact's
     /// onset: the first reading ≥ [`ONSET`]·ρ0 g H (water of 1000 kg/m³); None without one.
     fn onset(&self, k: usize) -> Option<(Vec<f64>, usize)> {
-        let p: Vec<f64> = self.series[k]
-            .iter()
-            .map(|&v| if v.is_finite() { v } else { 0.0 })
-            .collect();
+        let p = dry_as_zero(&self.series[k]);
         let threshold = ONSET * 1000.0 * 9.81 * self.case.height;
         let i = p.iter().position(|&v| v >= threshold)?;
         Some((p, i))
@@ -387,11 +388,7 @@ impl Impact {
     /// ([`ringing_period`]); None without a pulse or a repeat.
     pub fn ringing_period(&self, k: usize) -> Option<f64> {
         let peak = self.pulses[k]?;
-        let p: Vec<f64> = self.series[k]
-            .iter()
-            .map(|&v| if v.is_finite() { v } else { 0.0 })
-            .collect();
-        ringing_period(&self.times, &p, peak.t_peak)
+        ringing_period(&self.times, &dry_as_zero(&self.series[k]), peak.t_peak)
     }
 
     /// The first impact's [`pulse`] at sensor `k`: over the experiment's impact time
