@@ -700,6 +700,15 @@ fn cases() -> Vec<Case> {
             "5.03",
         ),
         case(
+            "probe with a face, inside a fixed block",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [5.03, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0] }",
+            ),
+            "probe[0].position",
+            "5.03",
+        ),
+        case(
             "probe face turned into its wall",
             edit(
                 "position = [4.95, 0.4, 0.05]",

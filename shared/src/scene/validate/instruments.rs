@@ -52,16 +52,22 @@ fn probes_in_walls(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
             }
             _ => vec![probe.position],
         };
-        let Some((name, inside, deepest)) = walls.iter().find_map(|(name, p)| {
+        let Some((name, inside, deepest, centre_in)) = walls.iter().find_map(|(name, p)| {
             let d: Vec<f64> = points.iter().map(|&x| depth(p, x)).collect();
             let inside = d.iter().filter(|&&d| d > PROBE_IN_WALL).count();
-            (inside > 0).then(|| (*name, inside, d.iter().cloned().fold(0.0, f64::max)))
+            let centre_in = depth(p, probe.position) > PROBE_IN_WALL;
+            (inside > 0).then(|| {
+                let deepest = d.iter().cloned().fold(0.0, f64::max);
+                (*name, inside, deepest, centre_in)
+            })
         }) else {
             continue;
         };
+        // A position inside the wall is the position's fault whatever the face; a face that
+        // leaves a position on the wall's face for the inside is its normal's.
         c.key("probe", |c| {
             c.at(Seg::Index(i), |c| match probe.face {
-                Some(f) if points.len() > 1 => c.key("face", |c| c.fail(
+                Some(f) if points.len() > 1 && !centre_in => c.key("face", |c| c.fail(
                     "normal",
                     f.normal,
                     &format!(
