@@ -343,6 +343,20 @@ fn solver_tables_and_sizes_are_refused_by_check_naming_field_and_line() {
             "fluid.wcsph.sound_speed",
             "sound_speed",
         ),
+        // Below 2·sqrt(2 g H) for the default scene's water: the column at rest is compressed
+        // past the density bound before the first step (`wcsph::sound_speed`).
+        (
+            "sound_too_low",
+            with_wcsph(d, "sound_speed = 1.0"),
+            "fluid.wcsph.sound_speed",
+            "sound_speed",
+        ),
+        (
+            "riemann_sound_too_low",
+            format!("{d}\n[fluid.riemann]\nsound_speed = 1.0\n"),
+            "fluid.riemann.sound_speed",
+            "sound_speed",
+        ),
         (
             "smoothing_neg",
             with_wcsph(d, "smoothing_ratio = -1.3"),

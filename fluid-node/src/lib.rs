@@ -34,7 +34,7 @@ pub mod system;
 pub mod validation;
 
 use methods::SphMethod;
-use shared::registry::{Advice, Entry, Registry, check_params};
+use shared::registry::{Advice, Entry, Registry, params};
 use shared::scene::{FieldError, Scene};
 use shared::solver::{SetupContext, SolverError};
 use sph::{Sph, SphSolver};
@@ -76,7 +76,10 @@ fn build_method<S: SphMethod>(ctx: &SetupContext) -> Result<Box<dyn SphSolver>, 
 
 fn check_method<S: SphMethod>(scene: &Scene) -> Vec<FieldError> {
     match &scene.fluid {
-        Some(f) => check_params::<S::Params>(&f.solvers, "fluid", S::NAME),
+        Some(f) => match params::<S::Params>(&f.solvers, "fluid", S::NAME) {
+            Ok(p) => S::check_against(&p, scene),
+            Err(errors) => errors,
+        },
         None => Vec::new(),
     }
 }

@@ -6,7 +6,7 @@ mod common;
 
 use fluid_node::REGISTRY;
 use fluid_node::methods::dfsph::Dfsph;
-use fluid_node::sph::Sph;
+use fluid_node::sph::{Sph, SphSolver};
 use fluid_node::validation::*;
 use shared::scene::{CouplingScheme, Scene};
 use shared::solver::{SetupContext, Solver};
@@ -491,4 +491,38 @@ fn a_solve_that_does_nothing_step_after_step_stops_the_run_by_name() {
     );
     // Stopped by the rule, before the density bound (1.3 ρ0) could.
     assert!(steps < 60, "{steps} steps");
+}
+
+/// The runs of stalled steps are in the checkpoint: the same column, saved a few steps into
+/// its stall and restored into a fresh solver, stops at the very step of the uninterrupted run
+/// with the same message (before they were saved, the resumed run counted afresh and went on).
+#[test]
+fn a_run_resumed_in_the_middle_of_a_stall_stops_where_it_would_have() {
+    let mut case = ImpactCase::new(0.3, 15, Some(1e-3));
+    case.params = "smoothing_ratio = 1.8\nrelaxation = 1.0".into();
+    let scene = impact_scene("dfsph", &case);
+    let dir = TempRunDir::new("stall-resume").unwrap();
+    // Steps until the run stops, and its message, from `s` having taken `done` steps.
+    let run_out = |s: &mut Box<dyn SphSolver>, mut done: usize| loop {
+        let dt = s.dt_proposal().min(scene.time.dt_max);
+        match s.advance(dt) {
+            Ok(_) => done += 1,
+            Err(e) => break (done, e.to_string()),
+        }
+        assert!(done < 300, "still running after {done} steps");
+    };
+    let mut whole = REGISTRY.build("dfsph", &ctx_for(&scene, &dir)).unwrap();
+    let (stop, message) = run_out(&mut whole, 0);
+    // Saved after 6 steps: the density solve has stalled since its 3rd.
+    let saved_at = 6;
+    assert!(stop > saved_at + 2, "stopped after {stop} steps: {message}");
+    let mut first = REGISTRY.build("dfsph", &ctx_for(&scene, &dir)).unwrap();
+    for _ in 0..saved_at {
+        let dt = first.dt_proposal().min(scene.time.dt_max);
+        first.advance(dt).unwrap();
+    }
+    let state = first.save_state().unwrap();
+    let mut resumed = REGISTRY.build("dfsph", &ctx_for(&scene, &dir)).unwrap();
+    resumed.restore_state(&state, dir.path()).unwrap();
+    assert_eq!(run_out(&mut resumed, saved_at), (stop, message));
 }

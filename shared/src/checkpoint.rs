@@ -37,7 +37,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Version of every checkpoint format (node and coupler). Bump on any change of what is saved.
-pub const FORMAT_VERSION: u32 = 12;
+pub const FORMAT_VERSION: u32 = 13;
 /// First bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"RWCKPT\r\n";
 /// Bytes before the payload: magic, version, owner, step, payload length.

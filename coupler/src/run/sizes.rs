@@ -111,15 +111,13 @@ pub fn estimate(scene: &Scene, solver: Option<&str>) -> Option<Estimate> {
     let fluid = scene.fluid.as_ref().filter(|_| scene.has_fluid())?;
     let solver = solver.unwrap_or(&fluid.solver);
     let dx = fluid.dx;
-    let (mut volume, mut top, mut bottom) = (0.0, f64::NEG_INFINITY, f64::INFINITY);
-    for w in &fluid.water {
-        if let Ok(p) = Polyhedron::from_shape(&w.shape) {
-            volume += p.volume;
-            let (lo, hi) = p.world_aabb();
-            top = top.max(hi.z);
-            bottom = bottom.min(lo.z);
-        }
-    }
+    let mut volume: f64 = fluid
+        .water
+        .iter()
+        .filter_map(|w| Polyhedron::from_shape(&w.shape).ok())
+        .map(|p| p.volume)
+        .sum();
+    let (bottom, top) = scene.water_span().unwrap_or((0.0, 0.0));
     let d = &scene.domain;
     let e: Vec<f64> = (0..3).map(|k| d.max[k] - d.min[k]).collect();
     let walls = scene.blocks.iter().any(|b| b.kind == BlockKind::Fixed);

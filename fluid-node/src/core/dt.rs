@@ -1,7 +1,9 @@
 //! The stable step an SPH solver proposes (Monaghan 1992; Morris et al. 1997): the smallest of
 //! - CFL: C·h/(c + v_max) (sound crossing a smoothing length; Monaghan 1992),
 //! - force: C·sqrt(h/|a|_max) (no particle moves more than ~h under its acceleration),
-//! - viscous: 0.125·h²/ν (explicit diffusion; Morris et al. 1997),
+//! - viscous: 0.125·h²/ν (explicit diffusion; Morris et al. 1997), ν the fluid's viscosity
+//!   plus, for WCSPH's artificial viscosity, its equivalent α·h·c0/10 (Monaghan 2005), which
+//!   binds past α ≈ 6 at the default Courant number (α = 10 and 20 blew up without it),
 //! - density diffusion: 0.125·h²/D with D = δ·h·c0, the δ-SPH term's diffusivity (Molteni &
 //!   Colagrossi 2009), the same explicit bound as the viscous one: 0.125·h/(δ·c0), which binds
 //!   past δ = 0.625 at the default Courant number 0.2 (a dam break at δ = 0.8 stopped on the
@@ -18,7 +20,8 @@ pub struct StepLimits {
     pub h: Real,
     /// Speed of sound [m/s].
     pub sound_speed: Real,
-    /// Kinematic viscosity acting in the scheme [m²/s] (0 for none).
+    /// Kinematic viscosity acting in the scheme [m²/s] (0 for none), an artificial
+    /// viscosity's equivalent included.
     pub viscosity: Real,
     /// Diffusivity of the density diffusion [m²/s], δ·h·c0 for δ-SPH (0 for none).
     pub diffusivity: Real,

@@ -10,7 +10,7 @@ use crate::system::{FluidSystem, Initial, Layout};
 use shared::math::Real;
 use shared::protocol::BlockLoad;
 use shared::registry::{SolverParams, Variant};
-use shared::scene::{CouplingScheme, Scene};
+use shared::scene::{CouplingScheme, FieldError, Scene};
 use shared::solver::{SolverError, StepReport};
 
 /// One SPH method.
@@ -95,6 +95,14 @@ pub trait SphMethod:
             Real::INFINITY
         };
         Some((0.2 * 1.3 * dx / c0).min(viscous))
+    }
+
+    /// The errors of this method's parameters that only the scene shows (a speed of sound too
+    /// low for the water's depth), beyond [`SolverParams::check`] of the table alone; the
+    /// registry's `check` runs both: none by default.
+    fn check_against(params: &Self::Params, scene: &Scene) -> Vec<FieldError> {
+        let _ = (params, scene);
+        Vec::new()
     }
 
     /// Warnings about the scene's combination of options for this method under `scheme`

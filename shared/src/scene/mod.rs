@@ -160,7 +160,21 @@ impl Scene {
         self.fluid.as_ref().is_some_and(|f| !f.water.is_empty())
     }
 
-    /// True when some block moves (kinematic or free), i.e. a solid node must run.
+    /// The lowest bottom and highest top [m] of the scene's water volumes (`fluid.water`) as
+    /// given, before they are filled: their depth bounds the water's. `None` without water or
+    /// when no volume is a valid shape (the scene check names those).
+    pub fn water_span(&self) -> Option<(f64, f64)> {
+        let water = &self.fluid.as_ref()?.water;
+        water
+            .iter()
+            .filter_map(|w| crate::geometry::Polyhedron::from_shape(&w.shape).ok())
+            .map(|p| {
+                let (lo, hi) = p.world_aabb();
+                (lo.z, hi.z)
+            })
+            .reduce(|(b, t), (lo, hi)| (b.min(lo), t.max(hi)))
+    }
+
     /// The bed under a wave gauge at (x, y): the highest top of a fixed block on the vertical
     /// line through it, or the domain floor where no fixed block is under it. Moving blocks are
     /// not bed (they move over it). A dry gauge reads this elevation.
@@ -173,6 +187,7 @@ impl Scene {
             .fold(self.domain.min[2], f64::max)
     }
 
+    /// True when some block moves (kinematic or free), i.e. a solid node must run.
     pub fn has_moving_blocks(&self) -> bool {
         self.blocks.iter().any(|b| b.kind != BlockKind::Fixed)
     }

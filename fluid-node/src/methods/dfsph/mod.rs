@@ -484,9 +484,8 @@ pub struct Dfsph {
     motion_best: Vec<(Vector, Vector)>,
     #[serde(skip)]
     loads_best: Vec<BlockLoad>,
-    /// The divergence and density solves' runs of stalled steps ([`stall`]). Not checkpointed:
-    /// a resumed run counts afresh (a stall stops a run within [`stall::STALLED_STEPS`] steps).
-    #[serde(skip)]
+    /// The divergence and density solves' runs of stalled steps ([`stall`]), checkpointed so
+    /// that a run resumed mid-stall stops at the step the uninterrupted run would.
     stalls: [stall::Stall; 2],
 }
 

@@ -22,7 +22,7 @@ use shared::math::Real;
 pub const STALLED_STEPS: usize = 10;
 
 /// One solve's run of stalled steps.
-#[derive(Debug, Default, Clone, Copy)]
+#[derive(Debug, Default, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Stall {
     steps: usize,
 }

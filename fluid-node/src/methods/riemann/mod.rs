@@ -11,12 +11,13 @@
 
 use crate::kernels::WendlandC2;
 use crate::methods::SphMethod;
-use crate::methods::wcsph::{Flux, Wcsph, WcsphParams};
+use crate::methods::wcsph::{Flux, Wcsph, WcsphParams, sound_speed};
 use crate::system::{FluidSystem, Initial, Layout};
 use crate::validation::Check;
 use serde::Deserialize;
 use shared::math::Real;
 use shared::registry::{ParamCheck, SolverParams, Variant};
+use shared::scene::{FieldError, Scene};
 use shared::solver::{SolverError, StepReport};
 
 /// `[fluid.riemann]`: WCSPH's parameters ([`WcsphParams`]: `sound_speed`, `gamma`,
@@ -89,6 +90,13 @@ impl SphMethod for Riemann {
 
     fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real {
         self.0.dt_proposal(v_max, a_max)
+    }
+
+    /// A speed of sound too low for the water's depth (`wcsph::sound_speed`).
+    fn check_against(params: &RiemannParams, scene: &Scene) -> Vec<FieldError> {
+        sound_speed::check(Self::NAME, params.0.sound_speed, params.0.gamma, scene)
+            .into_iter()
+            .collect()
     }
 
     /// Not in the stability maps: its step limits are WCSPH's, whose rows stand for both.

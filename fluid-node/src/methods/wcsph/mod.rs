@@ -9,6 +9,7 @@
 
 pub mod pairs;
 pub mod riemann;
+pub mod sound_speed;
 
 use crate::core::dt::StepLimits;
 use crate::core::lanes::Packed;
@@ -24,13 +25,15 @@ use rayon::prelude::*;
 use serde::Deserialize;
 use shared::math::{Real, Vector};
 use shared::registry::{ParamCheck, SolverParams, Variant, study};
+use shared::scene::{FieldError, Scene};
 use shared::solver::{SolverError, StepReport};
 
 /// `[fluid.wcsph]`: parameters of the weakly compressible solver. Unset values are derived.
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct WcsphParams {
-    /// Numerical speed of sound c0 [m/s]; default 10·sqrt(2 g H) for the deepest water H.
+    /// Numerical speed of sound c0 [m/s]; default 10·sqrt(2 g H) for the deepest water H; below
+    /// 2·sqrt(2 g H) refused ([`sound_speed`]).
     pub sound_speed: Option<f64>,
     /// Tait exponent γ; default 7.
     pub gamma: Option<f64>,
@@ -228,7 +231,14 @@ impl Wcsph {
         let limits = StepLimits {
             h,
             sound_speed: c0,
-            viscosity: init.fluid.kinematic_viscosity,
+            // The fluid's viscosity plus, for the artificial flux, the artificial viscosity's
+            // equivalent ν = α h c0/(2(d + 2)) = α h c0/10 in 3D (Monaghan 2005, §5.1; the
+            // pairs' Π_ij = −α c̄ μ_ij/ρ̄): binds past α ≈ 6 at the default Courant number.
+            viscosity: init.fluid.kinematic_viscosity
+                + match flux {
+                    Flux::Artificial => constants.alpha * h * c0 / 10.0,
+                    Flux::Riemann => 0.0,
+                },
             // δ-SPH's density diffusion (the artificial flux only: the Riemann flux has none).
             diffusivity: match flux {
                 Flux::Artificial => constants.delta * h * c0,
@@ -660,6 +670,13 @@ impl SphMethod for Wcsph {
     /// registry's first solver, under both schemes and sub-cycled (its own step binds, so
     /// sub-cycling changes nothing: the row says so); in the density map with every solid
     /// solver under both schemes.
+    /// A speed of sound too low for the water's depth ([`sound_speed`]).
+    fn check_against(params: &WcsphParams, scene: &Scene) -> Vec<FieldError> {
+        sound_speed::check(Self::NAME, params.sound_speed, params.gamma, scene)
+            .into_iter()
+            .collect()
+    }
+
     fn study_variants(study: &str) -> &'static [Variant] {
         use shared::registry::StudyCoupling as C;
         use shared::scene::CouplingScheme::{Parallel, Serial};
