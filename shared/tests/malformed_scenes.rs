@@ -760,6 +760,75 @@ fn cases() -> Vec<Case> {
             "sideways",
         ),
         case(
+            "free block launched at 1e9 m/s",
+            edit(
+                "density = 2500.0",
+                "density = 2500.0\nvelocity = [1e9, 0.0, 0.0]",
+            ),
+            "block[5].velocity",
+            "velocity = [1e9",
+        ),
+        case(
+            "free block spun at 1e9 rad/s",
+            edit(
+                "density = 2500.0",
+                "density = 2500.0\nangular_velocity = [0.0, 1e9, 0.0]",
+            ),
+            "block[5].angular_velocity",
+            "angular_velocity = [0.0, 1e9",
+        ),
+        case(
+            "velocity on a fixed block (ignored)",
+            edit(
+                "kind = \"fixed\"",
+                "kind = \"fixed\"\nvelocity = [1.0, 0.0, 0.0]",
+            ),
+            "block[0].velocity",
+            "velocity = [1.0",
+        ),
+        case(
+            "angular velocity on a kinematic block (ignored)",
+            kin(
+                "motion = { type = \"linear\", velocity = [0.1, 0.0, 0.0] }\nangular_velocity = [0.0, 0.0, 1.0]",
+            ),
+            "block[6].angular_velocity",
+            "angular_velocity",
+        ),
+        case(
+            "free block density 1e300",
+            edit("density = 2500.0", "density = 1e300"),
+            "block[5].density",
+            "density = 1e300",
+        ),
+        case(
+            "slide density 1e300",
+            plus(
+                "[[slide]]\nname = \"rock\"\ndensity = 1e300\nregion = { type = \"box\", min = [2.0, 0.3, 0.1], max = [2.4, 0.5, 0.3] }\n[[slide.joint_set]]\ndip = 0.0\ndip_direction = 0.0\nspacing = 0.1",
+            ),
+            "slide[0].density",
+            "density = 1e300",
+        ),
+        case(
+            "kinematic block driven through the far wall",
+            kin("motion = { type = \"linear\", velocity = [1.0, 0.0, 0.0] }"),
+            "block[6].motion.velocity",
+            "velocity = [1.0",
+        ),
+        case(
+            "kinematic block driven into the floor",
+            kin("motion = { type = \"linear\", velocity = [0.0, 0.0, -0.25] }"),
+            "block[6].motion.velocity",
+            "velocity = [0.0, 0.0, -0.25]",
+        ),
+        case(
+            "piston stroke into the far wall",
+            plus(
+                "[[block]]\nname = \"paddle\"\nkind = \"kinematic\"\nshape = { type = \"box\", min = [4.7, 0.3, 0.6], max = [4.9, 0.5, 0.8] }\nmotion = { type = \"sine\", amplitude = [0.12, 0.0, 0.0], period = 2.0, ramp = 1.0 }",
+            ),
+            "block[6].motion.amplitude",
+            "amplitude = [0.12",
+        ),
+        case(
             "unknown block kind",
             edit("kind = \"free\"", "kind = \"loose\""),
             "kind",
@@ -867,9 +936,10 @@ fn the_frame_cap_names_its_override_and_the_overlap_names_both_blocks() {
         msg.contains("'paddle' (kinematic)") && msg.contains("'far_wall' (fixed"),
         "{msg}"
     );
-    // Touching is fine: the paddle's face on the wall's.
+    // Touching is fine: the paddle's face on the wall's, sliding along it (a stroke towards
+    // the wall would drive it in: `motion_path`).
     let touching = plus(
-        "[[block]]\nname = \"paddle\"\nkind = \"kinematic\"\nshape = { type = \"box\", min = [4.8, 0.3, 0.6], max = [5.0, 0.5, 0.8] }\nmotion = { type = \"sine\", amplitude = [0.1, 0.0, 0.0], period = 2.0 }",
+        "[[block]]\nname = \"paddle\"\nkind = \"kinematic\"\nshape = { type = \"box\", min = [4.8, 0.3, 0.6], max = [5.0, 0.5, 0.8] }\nmotion = { type = \"sine\", amplitude = [0.0, 0.0, 0.1], period = 2.0 }",
     );
     Scene::parse(&touching, "touching.toml").unwrap_or_else(|e| panic!("{e}"));
 }
@@ -903,6 +973,45 @@ fn a_face_turned_into_its_wall_names_the_block_and_the_normal_to_give() {
     assert!(
         e.contains("puts 3 of the face's 7 points inside fixed block 'far_wall'")
             && e.contains("normal = [-1.0, 0.0, 0.0]"),
+        "{e}"
+    );
+}
+
+/// A DEM with one cell far past any scene (a spike, a cell in other units) is refused by the
+/// terrain check, named at `terrain[0].file` with the fix; before, `coupler check` passed it
+/// and the solid node failed at step 0 on a vertex of −inf. The same DEM without the spike
+/// passes.
+#[test]
+fn a_dem_cell_past_any_scene_is_refused_at_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = |spike: &str| {
+        let mut text = String::from(
+            "ncols 11\nnrows 11\nxllcenter 0\nyllcenter 0\ncellsize 0.1\nNODATA_value -9999\n",
+        );
+        for row in 0..11 {
+            let cells: Vec<&str> = (0..11)
+                .map(|col| if (row, col) == (5, 5) { spike } else { "0.3" })
+                .collect();
+            text.push_str(&cells.join(" "));
+            text.push('\n');
+        }
+        text
+    };
+    let scene = |spike: &str| {
+        std::fs::write(dir.path().join("ground.asc"), dem(spike)).unwrap();
+        let text = "name = \"t\"\n[time]\nend = 0.1\n[domain]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n\
+                    [[terrain]]\nfile = \"ground.asc\"\n";
+        std::fs::write(dir.path().join("scene.toml"), text).unwrap();
+        Scene::load(&dir.path().join("scene.toml")).unwrap_or_else(|e| panic!("{e}"))
+    };
+    assert!(shared::terrain::check_scene(&scene("0.4")).is_empty());
+    let errors = shared::terrain::check_scene(&scene("1e300"));
+    let e = errors
+        .iter()
+        .find(|e| e.path == "terrain[0].file")
+        .unwrap_or_else(|| panic!("terrain[0].file not named: {errors:?}"));
+    assert!(
+        e.problem.contains("beyond ±1e9 m") && e.fix.contains("crop"),
         "{e}"
     );
 }

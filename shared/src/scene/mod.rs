@@ -14,7 +14,7 @@ pub use error::FieldError;
 pub use read::MAX_SCENE_BYTES;
 pub use schema::*;
 pub use validate::fluid_ranks_problem;
-pub(crate) use validate::{indexed_field_error, terrain_field_error};
+pub(crate) use validate::{indexed_field_error, terrain_field_error, terrain_reach_problem};
 
 use std::path::Path;
 

@@ -87,6 +87,18 @@ fn check_fields(i: usize, s: &SlideSpec) -> Vec<FieldError> {
             "must be a positive finite number",
             "give the rock density in kg/m³, e.g. density = 2600.0",
         ));
+    } else if s.density > super::validate::MAX_DENSITY {
+        errors.push(fail(
+            i,
+            "density",
+            s.density,
+            &format!(
+                "is denser than {:e} kg/m³, four times the densest element (osmium): a typo, \
+                 which overflows the blocks' mass and inertia",
+                super::validate::MAX_DENSITY
+            ),
+            "give the rock density in kg/m³, e.g. density = 2600.0",
+        ));
     }
     if let Some(v) = s.min_block_volume
         && !(v.is_finite() && v >= 0.0)

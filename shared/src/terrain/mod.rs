@@ -617,6 +617,9 @@ fn bounds_of(vertices: &[[Real; 3]]) -> ([Real; 3], [Real; 3]) {
 
 fn check_bounds(vertices: &[[Real; 3]], domain: &DomainSpec) -> Result<(), TerrainError> {
     let (lo, hi) = bounds_of(vertices);
+    if let Some(e) = crate::scene::terrain_reach_problem(lo, hi) {
+        return Err(e);
+    }
     if (0..3).any(|k| hi[k] < domain.min[k] || lo[k] > domain.max[k]) {
         return Err(fail(
             "offset",

@@ -3,7 +3,7 @@
 
 use super::checker::{Checker, shape_summary};
 use crate::geometry::Polyhedron;
-use crate::math::Point;
+use crate::math::{Point, Vector};
 use crate::scene::error::Seg;
 use crate::scene::schema::{BlockKind, BlockSpec, MotionSpec, Scene};
 
@@ -14,6 +14,10 @@ const MIN_BLOCK_OF_DOMAIN: f64 = 1e-6;
 const MAX_START_OVERLAP: f64 = 1e-6;
 /// Fastest prescribed block motion [m/s]; a landslide is tens of m/s.
 const MAX_SPEED: f64 = 1e3;
+/// Densest block a scene may give [kg/m³]: four times osmium's 22 590, the densest element. A
+/// density past it is a typo (an exponent, a unit slip); at 1e300 the block's mass and inertia
+/// overflow and the solid node's first step is NaN.
+pub(crate) const MAX_DENSITY: f64 = 1e5;
 
 /// Each `[[block]]` on its own; `polys` are their polyhedra (`None` where the shape is not one).
 pub(super) fn each(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
@@ -45,10 +49,17 @@ pub(super) fn each(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
                         b.density,
                         "give the rock density in kg/m³, e.g. density = 2500.0",
                     );
+                    if b.slide.is_none() {
+                        density_plausible(c, b.density);
+                    }
                 }
                 c.finite3("velocity", b.velocity);
                 c.finite3("angular_velocity", b.angular_velocity);
+                initial_velocity(c, b, polys[i].as_ref());
                 motion(c, b);
+                if let Some(p) = polys[i].as_ref() {
+                    motion_path(c, s, b, p, polys);
+                }
                 if let Some(phi) = b.friction_angle
                     && !(0.0..90.0).contains(&phi)
                 {
@@ -98,6 +109,95 @@ fn size(c: &mut Checker, s: &Scene, b: &BlockSpec, p: &Polyhedron, diag: f64) {
                 "make the block larger, or remove it",
             )
         });
+    }
+}
+
+/// A free block's `density` past [`MAX_DENSITY`] (its being positive is checked with it).
+fn density_plausible(c: &mut Checker, density: f64) {
+    if density.is_finite() && density > MAX_DENSITY {
+        c.fail(
+            "density",
+            density,
+            &format!(
+                "is denser than {MAX_DENSITY:e} kg/m³, four times the densest element (osmium): \
+                 a typo, which overflows the block's mass and inertia"
+            ),
+            "give the density in kg/m³, e.g. density = 2500.0 for rock",
+        );
+    }
+}
+
+/// `velocity` and `angular_velocity` at the start. Only a free block has them: the solid node
+/// sets a fixed block's to zero and moves a kinematic block by its `motion`, so on those kinds
+/// they are silently ignored. A free block's are bounded as a kinematic motion is, by
+/// [`MAX_SPEED`] at its centroid and at its corners (|ω| × its radius): faster, it leaves the
+/// domain within the first steps (velocity = [1e9, 0, 0] did at step 0, a spin of 1e9 rad/s
+/// at step 21), with an error that names the solid node rather than the field.
+fn initial_velocity(c: &mut Checker, b: &BlockSpec, p: Option<&Polyhedron>) {
+    let finite = b
+        .velocity
+        .iter()
+        .chain(&b.angular_velocity)
+        .all(|v| v.is_finite());
+    if !finite {
+        return; // named by finite3
+    }
+    let norm = |v: &[f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if b.kind != BlockKind::Free {
+        let (moves, fix) = match b.kind {
+            BlockKind::Fixed => (
+                "never moves",
+                "remove it, or set kind = \"free\" for a block launched with it",
+            ),
+            _ => (
+                "moves only by its motion",
+                "remove it; a constant velocity is motion = { type = \"linear\", velocity = [...] }",
+            ),
+        };
+        for (field, v) in [
+            ("velocity", b.velocity),
+            ("angular_velocity", b.angular_velocity),
+        ] {
+            if v.iter().any(|x| *x != 0.0) {
+                c.fail(
+                    field,
+                    v,
+                    &format!(
+                        "is ignored: a {} block {moves} (only a free block starts with a velocity)",
+                        kind_name(b.kind)
+                    ),
+                    fix,
+                );
+            }
+        }
+        return;
+    }
+    let speed = norm(&b.velocity);
+    if speed > MAX_SPEED {
+        c.fail(
+            "velocity",
+            b.velocity,
+            &format!(
+                "is {speed:.3e} m/s, faster than {MAX_SPEED} m/s (a landslide is tens of m/s): \
+                 the block would leave the domain within the first steps"
+            ),
+            "give the initial velocity in m/s",
+        );
+    }
+    if let Some(p) = p {
+        let rim = norm(&b.angular_velocity) * p.radius;
+        if rim > MAX_SPEED {
+            c.fail(
+                "angular_velocity",
+                b.angular_velocity,
+                &format!(
+                    "spins the block's corners at {rim:.3e} m/s (|ω| × its radius, {:.3e} m), \
+                     faster than {MAX_SPEED} m/s",
+                    p.radius
+                ),
+                "give the angular velocity in rad/s (not rpm or degrees per second)",
+            );
+        }
     }
 }
 
@@ -173,6 +273,179 @@ fn motion(c: &mut Checker, b: &BlockSpec) {
         ),
         _ => {}
     }
+}
+
+/// Where a kinematic block's prescribed motion takes it over the run, `[0, time.end]`: clear of
+/// every fixed block. Nothing stops a kinematic block there: the solid node computes no contact
+/// between two blocks that are not free, so a paddle driven at 1 m/s into the far wall of the
+/// default scene ran through it (and the water between) to the end without a word. Only its
+/// start is checked by [`start_overlaps`]; this checks its path, the start swept along the
+/// motion's line. Leaving the domain is not refused: a gate lifted out of the water does, and
+/// no water follows it there.
+fn motion_path(
+    c: &mut Checker,
+    s: &Scene,
+    b: &BlockSpec,
+    p: &Polyhedron,
+    polys: &[Option<Polyhedron>],
+) {
+    let (Some(m), BlockKind::Kinematic) = (&b.motion, b.kind) else {
+        return;
+    };
+    let end = s.time.end;
+    if !(end.is_finite() && end > 0.0) {
+        return; // named by [time]
+    }
+    let Some((u, f_lo, f_hi)) = path_span(m, end) else {
+        return; // the motion's own values are named by `motion`
+    };
+    let field = match m {
+        MotionSpec::Linear { .. } => "velocity",
+        MotionSpec::Sine { .. } => "amplitude",
+    };
+    let (d0, d1) = (u * f_lo, u * f_hi);
+    for (j, q) in polys.iter().enumerate() {
+        let Some(q) = q.as_ref().filter(|_| s.blocks[j].kind == BlockKind::Fixed) else {
+            continue;
+        };
+        let tol = MAX_START_OVERLAP * p.radius.min(q.radius);
+        if crate::geometry::overlap_depth(p, q) > tol {
+            continue; // already inside it at the start: named by [`start_overlaps`]
+        }
+        let depth = swept_overlap_depth(p, d0, d1, q);
+        if depth > tol {
+            c.key("motion", |c| {
+                c.fail(
+                    field,
+                    [u.x, u.y, u.z],
+                    &format!(
+                        "drives block '{}' {depth:.3e} m into fixed block '{}' (block[{j}]) before \
+                         time.end = {end} s: a kinematic block feels no contact with a fixed one, so \
+                         it would run through the block and the water between them",
+                        b.name, s.blocks[j].name
+                    ),
+                    "shorten the motion or move the block so that its path clears the fixed blocks \
+                     (sliding along a face is fine)",
+                )
+            });
+            return;
+        }
+    }
+}
+
+/// The displacement of a motion over `[0, end]` as `u·f(t)` along one direction `u`, and the
+/// least and greatest `f`; `None` when the motion's values are not usable (named elsewhere).
+/// A linear motion is `velocity·t`; a sine's is `amplitude·s(t)·(sin(ωt + φ) − sin φ)`, whose
+/// extremes after the ramp are the ends and the crests and troughs between them, and during
+/// the ramp are sampled (64 samples a period).
+fn path_span(m: &MotionSpec, end: f64) -> Option<(Vector, f64, f64)> {
+    match *m {
+        MotionSpec::Linear { velocity } => velocity
+            .iter()
+            .all(|v| v.is_finite())
+            .then(|| (Vector::from(velocity), 0.0, end)),
+        MotionSpec::Sine {
+            amplitude,
+            period,
+            phase,
+            ramp,
+        } => {
+            let usable = amplitude.iter().all(|a| a.is_finite())
+                && period.is_finite()
+                && period > 0.0
+                && phase.is_finite()
+                && ramp.is_finite()
+                && ramp >= 0.0;
+            let u = Vector::from(amplitude);
+            let u2 = u.norm_squared();
+            if !usable || u2 == 0.0 {
+                return None;
+            }
+            let (mut lo, mut hi) = (0.0_f64, 0.0_f64);
+            let mut take = |f: f64| {
+                lo = lo.min(f);
+                hi = hi.max(f);
+            };
+            let sin_phase = phase.sin();
+            let ramp_end = ramp.min(end);
+            if ramp_end > 0.0 {
+                let periods = ramp_end / period;
+                if periods > 1000.0 {
+                    // The ramp reaches its full stroke over many periods: the sine's bounds.
+                    take(-1.0 - sin_phase);
+                    take(1.0 - sin_phase);
+                } else {
+                    let n = ((periods * 64.0).ceil() as usize).max(256);
+                    for k in 0..=n {
+                        let t = ramp_end * k as f64 / n as f64;
+                        take(m.displacement(t).dot(&u) / u2);
+                    }
+                }
+            }
+            if end > ramp {
+                let w = std::f64::consts::TAU / period;
+                let g = |t: f64| (w * t + phase).sin() - sin_phase;
+                let (t0, t1) = (ramp, end);
+                take(g(t0));
+                take(g(t1));
+                // Crests and troughs at ωt + φ = π/2 + kπ.
+                let pi = std::f64::consts::PI;
+                let k0 = ((w * t0 + phase - pi / 2.0) / pi).ceil();
+                let k1 = ((w * t1 + phase - pi / 2.0) / pi).floor();
+                let mut k = k0;
+                while k <= k1 && k <= k0 + 1.0 {
+                    let crest = if k.rem_euclid(2.0) == 0.0 { 1.0 } else { -1.0 };
+                    take(crest - sin_phase);
+                    k += 1.0;
+                }
+            }
+            Some((u, lo, hi))
+        }
+    }
+}
+
+/// How deep the volume that `a` sweeps when translated from `d0` to `d1` (from its scene pose)
+/// overlaps `b` [m], as [`crate::geometry::overlap_depth`] measures two blocks: the smallest
+/// overlap of their projections over the separating axes of the swept hull and `b` (the face
+/// normals of both, the cross products of their edges, and of the sweep with their edges).
+fn swept_overlap_depth(a: &Polyhedron, d0: Vector, d1: Vector, b: &Polyhedron) -> f64 {
+    let world = |p: &Polyhedron| -> Vec<Point> {
+        p.vertices.iter().map(|v| v + p.centroid.coords).collect()
+    };
+    let (va, vb) = (world(a), world(b));
+    let dirs = |p: &Polyhedron, v: &[Point]| -> Vec<Vector> {
+        p.edges
+            .iter()
+            .map(|e| v[e[1] as usize] - v[e[0] as usize])
+            .collect()
+    };
+    let sweep = d1 - d0;
+    let (mut ea, eb) = (dirs(a, &va), dirs(b, &vb));
+    ea.push(sweep);
+    let mut axes: Vec<Vector> = a.faces.iter().chain(&b.faces).map(|f| f.normal).collect();
+    for x in &ea {
+        for y in eb.iter().chain([&sweep]) {
+            let n = x.cross(y);
+            if n.norm() > 1e-12 * x.norm() * y.norm() {
+                axes.push(n.normalize());
+            }
+        }
+    }
+    let range = |v: &[Point], n: &Vector| {
+        v.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                let d = n.dot(&p.coords);
+                (lo.min(d), hi.max(d))
+            })
+    };
+    axes.iter()
+        .map(|n| {
+            let ((alo, ahi), (blo, bhi)) = (range(&va, n), range(&vb, n));
+            let (s0, s1) = (n.dot(&d0), n.dot(&d1));
+            let (alo, ahi) = (alo + s0.min(s1), ahi + s0.max(s1));
+            ahi.min(bhi) - alo.max(blo)
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// `elastic`: a free block's Young's modulus and Poisson's ratio.

@@ -11,8 +11,9 @@ mod run;
 mod solid;
 mod terrain;
 
+pub(super) use blocks::MAX_DENSITY;
 pub use fluid::fluid_ranks_problem;
-pub(crate) use terrain::{indexed_field_error, terrain_field_error};
+pub(crate) use terrain::{indexed_field_error, terrain_field_error, terrain_reach_problem};
 
 use super::error::FieldError;
 use super::schema::Scene;

@@ -1,8 +1,10 @@
 //! `[[terrain]]`: the checks that need no file (the file itself is read by
 //! [`crate::terrain::Terrain::load`]).
 
+use crate::geometry::MAX_COORDINATE;
 use crate::scene::error::{FieldError, Seg, render_path};
 use crate::scene::schema::{DomainSpec, TerrainFormat, TerrainSpec};
+use crate::terrain::TerrainError;
 
 /// An error at `terrain[index].field`.
 pub(crate) fn terrain_field_error(
@@ -37,6 +39,26 @@ pub(crate) fn indexed_field_error(
         fix: fix.into(),
         line: None,
     }
+}
+
+/// The placed terrain's bounds `lo`..`hi` reaching past [`MAX_COORDINATE`], the largest
+/// coordinate a block may have: the solid node holds a terrain as a block, whose corners it
+/// refuses there, and past ~1e154 its centroid overflows (a DEM with one cell of 1e300 passed
+/// `coupler check` and failed at the solid node's step 0: "block 'valley': vertex {-inf, -inf,
+/// -inf} is not finite"). A problem of the file (a spike, a cell in other units) or of `scale`.
+pub(crate) fn terrain_reach_problem(lo: [f64; 3], hi: [f64; 3]) -> Option<TerrainError> {
+    let far = lo.iter().chain(&hi).any(|x| x.abs() > MAX_COORDINATE);
+    far.then(|| TerrainError {
+        field: "file",
+        value: format!("terrain bounds {lo:?} to {hi:?}"),
+        problem: format!(
+            "places a vertex beyond ±{MAX_COORDINATE:e} m, past any scene (the solid node refuses \
+             such a block corner): a spike in the file, a cell in other units, or a scale too large"
+        ),
+        fix: "correct the file's outlying cell or vertex, or keep the ground near the domain with \
+              crop = { min = [x, y, z], max = [x, y, z] }, or check scale"
+            .into(),
+    })
 }
 
 /// The checks of the `[[terrain]]` tables that need no file.
