@@ -124,7 +124,13 @@ impl<S: SphMethod> Solver for Sph<S> {
         let (low, reference) = self.method.density_check();
         let (v, a) = self
             .sys
-            .end_step(dt, self.method.kernel(), low, reference)?;
+            .end_step(dt, self.method.kernel(), low, reference)
+            .map_err(|e| match (e, self.method.unstable_hint()) {
+                (SolverError::Unstable(m), Some(hint)) => {
+                    SolverError::Unstable(format!("{m}; {hint}"))
+                }
+                (e, _) => e,
+            })?;
         self.dt_next = self.method.dt_proposal(v, a);
         if busy {
             self.sys.end_busy();

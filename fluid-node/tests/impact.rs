@@ -112,3 +112,24 @@ fn a_large_artificial_viscosity_shortens_the_step_instead_of_blowing_up() {
         plain.steps
     );
 }
+
+/// A Courant number raised past the integrator's stable range blows the run up on the density
+/// bound; the message then names the raised `cfl`, the default and the fix, not the density
+/// alone (the leapfrog went unstable from 0.45 on this dam break at dx = 30 mm).
+#[test]
+fn a_raised_courant_number_is_named_when_the_run_blows_up() {
+    let mut case = ImpactCase::new(0.3, 10, Some(IMPACT_WINDOW));
+    case.dt_max = 0.1;
+    case.params = "cfl = 0.6".into();
+    let err = match impact("wcsph", &case) {
+        Ok(r) => panic!("cfl = 0.6 ran its {} steps", r.steps),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        err.contains("density ratio limit exceeded")
+            && err.contains("this run's Courant number is cfl = 0.6 (the default is 0.2)")
+            && err.contains("this run's integrator is leapfrog")
+            && err.contains("fix: lower [fluid.wcsph] cfl"),
+        "{err}"
+    );
+}

@@ -72,6 +72,14 @@ pub trait SphMethod:
     /// Largest stable step for the current largest speed and acceleration.
     fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real;
 
+    /// What this method's own settings may have to do with an instability the system found
+    /// after a step (a density past its bound, a particle out of the domain), appended to its
+    /// message by [`crate::sph::Sph`]: e.g. a Courant number raised past the range its
+    /// integrator was measured stable in. None by default.
+    fn unstable_hint(&self) -> Option<String> {
+        None
+    }
+
     /// Particle-steps per second of one thread, measured by `fluid-bench` (docs/PERFORMANCE.md,
     /// "Fluid: cost per particle-step"): the registry's
     /// [`shared::registry::Advice::particle_steps_per_second`], what a run's wall time is

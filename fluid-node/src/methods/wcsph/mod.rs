@@ -144,6 +144,33 @@ pub enum Integrator {
     Verlet,
 }
 
+impl Integrator {
+    /// As written in the scene (`integrator = "leapfrog"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Symplectic => "symplectic",
+            Integrator::Leapfrog => "leapfrog",
+            Integrator::Verlet => "verlet",
+        }
+    }
+}
+
+/// The default Courant number of the CFL and force limits (`[fluid.wcsph] cfl`).
+pub const DEFAULT_CFL: Real = 0.2;
+
+/// The smallest Courant number at which each integrator went unstable (the density bound) on
+/// the Lobovský dam break (`scenes/validation/lobovsky_impact.toml` at dx = 30 mm, `dt_max`
+/// out of the way), WCSPH's artificial flux: leapfrog ran at 0.4 and blew up from 0.45
+/// (at dx = 20 mm it ran at 0.45), verlet ran at 0.2 and blew up from 0.25, symplectic ran at
+/// 0.6 and blew up at 0.8; the Riemann flux with leapfrog ran at 0.3 and blew up at 0.45
+/// (docs/journal/2026-11-29-impact-pressures.md, "Courant numbers"). For the message of an
+/// instability in a run with a raised `cfl` ([`SphMethod::unstable_hint`]).
+pub const CFL_MEASURED_UNSTABLE: [(Integrator, Real); 3] = [
+    (Integrator::Verlet, 0.25),
+    (Integrator::Leapfrog, 0.45),
+    (Integrator::Symplectic, 0.8),
+];
+
 /// Verlet's two-step recurrence decouples odd and even steps; an Euler step every 40 re-couples
 /// them (Monaghan 1989; DualSPHysics' default).
 pub const VERLET_EULER_EVERY: u64 = 40;
@@ -247,7 +274,7 @@ impl Wcsph {
             // Set in `start`, once the system has chosen the Eq. 22 spring.
             penalty_stiffness: 0.0,
             mass: rho0 * dx.powi(3),
-            cfl: spec.cfl.unwrap_or(0.2),
+            cfl: spec.cfl.unwrap_or(DEFAULT_CFL),
         };
         let layout = Layout {
             density,
@@ -664,6 +691,28 @@ impl SphMethod for Wcsph {
 
     fn dt_proposal(&self, v_max: Real, a_max: Real) -> Real {
         self.limits.propose(v_max, a_max).0
+    }
+
+    /// A Courant number above the default ([`DEFAULT_CFL`]) is named: the system's message
+    /// says what blew up (a density past its bound), not that the step outran the scheme, and
+    /// where that happens depends on the integrator ([`CFL_MEASURED_UNSTABLE`]).
+    fn unstable_hint(&self) -> Option<String> {
+        let cfl = self.limits.cfl;
+        (cfl > DEFAULT_CFL).then(|| {
+            let name = match self.constants.flux {
+                Flux::Artificial => "wcsph",
+                Flux::Riemann => "riemann",
+            };
+            let measured = CFL_MEASURED_UNSTABLE
+                .iter()
+                .map(|(i, c)| format!("{c} with {}", i.name()))
+                .collect::<Vec<_>>()
+                .join(", ");
+            format!(
+                "this run's Courant number is cfl = {cfl} (the default is {DEFAULT_CFL}), and a step past its integrator's stable range blows up this way (on the Lobovský dam break at dx = 30 mm WCSPH went unstable from cfl = {measured}; this run's integrator is {}); fix: lower [fluid.{name}] cfl, e.g. to the default",
+                self.constants.integrator.name()
+            )
+        })
     }
 
     /// In the stability maps WCSPH runs with its defaults: in the dt map with the solid
