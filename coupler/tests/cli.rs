@@ -671,3 +671,34 @@ fn a_lonely_node_names_the_attach_command() {
     );
     let _ = coupler().args(["clean", &id]).output_within(LIMIT);
 }
+
+/// `coupler check | head -1`: the reader closes the pipe after its first line, and the check
+/// ends quietly (by SIGPIPE, as Unix filters do), not with a panic and a backtrace.
+#[test]
+fn check_into_a_closed_pipe_ends_quietly() {
+    use std::os::fd::FromRawFd;
+    use std::os::unix::process::ExitStatusExt;
+    // A pipe whose reader is closed before the check starts: its first line meets it.
+    let mut fds = [0; 2];
+    // SAFETY: `pipe` fills the two descriptors; the read end is closed once, the write end
+    // owned by the `OwnedFd` handed to the child as its stdout.
+    let stdout = unsafe {
+        assert_eq!(libc::pipe(fds.as_mut_ptr()), 0);
+        libc::close(fds[0]);
+        std::os::fd::OwnedFd::from_raw_fd(fds[1])
+    };
+    let out = coupler()
+        .arg("check")
+        .stdout(Stdio::from(stdout))
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        out.status.signal(),
+        Some(libc::SIGPIPE),
+        "{:?}: {err}",
+        out.status
+    );
+}

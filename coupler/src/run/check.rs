@@ -13,6 +13,14 @@ pub fn run(
     fluid_ranks: Option<u32>,
     dx: Option<f64>,
 ) -> u8 {
+    // A report for a pipe: when its reader stops early (`coupler check | head -3`), end quietly
+    // as Unix filters do. Rust ignores SIGPIPE, so the next `println!` panicked with a
+    // backtrace instead. Only here: `coupler run` keeps ignoring it, so a closed pipe cannot
+    // kill it before it has stopped its nodes.
+    // SAFETY: `signal` only sets this process's disposition of SIGPIPE back to the default.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     // The scene's checks, the summary and the estimate read the terrains once between them.
     let _once = shared::terrain::reuse::Reuse::begin();
     let loaded = crate::run::scenes::load_as_written(scene)
