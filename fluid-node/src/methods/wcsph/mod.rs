@@ -163,7 +163,7 @@ pub const DEFAULT_CFL: Real = 0.2;
 /// out of the way), WCSPH's artificial flux: leapfrog ran at 0.4 and blew up from 0.45
 /// (at dx = 20 mm it ran at 0.45), verlet ran at 0.2 and blew up from 0.25, symplectic ran at
 /// 0.6 and blew up at 0.8; the Riemann flux with leapfrog ran at 0.3 and blew up at 0.45
-/// (docs/journal/2026-11-29-impact-pressures.md, "Courant numbers"). For the message of an
+/// (docs/journal/2026-11-30-inputs.md, "Courant numbers"). For the message of an
 /// instability in a run with a raised `cfl` ([`SphMethod::unstable_hint`]).
 pub const CFL_MEASURED_UNSTABLE: [(Integrator, Real); 3] = [
     (Integrator::Verlet, 0.25),
@@ -709,7 +709,7 @@ impl SphMethod for Wcsph {
                 .collect::<Vec<_>>()
                 .join(", ");
             format!(
-                "this run's Courant number is cfl = {cfl} (the default is {DEFAULT_CFL}), and a step past its integrator's stable range blows up this way (on the Lobovský dam break at dx = 30 mm WCSPH went unstable from cfl = {measured}; this run's integrator is {}); fix: lower [fluid.{name}] cfl, e.g. to the default",
+                "this run's Courant number is cfl = {cfl} (the default is {DEFAULT_CFL}), and a step past its integrator's stable range blows up this way (on the Lobovský dam break at dx = 30 mm WCSPH went unstable from cfl = {measured}, the Riemann flux alike where measured; this run's integrator is {}); fix: lower [fluid.{name}] cfl, e.g. to the default",
                 self.constants.integrator.name()
             )
         })
