@@ -402,6 +402,14 @@ fn cases() -> Vec<Case> {
             "min = [4.9",
         ),
         case(
+            "free block starting 4 cm inside a fixed one",
+            plus(
+                "[[block]]\nname = \"boulder\"\nkind = \"free\"\ndensity = 2600.0\nshape = { type = \"box\", min = [4.76, 0.3, 0.6], max = [5.04, 0.5, 0.8] }",
+            ),
+            "block[6].shape",
+            "min = [4.76",
+        ),
+        case(
             "output.max_frames negative",
             edit("interval = 0.05", "interval = 0.05\nmax_frames = -1.0"),
             "output.max_frames",

@@ -351,7 +351,15 @@ fn default_stiffness_and_dt_proposal() {
 
 #[test]
 fn outputs_csv_and_vtp() {
-    let floor = floor_toml();
+    // The floor under the rock's bottom face (z = −0.1), touching it: a free block may not
+    // start inside a fixed one.
+    let floor = block_toml(
+        "floor",
+        "fixed",
+        2500.0,
+        &box_corners([-1.0, -1.0, -0.6], [1.0, 1.0, -0.1]),
+        "",
+    );
     let mut s = space_scene(&[floor]);
     s.output.vtk = true;
     s.output.interval = 0.02;
