@@ -1023,3 +1023,23 @@ fn a_dem_cell_past_any_scene_is_refused_at_check() {
         "{e}"
     );
 }
+
+/// A terrain file that is not there is named with a fix about its path (it was told "not a
+/// pipe, device or directory", the fix for a file that exists but is not a regular one).
+#[test]
+fn a_missing_terrain_file_is_named_with_where_it_is_looked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "name = \"t\"\n[time]\nend = 0.1\n[domain]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n\
+                [[terrain]]\nfile = \"valley.asc\"\n";
+    std::fs::write(dir.path().join("scene.toml"), text).unwrap();
+    let scene = Scene::load(&dir.path().join("scene.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let errors = shared::terrain::check_scene(&scene);
+    let e = errors
+        .iter()
+        .find(|e| e.path == "terrain[0].file")
+        .unwrap_or_else(|| panic!("terrain[0].file not named: {errors:?}"));
+    assert!(
+        e.problem.contains("cannot open") && e.fix.contains("the scene file's folder"),
+        "{e}"
+    );
+}

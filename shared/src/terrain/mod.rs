@@ -103,12 +103,12 @@ impl Terrain {
         // A FIFO would block the read for ever and a device (/dev/zero) never end it: only a
         // regular file has the length its contents are bounded by.
         files::regular(&spec.file).map_err(|e| {
-            fail(
-                "file",
-                format!("{file:?}"),
-                e,
-                "name the terrain file itself (a regular file), not a pipe, device or directory",
-            )
+            let fix = if spec.file.exists() {
+                "name the terrain file itself (a regular file), not a pipe, device or directory"
+            } else {
+                "check the file's name and folder: a relative path is read from the scene file's folder"
+            };
+            fail("file", format!("{file:?}"), e, fix)
         })?;
         let mut filled_cells = 0;
         let raw = match format {
