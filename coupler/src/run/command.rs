@@ -244,14 +244,39 @@ impl Solvers {
     }
 }
 
-/// Warnings about settings that work against each other, from the fluid solver's registry
-/// entry.
+/// Warnings about settings that work against each other: the fluid solver's registry entry's,
+/// and [`sampling_warning`].
 fn warn(scene: &Scene, fluid_solver: Option<&str>, scheme: CouplingScheme) {
-    if let Some(entry) = fluid_solver.and_then(|n| fluid_node::REGISTRY.get(n).ok()) {
-        for w in (entry.advice.warnings)(scene, scheme) {
-            eprintln!("coupler: warning: {w}");
-        }
+    let own = fluid_solver
+        .and_then(|n| fluid_node::REGISTRY.get(n).ok())
+        .map(|entry| (entry.advice.warnings)(scene, scheme))
+        .unwrap_or_default();
+    for w in own.into_iter().chain(sampling_warning(scene)) {
+        eprintln!("coupler: warning: {w}");
     }
+}
+
+/// Fewer instrument rows than this over a run with gauges or probes is warned about.
+const FEW_ROWS: f64 = 20.0;
+
+/// Gauges and probes record at most every `output.interval/50`
+/// ([`fluid_node::instruments::gauges::ROWS_PER_INTERVAL`]): an interval long against the run
+/// leaves a handful of rows, and crests and peaks read from them mean nothing (`interval = 10`
+/// over a 0.2 s run wrote one row and a crest of 0, without a word). Not refused: `--end`
+/// shortens a run below its interval on purpose (a quick look, the tests).
+fn sampling_warning(scene: &Scene) -> Option<String> {
+    use fluid_node::instruments::gauges::ROWS_PER_INTERVAL;
+    let instruments = scene.gauges.len() + scene.probes.len();
+    let every = scene.output.interval / ROWS_PER_INTERVAL;
+    let rows = scene.time.end / every;
+    (instruments > 0 && scene.has_fluid() && rows < FEW_ROWS).then(|| {
+        format!(
+            "the scene's {instruments} gauges and probes record at most every output.interval/{ROWS_PER_INTERVAL} = {every:.3e} s, about {} row(s) over time.end = {} s: too few for a crest or a peak; fix: output.interval ≤ {:.3e} s gives {FEW_ROWS} rows or more",
+            rows.floor() as u64 + 1,
+            scene.time.end,
+            scene.time.end * ROWS_PER_INTERVAL / FEW_ROWS
+        )
+    })
 }
 
 /// What the session needs.
@@ -348,5 +373,26 @@ fn finish(
             eprintln!("coupler: results written so far are in {}", out.display());
             e.exit_code()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run shorter than a few sampling intervals is warned about, naming the fix; the
+    /// default scene (2.5 s at interval 0.05: 2 500 rows) is not.
+    #[test]
+    fn too_few_instrument_rows_are_warned_about() {
+        let mut scene = Scene::default_scene();
+        assert_eq!(sampling_warning(&scene), None);
+        scene.output.interval = 10.0;
+        scene.time.end = 0.2;
+        let w = sampling_warning(&scene).expect("a warning");
+        assert!(
+            w.contains("about 2 row(s) over time.end = 0.2 s")
+                && w.contains("fix: output.interval ≤ 5.000e-1 s"),
+            "{w}"
+        );
     }
 }

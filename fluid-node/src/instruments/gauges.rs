@@ -38,7 +38,7 @@
 //! spacing above the highest particle within one spacing of the line, spray and droplets
 //! included (the bed elevation when there is none).
 //!
-//! Samples are taken after a step but no more often than `output.interval/50` of simulated time,
+//! Samples are taken after a step but no more often than `output.interval/50` ([`ROWS_PER_INTERVAL`]) of simulated time,
 //! and every row is flushed to the file as it is written, so a run that is killed keeps
 //! everything it had recorded.
 //!
@@ -68,6 +68,10 @@ use shared::scene::{GaugeSpec, ProbeSpec};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
+
+/// Instrument rows per `output.interval` at most: a row is taken after a step once
+/// `output.interval / ROWS_PER_INTERVAL` of simulated time has passed since the last.
+pub const ROWS_PER_INTERVAL: Real = 50.0;
 
 /// Rows between flushes: every row reaches the file at once (at most 50 rows per output
 /// interval: the cost is nothing next to a step).
@@ -286,7 +290,7 @@ impl Recorder {
             gauge_file,
             probe_file,
             row: Vec::new(),
-            min_interval: output_interval / 50.0,
+            min_interval: output_interval / ROWS_PER_INTERVAL,
             last: Real::NEG_INFINITY,
             rows: 0,
         })
