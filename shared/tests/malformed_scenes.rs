@@ -402,6 +402,15 @@ fn cases() -> Vec<Case> {
             "min = [4.9",
         ),
         case(
+            "penalty stiffness past any step",
+            edit(
+                "scheme = \"parallel\"",
+                "scheme = \"parallel\"\npenalty_stiffness = 1e300",
+            ),
+            "coupling.penalty_stiffness",
+            "penalty_stiffness = 1e300",
+        ),
+        case(
             "free block starting 4 cm inside a fixed one",
             plus(
                 "[[block]]\nname = \"boulder\"\nkind = \"free\"\ndensity = 2600.0\nshape = { type = \"box\", min = [4.76, 0.3, 0.6], max = [5.04, 0.5, 0.8] }",

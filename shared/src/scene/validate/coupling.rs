@@ -13,6 +13,7 @@ pub(super) fn check(c: &mut Checker, s: &Scene) {
                 v,
                 "give K_S in N/m, or leave it out to derive one",
             );
+            penalty_step(c, s, v);
         }
         if let Some(v) = k.penalty_damping
             && !(v >= 0.0 && v.is_finite())
@@ -48,4 +49,33 @@ pub(super) fn check(c: &mut Checker, s: &Scene) {
             );
         }
     });
+}
+
+/// K_S so stiff that Eq. 22's explicit step on one particle, sqrt(m/K_S) with m = ρ dx³ (the
+/// fluid's penalty limit, `fluid-node/src/core/dt.rs`), is below `time.dt_min`: the fluid node
+/// proposes it at its first step and the run stops there as "step collapsed", naming the node
+/// but not the field (K_S = 1e300 proposed dt = 2.5e-151 s).
+fn penalty_step(c: &mut Checker, s: &Scene, ks: f64) {
+    let Some(f) = s.fluid.as_ref().filter(|_| s.has_fluid()) else {
+        return;
+    };
+    let mass = f.density * f.dx.powi(3);
+    let dt = (mass / ks).sqrt();
+    let dt_min = s.time.dt_min;
+    if ks.is_finite() && ks > 0.0 && mass > 0.0 && dt_min > 0.0 && dt < dt_min {
+        c.fail(
+            "penalty_stiffness",
+            ks,
+            &format!(
+                "makes Eq. 22's explicit step on one particle, sqrt(m/K_S) = {dt:.3e} s (m = ρ dx³ = \
+                 {mass:.3e} kg), shorter than time.dt_min = {dt_min:e} s: the run would stop at its \
+                 first step"
+            ),
+            &format!(
+                "leave it out (derived: ½ ρ c0² dx, the water's own stiffness over one particle), \
+                 or give at most m/dt_min² = {:.3e} N/m",
+                mass / (dt_min * dt_min)
+            ),
+        );
+    }
 }
