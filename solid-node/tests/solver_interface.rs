@@ -349,6 +349,44 @@ fn default_stiffness_and_dt_proposal() {
     );
 }
 
+/// A contact stiffness whose explicit step is below `time.dt_min` before anything moves is
+/// refused at set-up naming the stiffness, where it came from and the fix (the coupler used to
+/// stop at step 0 on a collapsed proposal of 1.5e-150 s, naming the node only).
+#[test]
+fn a_contact_stiffness_past_any_step_is_refused_at_set_up_by_name() {
+    let rest = |contact: &str| {
+        scene(
+            "stiff",
+            [0.0, 0.0, -9.81],
+            5.0,
+            "",
+            contact,
+            &[
+                floor_toml(),
+                block_toml(
+                    "rock",
+                    "free",
+                    2500.0,
+                    &box_corners([-0.2, -0.2, 0.0], [0.2, 0.2, 0.4]),
+                    "",
+                ),
+            ],
+        )
+    };
+    // The scene's dt_min is 1e-12 s; the default stiffness is far from it.
+    assert!(Harness::new(&rest(""), "explicit").is_ok());
+    let err = match Harness::new(&rest("normal_stiffness = 1e300"), "explicit") {
+        Ok(_) => panic!("built with a stiffness of 1e300 N/m"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        err.contains("is below time.dt_min = 1e-12 s before anything moves")
+            && err.contains("normal stiffness is 1.000e300 N/m ([solid.contact].normal_stiffness)")
+            && err.contains("fix: leave [solid.contact] normal_stiffness out"),
+        "{err}"
+    );
+}
+
 #[test]
 fn outputs_csv_and_vtp() {
     // The floor under the rock's bottom face (z = −0.1), touching it: a free block may not

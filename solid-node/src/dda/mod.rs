@@ -30,6 +30,32 @@ pub struct DdaSolver {
     response: Vec<Option<look_ahead::Response>>,
 }
 
+/// A scheme whose first proposal is already below `time.dt_min` is refused at set-up, naming
+/// the stiffness behind it: the coupler would stop at step 0 on "proposed dt = 1.5e-150 s,
+/// below dt_min", naming the node but not the field (`[solid.contact] normal_stiffness =
+/// 1e300` under the explicit scheme).
+fn collapsed_at_start(integrator: &dyn Integrator, world: &World) -> Result<(), SolverError> {
+    let first = integrator.dt_proposal(world);
+    if first >= world.dt_min {
+        return Ok(());
+    }
+    let elastic = if world.deformable.is_empty() {
+        ""
+    } else {
+        ", or a deformable block's elastic mode (its Young's modulus)"
+    };
+    Err(SolverError::Failed(format!(
+        "{}: its first step, {first:.3e} s, is below time.dt_min = {:e} s before anything moves: \
+         the contact springs' normal stiffness is {:.3e} N/m ({}){elastic}; fix: leave \
+         [solid.contact] normal_stiffness out to derive it from the lightest free block, or \
+         lower it",
+        integrator.name(),
+        world.dt_min,
+        world.penalty.normal,
+        world.penalty.origin
+    )))
+}
+
 impl DdaSolver {
     pub fn new(
         ctx: &SetupContext,
@@ -38,6 +64,7 @@ impl DdaSolver {
         let mut world = World::new(ctx.scene)?;
         world.detect(world.penalty.margin);
         integrator.init(&mut world);
+        collapsed_at_start(integrator.as_ref(), &world)?;
         let settled = if world.joints.bond_count() > 0 {
             let s = crate::settle::settle(&mut world, integrator.as_mut())?;
             eprintln!(
