@@ -27,6 +27,27 @@ fn space_scene(extra_blocks: &[String]) -> Scene {
     )
 }
 
+/// A 0.4 m rock cube resting on the floor under gravity, with `[solid.contact]` `contact`.
+fn rock_on_floor(name: &str, contact: &str) -> Scene {
+    scene(
+        name,
+        [0.0, 0.0, -9.81],
+        5.0,
+        "",
+        contact,
+        &[
+            floor_toml(),
+            block_toml(
+                "rock",
+                "free",
+                2500.0,
+                &box_corners([-0.2, -0.2, 0.0], [0.2, 0.2, 0.4]),
+                "",
+            ),
+        ],
+    )
+}
+
 #[test]
 fn unknown_solver_is_refused_with_the_choices() {
     let s = space_scene(&[]);
@@ -308,23 +329,7 @@ fn implicit_substeps_end_exactly_on_the_coupler_step() {
 /// corner springs, and dt_proposal follows 2/ω_max.
 #[test]
 fn default_stiffness_and_dt_proposal() {
-    let s = scene(
-        "rest",
-        [0.0, 0.0, -9.81],
-        5.0,
-        "",
-        "damping_ratio = 0.5",
-        &[
-            floor_toml(),
-            block_toml(
-                "rock",
-                "free",
-                2500.0,
-                &box_corners([-0.2, -0.2, 0.0], [0.2, 0.2, 0.4]),
-                "",
-            ),
-        ],
-    );
+    let s = rock_on_floor("rest", "damping_ratio = 0.5");
     let mut h = Harness::new(&s, "explicit").unwrap();
     h.run_until(0.5, None, |_| {}).unwrap();
     let b = h.block("rock");
@@ -354,25 +359,7 @@ fn default_stiffness_and_dt_proposal() {
 /// stop at step 0 on a collapsed proposal of 1.5e-150 s, naming the node only).
 #[test]
 fn a_contact_stiffness_past_any_step_is_refused_at_set_up_by_name() {
-    let rest = |contact: &str| {
-        scene(
-            "stiff",
-            [0.0, 0.0, -9.81],
-            5.0,
-            "",
-            contact,
-            &[
-                floor_toml(),
-                block_toml(
-                    "rock",
-                    "free",
-                    2500.0,
-                    &box_corners([-0.2, -0.2, 0.0], [0.2, 0.2, 0.4]),
-                    "",
-                ),
-            ],
-        )
-    };
+    let rest = |contact: &str| rock_on_floor("stiff", contact);
     // The scene's dt_min is 1e-12 s; the default stiffness is far from it.
     assert!(Harness::new(&rest(""), "explicit").is_ok());
     let err = match Harness::new(&rest("normal_stiffness = 1e300"), "explicit") {

@@ -367,6 +367,13 @@ impl Polyhedron {
 /// normals of each and the cross products of their edges). Zero or less: they are apart or
 /// only touch.
 pub fn overlap_depth(a: &Polyhedron, b: &Polyhedron) -> Real {
+    swept_overlap_depth(a, Vector::zeros(), Vector::zeros(), b)
+}
+
+/// [`overlap_depth`] of the volume `a` sweeps when translated from `d0` to `d1` (from its scene
+/// pose) and `b`: the swept hull's separating axes are `a`'s and `b`'s face normals, the cross
+/// products of their edges, and of the sweep with their edges (a zero sweep adds none).
+pub fn swept_overlap_depth(a: &Polyhedron, d0: Vector, d1: Vector, b: &Polyhedron) -> Real {
     let world = |p: &Polyhedron| -> Vec<Point> {
         p.vertices.iter().map(|v| v + p.centroid.coords).collect()
     };
@@ -377,10 +384,12 @@ pub fn overlap_depth(a: &Polyhedron, b: &Polyhedron) -> Real {
             .map(|e| v[e[1] as usize] - v[e[0] as usize])
             .collect()
     };
-    let (ea, eb) = (dirs(a, &va), dirs(b, &vb));
+    let sweep = d1 - d0;
+    let (mut ea, eb) = (dirs(a, &va), dirs(b, &vb));
+    ea.push(sweep);
     let mut axes: Vec<Vector> = a.faces.iter().chain(&b.faces).map(|f| f.normal).collect();
     for u in &ea {
-        for w in &eb {
+        for w in eb.iter().chain([&sweep]) {
             let n = u.cross(w);
             if n.norm() > 1e-12 * u.norm() * w.norm() {
                 axes.push(n.normalize());
@@ -397,6 +406,8 @@ pub fn overlap_depth(a: &Polyhedron, b: &Polyhedron) -> Real {
     axes.iter()
         .map(|n| {
             let ((alo, ahi), (blo, bhi)) = (range(&va, n), range(&vb, n));
+            let (s0, s1) = (n.dot(&d0), n.dot(&d1));
+            let (alo, ahi) = (alo + s0.min(s1), ahi + s0.max(s1));
             ahi.min(bhi) - alo.max(blo)
         })
         .fold(Real::INFINITY, Real::min)

@@ -312,7 +312,7 @@ fn motion_path(
         if crate::geometry::overlap_depth(p, q) > tol {
             continue; // already inside it at the start: named by [`start_overlaps`]
         }
-        let depth = swept_overlap_depth(p, d0, d1, q);
+        let depth = crate::geometry::swept_overlap_depth(p, d0, d1, q);
         if depth > tol {
             c.key("motion", |c| {
                 c.fail(
@@ -402,50 +402,6 @@ fn path_span(m: &MotionSpec, end: f64) -> Option<(Vector, f64, f64)> {
             Some((u, lo, hi))
         }
     }
-}
-
-/// How deep the volume that `a` sweeps when translated from `d0` to `d1` (from its scene pose)
-/// overlaps `b` [m], as [`crate::geometry::overlap_depth`] measures two blocks: the smallest
-/// overlap of their projections over the separating axes of the swept hull and `b` (the face
-/// normals of both, the cross products of their edges, and of the sweep with their edges).
-fn swept_overlap_depth(a: &Polyhedron, d0: Vector, d1: Vector, b: &Polyhedron) -> f64 {
-    let world = |p: &Polyhedron| -> Vec<Point> {
-        p.vertices.iter().map(|v| v + p.centroid.coords).collect()
-    };
-    let (va, vb) = (world(a), world(b));
-    let dirs = |p: &Polyhedron, v: &[Point]| -> Vec<Vector> {
-        p.edges
-            .iter()
-            .map(|e| v[e[1] as usize] - v[e[0] as usize])
-            .collect()
-    };
-    let sweep = d1 - d0;
-    let (mut ea, eb) = (dirs(a, &va), dirs(b, &vb));
-    ea.push(sweep);
-    let mut axes: Vec<Vector> = a.faces.iter().chain(&b.faces).map(|f| f.normal).collect();
-    for x in &ea {
-        for y in eb.iter().chain([&sweep]) {
-            let n = x.cross(y);
-            if n.norm() > 1e-12 * x.norm() * y.norm() {
-                axes.push(n.normalize());
-            }
-        }
-    }
-    let range = |v: &[Point], n: &Vector| {
-        v.iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-                let d = n.dot(&p.coords);
-                (lo.min(d), hi.max(d))
-            })
-    };
-    axes.iter()
-        .map(|n| {
-            let ((alo, ahi), (blo, bhi)) = (range(&va, n), range(&vb, n));
-            let (s0, s1) = (n.dot(&d0), n.dot(&d1));
-            let (alo, ahi) = (alo + s0.min(s1), ahi + s0.max(s1));
-            ahi.min(bhi) - alo.max(blo)
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// `elastic`: a free block's Young's modulus and Poisson's ratio.
