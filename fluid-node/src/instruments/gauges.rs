@@ -38,9 +38,9 @@
 //! spacing above the highest particle within one spacing of the line, spray and droplets
 //! included (the bed elevation when there is none).
 //!
-//! Samples are taken after a step but no more often than `output.interval/50` ([`ROWS_PER_INTERVAL`]) of simulated time,
-//! and every row is flushed to the file as it is written, so a run that is killed keeps
-//! everything it had recorded.
+//! Samples are taken after a step but no more often than `output.interval/50`
+//! ([`ROWS_PER_INTERVAL`]) of simulated time, and every row is flushed to the file as it is
+//! written, so a run that is killed keeps everything it had recorded.
 //!
 //! # What a probe reads
 //!

@@ -715,10 +715,6 @@ impl SphMethod for Wcsph {
         })
     }
 
-    /// In the stability maps WCSPH runs with its defaults: in the dt map with the solid
-    /// registry's first solver, under both schemes and sub-cycled (its own step binds, so
-    /// sub-cycling changes nothing: the row says so); in the density map with every solid
-    /// solver under both schemes.
     /// A speed of sound too low for the water's depth ([`sound_speed`]).
     fn check_against(params: &WcsphParams, scene: &Scene) -> Vec<FieldError> {
         sound_speed::check(Self::NAME, params.sound_speed, params.gamma, scene)
@@ -726,6 +722,10 @@ impl SphMethod for Wcsph {
             .collect()
     }
 
+    /// In the stability maps WCSPH runs with its defaults: in the dt map with the solid
+    /// registry's first solver, under both schemes and sub-cycled (its own step binds, so
+    /// sub-cycling changes nothing: the row says so); in the density map with every solid
+    /// solver under both schemes.
     fn study_variants(study: &str) -> &'static [Variant] {
         use shared::registry::StudyCoupling as C;
         use shared::scene::CouplingScheme::{Parallel, Serial};

@@ -6,9 +6,9 @@
 //! cannot run: at c0 = 1 m/s a 0.3 m column at rest is already compressed to ρ/ρ0 = 1.55 at its
 //! bottom, past the density bound (1.3) before the first step, and the run stopped at step 0
 //! with a message about the density (ρ/ρ0 = 1.54 at the lowest particle), not the speed of
-//! sound. So a c0 below
-//! [`MIN_SOUND_SPEED_RATIO`]·sqrt(2 g H) is refused by the scene check, naming the field, the
-//! compression at rest and the Mach number of water falling H, and the default.
+//! sound. So a c0 below [`MIN_SOUND_SPEED_RATIO`]·sqrt(2 g H) is refused by the scene check,
+//! naming the field, the compression at rest, the Mach number of water falling H, and the
+//! default.
 
 use shared::math::Real;
 use shared::scene::{FieldError, Scene};
@@ -18,8 +18,8 @@ use shared::scene::{FieldError, Scene};
 /// rest is compressed by 9 % at its bottom (γ = 7), eighteen times the default's 0.5 %.
 pub const MIN_SOUND_SPEED_RATIO: Real = 2.0;
 
-/// The bottom of a column of depth `depth` at rest under gravity `g`, over ρ0, with Tait's
-/// equation at `c0` and `gamma`: (1 + γ g H/c0²)^(1/γ).
+/// ρ/ρ0 at the bottom of a column `depth` deep at rest under gravity `g`, by Tait's equation
+/// at `c0` and `gamma`: (1 + γ g H/c0²)^(1/γ).
 pub fn resting_compression(c0: Real, gamma: Real, g: Real, depth: Real) -> Real {
     (1.0 + gamma * g * depth / (c0 * c0)).powf(1.0 / gamma)
 }
