@@ -402,6 +402,14 @@ fn cases() -> Vec<Case> {
             "min = [4.9",
         ),
         case(
+            "slide region reaching into the far wall",
+            plus(
+                "[[slide]]\nname = \"rock\"\ndensity = 2600.0\nregion = { type = \"box\", min = [4.7, 0.3, 0.6], max = [5.04, 0.5, 0.8] }\n[[slide.joint_set]]\ndip = 0.0\ndip_direction = 0.0\nspacing = 0.1",
+            ),
+            "slide[0].region",
+            "region = {",
+        ),
+        case(
             "penalty stiffness past any step",
             edit(
                 "scheme = \"parallel\"",

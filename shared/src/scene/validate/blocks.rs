@@ -447,6 +447,10 @@ pub(super) fn start_overlaps(c: &mut Checker, s: &Scene, polys: &[Option<Polyhed
         .iter()
         .map(|p| p.as_ref().map(Polyhedron::world_aabb))
         .collect();
+    // Blocks cut from a slide inside a fixed block: one error per slide and fixed block, on the
+    // slide's region (a region reaching into a wall gave one error per cut block, each telling
+    // the user to raise min_block_volume). (slide, fixed block) → (cut blocks, deepest).
+    let mut cut_into = std::collections::BTreeMap::<(usize, usize), (usize, f64)>::new();
     for (i, j) in x_overlapping_pairs(&boxes) {
         let (bi, bj) = (&s.blocks[i], &s.blocks[j]);
         let fixed = [bi.kind, bj.kind]
@@ -468,42 +472,73 @@ pub(super) fn start_overlaps(c: &mut Checker, s: &Scene, polys: &[Option<Polyhed
         }
         let depth = crate::geometry::overlap_depth(pi, pj);
         let size = pi.radius.min(pj.radius);
-        if depth > MAX_START_OVERLAP * size {
-            c.key("block", |c| {
-                    c.at(Seg::Index(i), |c| {
-                        c.fail(
-                            "shape",
-                            shape_summary(&bi.shape),
-                            &if fixed == 1 && !kinematic {
-                                format!(
-                                    "the interior of block '{}' ({}) overlaps that of block '{}' ({}, block[{j}]) by {depth:.3e} m: \
-                                     the contact springs would throw the free block out at the first steps",
-                                    bi.name,
-                                    kind_name(bi.kind),
-                                    bj.name,
-                                    kind_name(bj.kind)
-                                )
-                            } else if fixed == 1 {
-                                format!(
-                                    "the interior of block '{}' ({}) overlaps that of block '{}' ({}, block[{j}]) by {depth:.3e} m: \
-                                     a kinematic block feels no contact with a fixed one and its prescribed motion would run through it",
-                                    bi.name,
-                                    kind_name(bi.kind),
-                                    bj.name,
-                                    kind_name(bj.kind)
-                                )
-                            } else {
-                                format!(
-                                    "the interior of block '{}' overlaps that of block '{}' (block[{j}]) by {depth:.3e} m: \
-                                     moving blocks that start inside each other feel no contact and move as one",
-                                    bi.name, bj.name
-                                )
-                            },
-                            "move the blocks apart (touching faces are fine)",
-                        )
-                    })
-                });
+        if depth <= MAX_START_OVERLAP * size {
+            continue;
         }
+        let cut = match (bi.slide, bj.slide) {
+            (Some(m), None) if bj.kind == BlockKind::Fixed => Some((m.slide, j)),
+            (None, Some(m)) if bi.kind == BlockKind::Fixed => Some((m.slide, i)),
+            _ => None,
+        };
+        if let Some(key) = cut {
+            let e = cut_into.entry(key).or_insert((0, 0.0));
+            *e = (e.0 + 1, e.1.max(depth));
+            continue;
+        }
+        c.key("block", |c| {
+            c.at(Seg::Index(i), |c| {
+                c.fail(
+                    "shape",
+                    shape_summary(&bi.shape),
+                    &if fixed == 1 && !kinematic {
+                        format!(
+                            "the interior of block '{}' ({}) overlaps that of block '{}' ({}, block[{j}]) by {depth:.3e} m: \
+                             the contact springs would throw the free block out at the first steps",
+                            bi.name,
+                            kind_name(bi.kind),
+                            bj.name,
+                            kind_name(bj.kind)
+                        )
+                    } else if fixed == 1 {
+                        format!(
+                            "the interior of block '{}' ({}) overlaps that of block '{}' ({}, block[{j}]) by {depth:.3e} m: \
+                             a kinematic block feels no contact with a fixed one and its prescribed motion would run through it",
+                            bi.name,
+                            kind_name(bi.kind),
+                            bj.name,
+                            kind_name(bj.kind)
+                        )
+                    } else {
+                        format!(
+                            "the interior of block '{}' overlaps that of block '{}' (block[{j}]) by {depth:.3e} m: \
+                             moving blocks that start inside each other feel no contact and move as one",
+                            bi.name, bj.name
+                        )
+                    },
+                    "move the blocks apart (touching faces are fine)",
+                )
+            })
+        });
+    }
+    for ((m, j), (blocks, depth)) in cut_into {
+        c.key("slide", |c| {
+            c.at(Seg::Index(m), |c| {
+                c.fail(
+                    "region",
+                    shape_summary(&s.slides[m].region),
+                    &format!(
+                        "reaches into fixed block '{}' (block[{j}]): {blocks} of the blocks cut from \
+                         it start inside that block, up to {depth:.3e} m deep, and the contact springs \
+                         would throw them out at the first steps",
+                        s.blocks[j].name
+                    ),
+                    &format!(
+                        "move or shrink the region so that it clears '{}' (touching its faces is fine)",
+                        s.blocks[j].name
+                    ),
+                )
+            })
+        });
     }
 }
 
