@@ -272,7 +272,8 @@ fn sampling_warning(scene: &Scene) -> Option<String> {
     (instruments > 0 && scene.has_fluid() && rows < FEW_ROWS).then(|| {
         format!(
             "the scene's {instruments} gauges and probes record at most every output.interval/{ROWS_PER_INTERVAL} = {every:.3e} s, about {} row(s) over time.end = {} s: too few for a crest or a peak; fix: output.interval ≤ {:.3e} s gives {FEW_ROWS} rows or more",
-            rows.floor() as u64 + 1,
+            // The first row at the first step, then one each `every`: ⌈end/every⌉.
+            (rows.ceil() as u64).max(1),
             scene.time.end,
             scene.time.end * ROWS_PER_INTERVAL / FEW_ROWS
         )
@@ -390,7 +391,7 @@ mod tests {
         scene.time.end = 0.2;
         let w = sampling_warning(&scene).expect("a warning");
         assert!(
-            w.contains("about 2 row(s) over time.end = 0.2 s")
+            w.contains("about 1 row(s) over time.end = 0.2 s")
                 && w.contains("fix: output.interval ≤ 5.000e-1 s"),
             "{w}"
         );
