@@ -24,6 +24,10 @@ fn plus(extra: &str) -> String {
 const WEDGE_PROFILE: &str = "profile = [[-0.179479, 0.783154], [0.320521, 0.55], [0.320521, 0.783154]], extent = [0.25, 0.55] }";
 const KINEMATIC: &str = "[[block]]\nname = \"paddle\"\nkind = \"kinematic\"\nshape = { type = \"box\", min = [4.0, 0.3, 0.6], max = [4.2, 0.5, 0.8] }";
 
+/// A slide whose region reaches 0.1 m above the domain: cut into 2 × 2 × 3 blocks, of which
+/// the top four reach outside.
+const SLIDE_PAST_THE_TOP: &str = "[[slide]]\nname = \"rock\"\ndensity = 2600.0\nregion = { type = \"box\", min = [2.0, 0.3, 1.4], max = [2.2, 0.5, 1.7] }\n[[slide.joint_set]]\ndip = 0.0\ndip_direction = 0.0\nspacing = 0.1\noffset = [2.0, 0.3, 1.4]\n[[slide.joint_set]]\ndip = 90.0\ndip_direction = 90.0\nspacing = 0.1\noffset = [2.0, 0.3, 1.4]\n[[slide.joint_set]]\ndip = 90.0\ndip_direction = 0.0\nspacing = 0.1\noffset = [2.0, 0.3, 1.4]";
+
 struct Case {
     what: &'static str,
     text: String,
@@ -408,6 +412,21 @@ fn cases() -> Vec<Case> {
             ),
             "slide[0].region",
             "region = {",
+        ),
+        case(
+            "slide region reaching past the domain's top",
+            plus(SLIDE_PAST_THE_TOP),
+            "slide[0].region",
+            "region = {",
+        ),
+        case(
+            "Eq. 22 margin of 2.5 particle spacings",
+            edit(
+                "scheme = \"parallel\"",
+                "scheme = \"parallel\"\nmargin = 0.1",
+            ),
+            "coupling.margin",
+            "margin = 0.1",
         ),
         case(
             "penalty stiffness past any step",
@@ -1057,6 +1076,25 @@ fn a_missing_terrain_file_is_named_with_where_it_is_looked_for() {
         .unwrap_or_else(|| panic!("terrain[0].file not named: {errors:?}"));
     assert!(
         e.problem.contains("cannot open") && e.fix.contains("the scene file's folder"),
+        "{e}"
+    );
+}
+
+/// A slide region past a domain face is one error on the region, counting the cut blocks
+/// outside, not one per cut block telling the user to raise `min_block_volume`.
+#[test]
+fn a_slide_past_the_domain_is_one_error_on_its_region() {
+    let Err(SceneError::Invalid { errors, .. }) = Scene::parse(&plus(SLIDE_PAST_THE_TOP), "s.toml")
+    else {
+        panic!("a slide past the domain's top accepted");
+    };
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    let e = errors[0].to_string();
+    assert!(
+        errors[0].path == "slide[0].region"
+            && e.contains("4 of the blocks cut from it")
+            && e.contains("enlarge [domain]")
+            && !e.contains("min_block_volume"),
         "{e}"
     );
 }

@@ -322,7 +322,17 @@ impl<R: BufRead> AscReader<R> {
                 let v: f64 = t
                     .parse()
                     .map_err(|_| format!("elevation `{t}` (value {}) is not a number", n + 1))?;
-                g.z[r * g.ncols + c] = (v.is_finite() && Some(v) != h.nodata).then_some(v);
+                // NaN is a hole (GDAL writes `nan` for one); an infinity is no elevation and
+                // no hole either: `nodata = "fill"` would have filled it silently.
+                if v.is_infinite() {
+                    return Err(format!(
+                        "elevation `{t}` (value {}, row {row}, column {col} from the north-west \
+                         corner) is infinite; fix: give the cell's elevation, or the file's \
+                         NODATA_value to mark it a hole",
+                        n + 1
+                    ));
+                }
+                g.z[r * g.ncols + c] = (!v.is_nan() && Some(v) != h.nodata).then_some(v);
             }
             Ok(())
         };
@@ -547,6 +557,16 @@ mod tests {
         assert!(parse(&no_size).unwrap_err().contains("cellsize"));
         let nan = GRID.replace("-9999 6", "nan 6");
         assert_eq!(parse(&nan).unwrap().z[4], None);
+        // An infinity is not a hole to fill: refused, naming the cell.
+        for inf in ["inf", "-inf", "1e999"] {
+            let e = parse(&GRID.replace("-9999 6", &format!("{inf} 6"))).unwrap_err();
+            assert!(
+                e.contains(&format!("`{inf}`"))
+                    && e.contains("row 1, column 1")
+                    && e.contains("infinite; fix: give the cell's elevation"),
+                "{e}"
+            );
+        }
     }
 
     /// A header is not trusted past what the file holds: a claim of 10⁹ cells (or 10³⁰⁰ columns)

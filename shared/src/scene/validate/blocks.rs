@@ -1,7 +1,7 @@
 //! `[[block]]`: each block's own fields (name, shape, size, motion, contact, elasticity), and
 //! the blocks that must not start inside each other.
 
-use super::checker::{Checker, shape_summary};
+use super::checker::{Checker, Reach, shape_summary};
 use crate::geometry::Polyhedron;
 use crate::math::{Point, Vector};
 use crate::scene::error::Seg;
@@ -27,7 +27,18 @@ pub(super) fn each(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
         .sum::<f64>()
         .sqrt();
     let mut names = std::collections::HashSet::new();
+    // Blocks cut from a slide reaching outside the domain: one error per slide, on its region
+    // (a region past a domain face gave one error per cut block, each telling the user to
+    // raise min_block_volume). slide → (cut blocks outside, their span).
+    let mut cut_outside = std::collections::BTreeMap::<usize, (usize, Point, Point)>::new();
     for (i, b) in s.blocks.iter().enumerate() {
+        if let (Some(m), Some(p)) = (b.slide, polys[i].as_ref()) {
+            let (lo, hi) = p.world_aabb();
+            if (0..3).any(|k| lo[k] < d.min[k] || hi[k] > d.max[k]) {
+                let e = cut_outside.entry(m.slide).or_insert((0, lo, hi));
+                *e = (e.0 + 1, e.1.inf(&lo), e.2.sup(&hi));
+            }
+        }
         c.key("block", |c| {
             c.at(Seg::Index(i), |c| {
                 c.label("name", &b.name, "block");
@@ -39,7 +50,15 @@ pub(super) fn each(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
                         "give every block a unique name",
                     );
                 }
-                c.shape(&b.shape, d, b.kind != BlockKind::Fixed);
+                c.shape(
+                    &b.shape,
+                    d,
+                    match (b.kind, b.slide) {
+                        (_, Some(_)) => Reach::Unchecked,
+                        (BlockKind::Fixed, None) => Reach::Fixed,
+                        _ => Reach::Inside,
+                    },
+                );
                 if let Some(p) = polys[i].as_ref() {
                     size(c, s, b, p, diag);
                 }
@@ -76,6 +95,23 @@ pub(super) fn each(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
                     c.fail("cohesion", coh, "must be >= 0", "give cohesion in Pa");
                 }
                 elastic(c, b);
+            })
+        });
+    }
+    for (m, (blocks, lo, hi)) in cut_outside {
+        c.key("slide", |c| {
+            c.at(Seg::Index(m), |c| {
+                c.fail(
+                    "region",
+                    shape_summary(&s.slides[m].region),
+                    &format!(
+                        "reaches outside the domain: {blocks} of the blocks cut from it do, together \
+                         spanning [{:.4}, {:.4}, {:.4}] to [{:.4}, {:.4}, {:.4}] against the domain's \
+                         {:?} to {:?}",
+                        lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], d.min, d.max
+                    ),
+                    "move or shrink the region to inside [domain], or enlarge [domain]",
+                )
             })
         });
     }

@@ -94,7 +94,7 @@ impl Checker {
         }
     }
 
-    pub(super) fn shape(&mut self, shape: &ShapeSpec, domain: &DomainSpec, must_be_inside: bool) {
+    pub(super) fn shape(&mut self, shape: &ShapeSpec, domain: &DomainSpec, reach: Reach) {
         // Coordinates far outside the domain are typos (a fixed block may reach past the
         // domain, not by more than ten times its size): say so before the geometry does.
         let diag = (0..3)
@@ -124,7 +124,7 @@ impl Checker {
         }
         self.key("shape", |c| match Polyhedron::from_shape(shape) {
             Err(e) => c.fail("", shape_summary(shape), &e.problem, &e.fix),
-            Ok(p) if must_be_inside => {
+            Ok(p) if reach == Reach::Inside => {
                 let (lo, hi) = p.world_aabb();
                 let inside = (0..3).all(|k| lo[k] >= domain.min[k] && hi[k] <= domain.max[k]);
                 if !inside {
@@ -136,7 +136,7 @@ impl Checker {
                     );
                 }
             }
-            Ok(p) if domain.open_top => {
+            Ok(p) if reach == Reach::Fixed && domain.open_top => {
                 // Above an open top the water meets no wall (boundary particles end there): a
                 // fixed block reaching higher would let the spray pass through it.
                 let top = p.world_aabb().1[2];
@@ -155,6 +155,17 @@ impl Checker {
             Ok(_) => {}
         });
     }
+}
+
+/// How far a shape may reach past `[domain]` ([`Checker::shape`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Reach {
+    /// Inside it (water, moving blocks).
+    Inside,
+    /// Past its faces (a fixed block: the walls), but not above an open top.
+    Fixed,
+    /// Not checked here (a block cut from a slide: its region is, once).
+    Unchecked,
 }
 
 /// A shape in a few words, as the value of its error.

@@ -1,6 +1,6 @@
 //! `[fluid]`: the water, its particle spacing and the stray keys that are not solver tables.
 
-use super::checker::Checker;
+use super::checker::{Checker, Reach};
 use crate::scene::error::Seg;
 use crate::scene::schema::{MAX_FLUID_RANKS, Scene};
 
@@ -47,7 +47,7 @@ pub(super) fn check(c: &mut Checker, s: &Scene) {
             }
             for (i, w) in f.water.iter().enumerate() {
                 c.key("water", |c| {
-                    c.at(Seg::Index(i), |c| c.shape(&w.shape, d, true))
+                    c.at(Seg::Index(i), |c| c.shape(&w.shape, d, Reach::Inside))
                 });
             }
             // Keys that are not [fluid] fields are solver tables; a stray value is a typo.
