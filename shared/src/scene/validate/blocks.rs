@@ -99,22 +99,28 @@ pub(super) fn each(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
         });
     }
     for (m, (blocks, lo, hi)) in cut_outside {
-        c.key("slide", |c| {
-            c.at(Seg::Index(m), |c| {
-                c.fail(
-                    "region",
-                    shape_summary(&s.slides[m].region),
-                    &format!(
-                        "reaches outside the domain: {blocks} of the blocks cut from it do, together \
-                         spanning [{:.4}, {:.4}, {:.4}] to [{:.4}, {:.4}, {:.4}] against the domain's \
-                         {:?} to {:?}",
-                        lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], d.min, d.max
-                    ),
-                    "move or shrink the region to inside [domain], or enlarge [domain]",
-                )
-            })
-        });
+        region_fails(
+            c,
+            s,
+            m,
+            &format!(
+                "reaches outside the domain: {blocks} of the blocks cut from it do, together \
+                 spanning [{:.4}, {:.4}, {:.4}] to [{:.4}, {:.4}, {:.4}] against the domain's \
+                 {:?} to {:?}",
+                lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], d.min, d.max
+            ),
+            "move or shrink the region to inside [domain], or enlarge [domain]",
+        );
     }
+}
+
+/// A problem of the blocks cut from slide `m`, told once on the slide's region.
+fn region_fails(c: &mut Checker, s: &Scene, m: usize, problem: &str, fix: &str) {
+    c.key("slide", |c| {
+        c.at(Seg::Index(m), |c| {
+            c.fail("region", shape_summary(&s.slides[m].region), problem, fix)
+        })
+    });
 }
 
 /// A block too small to simulate: below 1e-6 of the domain diagonal, or (a moving block, in
@@ -557,24 +563,21 @@ pub(super) fn start_overlaps(c: &mut Checker, s: &Scene, polys: &[Option<Polyhed
         });
     }
     for ((m, j), (blocks, depth)) in cut_into {
-        c.key("slide", |c| {
-            c.at(Seg::Index(m), |c| {
-                c.fail(
-                    "region",
-                    shape_summary(&s.slides[m].region),
-                    &format!(
-                        "reaches into fixed block '{}' (block[{j}]): {blocks} of the blocks cut from \
-                         it start inside that block, up to {depth:.3e} m deep, and the contact springs \
-                         would throw them out at the first steps",
-                        s.blocks[j].name
-                    ),
-                    &format!(
-                        "move or shrink the region so that it clears '{}' (touching its faces is fine)",
-                        s.blocks[j].name
-                    ),
-                )
-            })
-        });
+        region_fails(
+            c,
+            s,
+            m,
+            &format!(
+                "reaches into fixed block '{}' (block[{j}]): {blocks} of the blocks cut from \
+                 it start inside that block, up to {depth:.3e} m deep, and the contact springs \
+                 would throw them out at the first steps",
+                s.blocks[j].name
+            ),
+            &format!(
+                "move or shrink the region so that it clears '{}' (touching its faces is fine)",
+                s.blocks[j].name
+            ),
+        );
     }
 }
 
