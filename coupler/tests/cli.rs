@@ -702,3 +702,95 @@ fn check_into_a_closed_pipe_ends_quietly() {
         out.status
     );
 }
+
+/// `coupler ARGS`, which must be refused with exit code `code`, no panic and nothing at `out`;
+/// returns its error output.
+fn refused(args: &[&str], code: i32, out: &std::path::Path) -> String {
+    let o = coupler().args(args).output_within(LIMIT);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(code), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    assert!(!out.exists(), "{args:?}: {} was written", out.display());
+    err
+}
+
+/// Run flags that got through and then failed late or badly are refused by name, with the fix,
+/// before the run directory exists: a checkpoint interval that hung the coupler, a wall interval
+/// past `Duration`'s range (a panic), a solver no node offers (found by the node, after the run
+/// directory was made), a dt factor that would never end, a timeout no healthy node meets.
+#[test]
+fn run_flags_that_failed_late_are_refused_before_anything_is_written() {
+    let dir = temp("late");
+    let out = dir.join("run");
+    let o = out.to_str().unwrap();
+    let wall = dir.join("wall.toml");
+    std::fs::write(
+        &wall,
+        shared::scene::DEFAULT_SCENE.replacen(
+            "[output]\n",
+            "[output]\ncheckpoint_wall_minutes = 1e300\n",
+            1,
+        ),
+    )
+    .unwrap();
+    let cases: &[(&[&str], &[&str])] = &[
+        (
+            &["--checkpoint-interval", "1e-300"],
+            &["--checkpoint-interval 1e-300", "time.dt_min", "Fix"],
+        ),
+        (
+            &["--checkpoint-wall-minutes", "1e300"],
+            &["--checkpoint-wall-minutes 1e300", "Fix"],
+        ),
+        (
+            &[wall.to_str().unwrap()],
+            &["output.checkpoint_wall_minutes 1e300", "in [output]"],
+        ),
+        (
+            &["--fluid-solver", "wcsphx"],
+            &["--fluid-solver 'wcsphx'", "wcsph, muller", "Fix"],
+        ),
+        (
+            &["--solid-solver", ""],
+            &["--solid-solver ''", "explicit, implicit"],
+        ),
+        (
+            &["--dt-factor", "1e-300"],
+            &["--dt-factor 1e-300", "crawl", "--allow-long"],
+        ),
+        (&["--step-timeout", "1e-300"], &["--step-timeout", "Fix"]),
+        (
+            &["--connect-timeout", "0.01"],
+            &["--connect-timeout", "Fix"],
+        ),
+        (&["--setup-timeout", "0.5"], &["--setup-timeout", "Fix"]),
+    ];
+    for (flags, says) in cases {
+        let args = [
+            &["run", "--quiet", "--dx", "0.08", "--end", "0.05"],
+            *flags,
+            &["--out", o],
+        ]
+        .concat();
+        let err = refused(&args, 1, &out);
+        for s in *says {
+            assert!(err.contains(s), "{flags:?}: no {s:?} in {err}");
+        }
+    }
+    // A node of one's own may offer solvers the built-in ones do not: its name is its own.
+    let o2 = coupler()
+        .args([
+            "run",
+            "--quiet",
+            "--dx",
+            "0.08",
+            "--end",
+            "0.05",
+            "--fluid-cmd",
+            "/bin/true",
+        ])
+        .args(["--fluid-solver", "lite", "--out", o])
+        .output_within(LIMIT);
+    let err = String::from_utf8_lossy(&o2.stderr);
+    assert!(err.contains("'/bin/true' exited"), "{err}");
+}
