@@ -794,3 +794,18 @@ fn run_flags_that_failed_late_are_refused_before_anything_is_written() {
     let err = String::from_utf8_lossy(&o2.stderr);
     assert!(err.contains("'/bin/true' exited"), "{err}");
 }
+
+/// `coupler check --dx` checks the scene at that spacing as `coupler run --dx` does: a
+/// spacing coarser than the domain was called valid.
+#[test]
+fn check_at_another_spacing_refuses_what_run_refuses() {
+    let o = coupler()
+        .args(["check", "--dx", "1e300"])
+        .output_within(LIMIT);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--dx 1e300") && err.contains("fluid.dx = 1e300") && err.contains("fix:"),
+        "{err}"
+    );
+}
