@@ -809,3 +809,24 @@ fn check_at_another_spacing_refuses_what_run_refuses() {
         "{err}"
     );
 }
+
+/// A misspelt `--only` of `chart` and `stability` ran nothing, said nothing and exited 0.
+#[test]
+fn a_misspelt_chart_or_map_is_named_with_those_there_are() {
+    let dir = temp("only");
+    let out = dir.join("charts");
+    for (cmd, bad, good) in [
+        ("chart", "fluids", "loads"),
+        ("stability", "dtt", "damping"),
+    ] {
+        let err = refused(
+            &[cmd, "--only", bad, "--out", out.to_str().unwrap()],
+            2,
+            &out,
+        );
+        assert!(
+            err.contains(&format!("'{bad}'")) && err.contains(good),
+            "{cmd}: {err}"
+        );
+    }
+}
