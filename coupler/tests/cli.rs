@@ -830,3 +830,31 @@ fn a_misspelt_chart_or_map_is_named_with_those_there_are() {
         );
     }
 }
+
+/// `coupler spread`'s arguments for its runs (after `--`) are checked as `coupler run` checks
+/// them before the first run: a bad one failed every member in turn, and the spread exited 0.
+#[test]
+fn a_spreads_bad_run_arguments_are_named_before_any_run() {
+    let dir = temp("spread");
+    for (words, says) in [
+        (&["--end", "nan"][..], "time.end = NaN"),
+        (&["--quiet"][..], "'--quiet' cannot be used multiple times"),
+        (&["--fluid-solver", "x"][..], "--fluid-solver 'x'"),
+        (&["--step-timeout", "0"][..], "--step-timeout"),
+    ] {
+        let out = dir.join(words.join("_"));
+        let o = coupler()
+            .args(["spread", "--vary", "fluid.wcsph.alpha=0,0.01", "--out"])
+            .arg(&out)
+            .arg("--")
+            .args(words)
+            .output_within(LIMIT);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{words:?}: {err}");
+        assert!(
+            err.contains(&format!("-- {}", words.join(" "))) && err.contains(says),
+            "{words:?}: {err}"
+        );
+        assert!(!out.join("runs/00").exists(), "{words:?}: a member ran");
+    }
+}
