@@ -702,3 +702,159 @@ fn check_into_a_closed_pipe_ends_quietly() {
         out.status
     );
 }
+
+/// `coupler ARGS`, which must be refused with exit code `code`, no panic and nothing at `out`;
+/// returns its error output.
+fn refused(args: &[&str], code: i32, out: &std::path::Path) -> String {
+    let o = coupler().args(args).output_within(LIMIT);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(code), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    assert!(!out.exists(), "{args:?}: {} was written", out.display());
+    err
+}
+
+/// Run flags that got through and then failed late or badly are refused by name, with the fix,
+/// before the run directory exists: a checkpoint interval that hung the coupler, a wall interval
+/// past `Duration`'s range (a panic), a solver no node offers (found by the node, after the run
+/// directory was made), a dt factor that would never end, a timeout no healthy node meets.
+#[test]
+fn run_flags_that_failed_late_are_refused_before_anything_is_written() {
+    let dir = temp("late");
+    let out = dir.join("run");
+    let o = out.to_str().unwrap();
+    let wall = dir.join("wall.toml");
+    std::fs::write(
+        &wall,
+        shared::scene::DEFAULT_SCENE.replacen(
+            "[output]\n",
+            "[output]\ncheckpoint_wall_minutes = 1e300\n",
+            1,
+        ),
+    )
+    .unwrap();
+    let cases: &[(&[&str], &[&str])] = &[
+        (
+            &["--checkpoint-interval", "1e-300"],
+            &["--checkpoint-interval 1e-300", "time.dt_min", "Fix"],
+        ),
+        (
+            &["--checkpoint-wall-minutes", "1e300"],
+            &["--checkpoint-wall-minutes 1e300", "Fix"],
+        ),
+        (
+            &[wall.to_str().unwrap()],
+            &["output.checkpoint_wall_minutes 1e300", "in [output]"],
+        ),
+        (
+            &["--fluid-solver", "wcsphx"],
+            &["--fluid-solver 'wcsphx'", "wcsph, muller", "Fix"],
+        ),
+        (
+            &["--solid-solver", ""],
+            &["--solid-solver ''", "explicit, implicit"],
+        ),
+        (
+            &["--dt-factor", "1e-300"],
+            &["--dt-factor 1e-300", "crawl", "--allow-long"],
+        ),
+        (&["--step-timeout", "1e-300"], &["--step-timeout", "Fix"]),
+        (
+            &["--connect-timeout", "0.01"],
+            &["--connect-timeout", "Fix"],
+        ),
+        (&["--setup-timeout", "0.5"], &["--setup-timeout", "Fix"]),
+    ];
+    for (flags, says) in cases {
+        let args = [
+            &["run", "--quiet", "--dx", "0.08", "--end", "0.05"],
+            *flags,
+            &["--out", o],
+        ]
+        .concat();
+        let err = refused(&args, 1, &out);
+        for s in *says {
+            assert!(err.contains(s), "{flags:?}: no {s:?} in {err}");
+        }
+    }
+    // A node of one's own may offer solvers the built-in ones do not: its name is its own.
+    let o2 = coupler()
+        .args([
+            "run",
+            "--quiet",
+            "--dx",
+            "0.08",
+            "--end",
+            "0.05",
+            "--fluid-cmd",
+            "/bin/true",
+        ])
+        .args(["--fluid-solver", "lite", "--out", o])
+        .output_within(LIMIT);
+    let err = String::from_utf8_lossy(&o2.stderr);
+    assert!(err.contains("'/bin/true' exited"), "{err}");
+}
+
+/// `coupler check --dx` checks the scene at that spacing as `coupler run --dx` does: a
+/// spacing coarser than the domain was called valid.
+#[test]
+fn check_at_another_spacing_refuses_what_run_refuses() {
+    let o = coupler()
+        .args(["check", "--dx", "1e300"])
+        .output_within(LIMIT);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--dx 1e300") && err.contains("fluid.dx = 1e300") && err.contains("fix:"),
+        "{err}"
+    );
+}
+
+/// A misspelt `--only` of `chart` and `stability` ran nothing, said nothing and exited 0.
+#[test]
+fn a_misspelt_chart_or_map_is_named_with_those_there_are() {
+    let dir = temp("only");
+    let out = dir.join("charts");
+    for (cmd, bad, good) in [
+        ("chart", "fluids", "loads"),
+        ("stability", "dtt", "damping"),
+    ] {
+        let err = refused(
+            &[cmd, "--only", bad, "--out", out.to_str().unwrap()],
+            2,
+            &out,
+        );
+        assert!(
+            err.contains(&format!("'{bad}'")) && err.contains(good),
+            "{cmd}: {err}"
+        );
+    }
+}
+
+/// `coupler spread`'s arguments for its runs (after `--`) are checked as `coupler run` checks
+/// them before the first run: a bad one failed every member in turn, and the spread exited 0.
+#[test]
+fn a_spreads_bad_run_arguments_are_named_before_any_run() {
+    let dir = temp("spread");
+    for (words, says) in [
+        (&["--end", "nan"][..], "time.end = NaN"),
+        (&["--quiet"][..], "'--quiet' cannot be used multiple times"),
+        (&["--fluid-solver", "x"][..], "--fluid-solver 'x'"),
+        (&["--step-timeout", "0"][..], "--step-timeout"),
+    ] {
+        let out = dir.join(words.join("_"));
+        let o = coupler()
+            .args(["spread", "--vary", "fluid.wcsph.alpha=0,0.01", "--out"])
+            .arg(&out)
+            .arg("--")
+            .args(words)
+            .output_within(LIMIT);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{words:?}: {err}");
+        assert!(
+            err.contains(&format!("-- {}", words.join(" "))) && err.contains(says),
+            "{words:?}: {err}"
+        );
+        assert!(!out.join("runs/00").exists(), "{words:?}: a member ran");
+    }
+}

@@ -28,6 +28,7 @@ pub fn run(
         .and_then(|mut s| {
             if let Some(dx) = dx {
                 crate::run::settings::set_dx(&mut s, dx)?;
+                refuse_problems(&s, dx)?;
             }
             Ok(s)
         });
@@ -92,6 +93,18 @@ pub fn run(
             1
         }
     }
+}
+
+/// The scene's checks again at the spacing of `--dx`, as `coupler run --dx` makes them: the
+/// scene was checked at its own spacing, and `check --dx 1e300` called valid a scene that
+/// `run --dx 1e300` refused (fewer than 4 particles across the domain).
+fn refuse_problems(scene: &shared::scene::Scene, dx: f64) -> Result<(), String> {
+    let problems = crate::run::scenes::problems(scene);
+    if problems.is_empty() {
+        return Ok(());
+    }
+    let list: Vec<String> = problems.iter().map(|e| format!("  {e}")).collect();
+    Err(format!("the scene at --dx {dx:?}:\n{}", list.join("\n")))
 }
 
 /// What each fluid rank would hold when the run has more than one

@@ -105,35 +105,13 @@ pub fn check_flags(
     scene: &Scene,
     resume: Option<&Resumed>,
 ) -> Result<Checked, String> {
-    for (flag, v) in [
-        ("--connect-timeout", args.connect_timeout),
-        ("--step-timeout", args.step_timeout),
-        ("--setup-timeout", args.setup_timeout),
-    ] {
-        if !(v.is_finite() && v > 0.0 && v < 1e9) {
-            return Err(format!(
-                "{flag} {v:e}: must be a positive number of seconds below 1e9 (about 30 years). Fix: e.g. {flag} 60"
-            ));
-        }
-    }
+    check_values(args, scene, resume)?;
     let (endpoints, node_connect) = zenoh_endpoints(args)?;
     if args.attach && args.retries > 0 {
         return Err(format!(
             "--retries {} with --attach: the coupler can only restart nodes it started itself. Fix: drop --attach, or --retries (and resume by hand with --resume)",
             args.retries
         ));
-    }
-    for (flag, v) in [
-        ("--checkpoint-interval", args.checkpoint_interval),
-        ("--checkpoint-wall-minutes", args.checkpoint_wall_minutes),
-    ] {
-        if let Some(v) = v
-            && !(v.is_finite() && v > 0.0)
-        {
-            return Err(format!(
-                "{flag} {v}: must be a positive number. Fix: leave it out for no checkpoints"
-            ));
-        }
     }
     let fluid_ranks = crate::run::per_rank::ranks(args.fluid_ranks, scene)?;
     refuse_on_ranks(args, scene, resume, fluid_ranks)?;
@@ -159,12 +137,6 @@ pub fn check_flags(
             });
         (interval, wall)
     };
-    if !(args.dt_factor.is_finite() && args.dt_factor > 0.0) {
-        return Err(format!(
-            "--dt-factor {}: must be a positive number",
-            args.dt_factor
-        ));
-    }
     let launcher = Launcher::parse(args.mpirun.as_deref())?;
     if fluid_ranks > 1
         && let Some(p) = crate::run::per_rank::PerRank::estimate(scene, fluid_ranks)
@@ -179,6 +151,149 @@ pub fn check_flags(
         fluid_ranks,
         launcher,
     })
+}
+
+/// The flags' values that need no network, launcher or ranks: the timeouts, the checkpoints,
+/// the solver names and the dt factor. `coupler spread` checks its members' run arguments with
+/// it before the first run starts.
+pub fn check_values(args: &RunArgs, scene: &Scene, resume: Option<&Resumed>) -> Result<(), String> {
+    timeouts(args)?;
+    checkpoints(args, scene)?;
+    known_solvers(args)?;
+    dt_factor(args, scene, resume)
+}
+
+/// Shortest timeout [s]: a shorter one risks declaring a healthy node hung when the machine is
+/// busy, and `--step-timeout 1e-300` did ("no answer within 0.0 s"), after the run directory
+/// was made.
+const MIN_TIMEOUT_SECONDS: f64 = 1.0;
+
+/// Longest timeout [s], about 30 years: `Duration` panics past its range.
+const MAX_TIMEOUT_SECONDS: f64 = 1e9;
+
+fn timeouts(args: &RunArgs) -> Result<(), String> {
+    for (flag, v) in [
+        ("--connect-timeout", args.connect_timeout),
+        ("--step-timeout", args.step_timeout),
+        ("--setup-timeout", args.setup_timeout),
+    ] {
+        if !(v.is_finite() && (MIN_TIMEOUT_SECONDS..MAX_TIMEOUT_SECONDS).contains(&v)) {
+            return Err(format!(
+                "{flag} {v:e}: must be a number of seconds from {MIN_TIMEOUT_SECONDS} (a shorter one risks declaring a healthy node hung) to below 1e9 (about 30 years). Fix: e.g. {flag} 60"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Longest wall interval between checkpoints [minutes]: as the timeouts, below 1e9 s. Past
+/// `Duration`'s range, `--checkpoint-wall-minutes 1e300` panicked once the run directory was
+/// made.
+const MAX_CHECKPOINT_WALL_MINUTES: f64 = MAX_TIMEOUT_SECONDS / 60.0;
+
+/// The checkpoint intervals as the run takes them (the flag's, else the scene's), each named
+/// by where it came from. A simulated interval shorter than `time.dt_min` (the shortest step)
+/// is refused: `--checkpoint-interval 1e-300` hung the coupler stepping through its grid.
+fn checkpoints(args: &RunArgs, scene: &Scene) -> Result<(), String> {
+    if args.no_checkpoints {
+        return Ok(()); // not even the scene's are taken (the flags conflict with it)
+    }
+    // (the name, its value, a good setting of it with `example`)
+    let named = |flag: Option<f64>, field: &str, scene_value: Option<f64>, example: &str| {
+        let option = format!("--{}", field.replace('_', "-"));
+        match flag {
+            Some(v) => Some((option.clone(), v, format!("{option} {example}"))),
+            None => scene_value.map(|v| {
+                let key = format!("output.{field}");
+                (key, v, format!("{field} = {example} in [output]"))
+            }),
+        }
+    };
+    let dt_min = scene.time.dt_min;
+    if let Some((name, v, good)) = named(
+        args.checkpoint_interval,
+        "checkpoint_interval",
+        scene.output.checkpoint_interval,
+        "0.5",
+    ) && !(v.is_finite() && v >= dt_min)
+    {
+        return Err(format!(
+            "{name} {v:e}: must be a number of simulated seconds of at least time.dt_min = {dt_min:e} (the shortest step; one checkpoint a step at most). Fix: e.g. {good}, or --checkpoint-wall-minutes for checkpoints by the clock"
+        ));
+    }
+    if let Some((name, v, good)) = named(
+        args.checkpoint_wall_minutes,
+        "checkpoint_wall_minutes",
+        scene.output.checkpoint_wall_minutes,
+        "30",
+    ) && !(v.is_finite() && v > 0.0 && v < MAX_CHECKPOINT_WALL_MINUTES)
+    {
+        return Err(format!(
+            "{name} {v:e}: must be a positive number of minutes below {MAX_CHECKPOINT_WALL_MINUTES:.3e} (about 30 years). Fix: e.g. {good}, or --no-checkpoints"
+        ));
+    }
+    Ok(())
+}
+
+/// `--fluid-solver` and `--solid-solver` name a solver of the nodes beside the coupler: an
+/// unknown name was found by the node, after the run directory was made ("fluid node
+/// (wcsphx) failed at step 0"). A node of one's own (`--fluid-cmd`, `--solid-cmd`, or nodes
+/// started by hand with `--attach`) may offer other solvers, and answers for itself.
+fn known_solvers(args: &RunArgs) -> Result<(), String> {
+    if args.attach {
+        return Ok(());
+    }
+    for (flag, name, own_node, names) in [
+        (
+            "--fluid-solver",
+            &args.fluid_solver,
+            &args.fluid_cmd,
+            fluid_node::REGISTRY.names(),
+        ),
+        (
+            "--solid-solver",
+            &args.solid_solver,
+            &args.solid_cmd,
+            solid_node::REGISTRY.names(),
+        ),
+    ] {
+        if let (Some(name), None) = (name, own_node)
+            && !names.contains(&name.as_str())
+        {
+            return Err(format!(
+                "{flag} '{name}': no such solver. Fix: one of {} (`coupler check` describes them)",
+                names.join(", ")
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `--dt-factor`: positive, and not so small that the run crawls. Every step is multiplied by
+/// it, so a factor of 1e-6 makes a million times the steps: `--dt-factor 1e-300` ran on without
+/// end. Refused past the limits [`crate::run::sizes::crawl`] sets for a scene, unless
+/// `--allow-long` (a resumed run was let through when it started).
+fn dt_factor(args: &RunArgs, scene: &Scene, resume: Option<&Resumed>) -> Result<(), String> {
+    use crate::run::sizes::{MAX_STEPS, MAX_WALL_SECONDS, duration, steps_and_wall};
+    let f = args.dt_factor;
+    if !(f.is_finite() && f > 0.0) {
+        return Err(format!(
+            "--dt-factor {f}: must be a positive number. Fix: e.g. --dt-factor 0.5 halves every step"
+        ));
+    }
+    if args.allow_long || resume.is_some() || f >= 1.0 {
+        return Ok(());
+    }
+    let (steps, wall) = steps_and_wall(scene, args.fluid_solver.as_deref());
+    let (steps, wall) = (steps / f, wall / f);
+    if steps <= MAX_STEPS && wall <= MAX_WALL_SECONDS {
+        return Ok(());
+    }
+    Err(format!(
+        "--dt-factor {f:e}: makes the run crawl: about {steps:.3e} steps, {} of wall time or more; past the limit of {MAX_STEPS:e} steps or {:.0} h. Fix: a factor nearer 1 (0.5 halves every step), or pass --allow-long to run it anyway",
+        duration(wall),
+        MAX_WALL_SECONDS / 3600.0
+    ))
 }
 
 /// What a fluid on `ranks` ranks cannot do yet ([`crate::run::not_on_ranks`]): the run's fluid
@@ -339,6 +454,21 @@ mod tests {
             let p = endpoint_problem(bad).unwrap_or_default();
             assert!(p.contains(says), "{bad}: {p}");
         }
+    }
+
+    /// A node of one's own, or started by hand, may offer solvers the built-in nodes do not.
+    #[test]
+    fn solver_names_are_checked_only_for_the_built_in_nodes() {
+        assert!(known_solvers(&run_args(&["--fluid-solver", "lite"])).is_err());
+        assert!(known_solvers(&run_args(&["--solid-solver", "euler"])).is_err());
+        for words in [
+            &["--fluid-solver", "lite", "--fluid-cmd", "my-node"][..],
+            &["--solid-solver", "euler", "--solid-cmd", "my-node"][..],
+            &["--fluid-solver", "lite", "--attach"][..],
+        ] {
+            assert!(known_solvers(&run_args(words)).is_ok(), "{words:?}");
+        }
+        assert!(known_solvers(&run_args(&["--fluid-solver", "dfsph"])).is_ok());
     }
 
     fn wall_minutes(words: &[&str], scene: &Scene) -> Option<f64> {

@@ -222,6 +222,26 @@ pub fn duration(seconds: f64) -> String {
     }
 }
 
+/// Steps to time.end, the step [s], the wall time [s] (a floor) and what sets the step, by the
+/// estimate (a scene without water steps at `time.dt_max`).
+fn steps_dt_wall(scene: &Scene, solver: Option<&str>) -> (f64, f64, f64, &'static str) {
+    let t = &scene.time;
+    match estimate(scene, solver) {
+        Some(e) => (e.steps, e.dt, e.wall, e.bound_by),
+        None => {
+            let steps = t.end / t.dt_max;
+            (steps, t.dt_max, steps * SECONDS_PER_STEP, "time.dt_max")
+        }
+    }
+}
+
+/// Steps to time.end and the wall time [s] as [`crawl`] estimates them, for the flags that
+/// multiply them (`--dt-factor`).
+pub fn steps_and_wall(scene: &Scene, solver: Option<&str>) -> (f64, f64) {
+    let (steps, _, wall, _) = steps_dt_wall(scene, solver);
+    (steps, wall)
+}
+
 /// Refuses a run that would crawl: more than [`MAX_STEPS`] steps or [`MAX_WALL_SECONDS`] of
 /// wall time by the estimate (a scene without water steps at `time.dt_max`), naming the field
 /// that sets the step and the fix, `--allow-long` among them. `solver` as in [`estimate`].
@@ -230,13 +250,7 @@ pub fn crawl(scene: &Scene, solver: Option<&str>) -> Vec<FieldError> {
     if !(t.end > 0.0 && t.dt_max > 0.0) {
         return Vec::new(); // the scene's own validation names them
     }
-    let (steps, dt, wall, bound_by) = match estimate(scene, solver) {
-        Some(e) => (e.steps, e.dt, e.wall, e.bound_by),
-        None => {
-            let steps = t.end / t.dt_max;
-            (steps, t.dt_max, steps * SECONDS_PER_STEP, "time.dt_max")
-        }
-    };
+    let (steps, dt, wall, bound_by) = steps_dt_wall(scene, solver);
     if steps <= MAX_STEPS && wall <= MAX_WALL_SECONDS {
         return Vec::new();
     }

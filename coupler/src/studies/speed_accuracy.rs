@@ -32,7 +32,8 @@ pub struct ChartArgs {
     #[arg(long, default_value = "docs/charts")]
     pub out: PathBuf,
     /// Only these charts (fluid, solid, coupled, loads); default all four.
-    #[arg(long, value_delimiter = ',')]
+    // A misspelt name ran nothing and said nothing: clap names the ones there are.
+    #[arg(long, value_delimiter = ',', value_parser = ["fluid", "solid", "coupled", "loads"])]
     pub only: Vec<String>,
     /// Redraw the charts from the CSV files already in --out, running nothing.
     #[arg(long)]

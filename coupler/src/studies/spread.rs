@@ -105,6 +105,33 @@ fn parse_vary(text: &str) -> Result<Vec<Member>, String> {
         .collect())
 }
 
+/// The arguments after `--` as `coupler run` of member `scene` reads and checks them before it
+/// starts anything (the flags, the scene with their overrides): a bad one failed every member
+/// in turn (`-- --end nan`: a table of "no summary" rows, and exit code 0).
+fn check_run_args(scene: &Path, run_args: &[String]) -> Result<(), String> {
+    use crate::cli::{Cli, Cmd};
+    use clap::Parser;
+    let words = format!("-- {}", run_args.join(" "));
+    let argv = ["coupler".as_ref(), "run".as_ref(), scene.as_os_str()]
+        .into_iter()
+        .chain(run_args.iter().map(|a| a.as_ref()))
+        .chain(["--quiet".as_ref(), "--out".as_ref(), "run".as_ref()]);
+    let cli = Cli::try_parse_from(argv).map_err(|e| {
+        let text = e.to_string();
+        let first = text.lines().next().unwrap_or_default();
+        format!(
+            "{words}: {}. Fix: give flags of `coupler run` (see `coupler run --help`), without a scene, --out or --quiet: the spread gives those",
+            first.trim_start_matches("error: ")
+        )
+    })?;
+    let Cmd::Run(run) = cli.command else {
+        unreachable!("parsed as `coupler run`")
+    };
+    let (checked, _) =
+        crate::run::settings::scene(&run, None).map_err(|e| format!("{words}: {e}"))?;
+    crate::run::settings::check_values(&run, &checked, None).map_err(|e| format!("{words}: {e}"))
+}
+
 /// A gauge's window `GAUGE=T0:T1`.
 fn parse_window(text: &str) -> Result<(String, f64, f64), String> {
     let fix = "Fix: write --window GAUGE=T0:T1, e.g. --window G1=0.7:1.3";
@@ -471,6 +498,8 @@ fn run_inner(args: &SpreadArgs) -> Result<(), String> {
         std::fs::write(&path, &body)
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         let scene = crate::run::scenes::load(Some(&path))
+            .map_err(|e| format!("member {i} ({}): {e}", m.label()))?;
+        check_run_args(&path, &args.run_args)
             .map_err(|e| format!("member {i} ({}): {e}", m.label()))?;
         if i == 0 {
             gauges = scene.gauges.iter().map(|g| g.name.clone()).collect();

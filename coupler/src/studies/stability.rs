@@ -36,7 +36,8 @@ pub struct StabilityArgs {
     #[arg(long, default_value = "docs/charts")]
     pub out: PathBuf,
     /// Only these maps (dt, stiffness, density, damping); default all.
-    #[arg(long, value_delimiter = ',')]
+    // A misspelt name ran nothing and said nothing: clap names the ones there are.
+    #[arg(long, value_delimiter = ',', value_parser = ["dt", "stiffness", "density", "damping"])]
     pub only: Vec<String>,
     /// Redraw the maps from the CSV files already in --out, running nothing.
     #[arg(long)]

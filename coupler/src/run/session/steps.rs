@@ -105,11 +105,7 @@ impl Session {
             && self.time >= next * (1.0 - 1e-12)
         {
             due = true;
-            let mut n = next;
-            while n <= self.time * (1.0 + 1e-12) {
-                n += every;
-            }
-            self.next_checkpoint = Some(n);
+            self.next_checkpoint = Some(next_after(next, every, self.time));
         }
         if self
             .opts
@@ -208,5 +204,41 @@ impl Session {
             }
         }
         outcome.and(stopped)
+    }
+}
+
+/// The first time of the checkpoint grid `next + k·every` past `time`. A step that crosses
+/// many intervals skips them at once: one addition each took a step of 1e-3 s over an interval
+/// of 1e-9 s a million of them, and an interval below the resolution of `time` never got past
+/// it (the coupler hung). The usual step, shorter than the interval, adds it once, as before.
+fn next_after(next: f64, every: f64, time: f64) -> f64 {
+    let past = time * (1.0 + 1e-12);
+    let mut n = next;
+    let whole = ((past - n) / every).floor() - 1.0;
+    if whole > 0.0 {
+        n += whole * every;
+    }
+    while n <= past {
+        let added = n + every;
+        if added == n {
+            return past.next_up(); // the interval is lost in `time`: one checkpoint a step
+        }
+        n = added;
+    }
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::next_after;
+
+    #[test]
+    fn the_next_checkpoint_is_found_past_the_step_in_a_few_additions() {
+        assert_eq!(next_after(0.1, 0.1, 0.05), 0.1);
+        assert_eq!(next_after(0.1, 0.1, 0.1), 0.2);
+        let n = next_after(1e-9, 1e-9, 1.0);
+        assert!(n > 1.0 && n < 1.0 + 3e-9, "{n}");
+        let n = next_after(1e-300, 1e-300, 1.0);
+        assert!(n > 1.0 && n < 1.0 + 1e-9, "{n}");
     }
 }
