@@ -94,7 +94,7 @@ fn main() {
         let span = LOBOVSKY_H600_S1_IMPACT_TIME;
         let pct = |ours: f64, theirs: f64| 100.0 * (ours / theirs - 1.0);
         for (k, (s, e)) in LOBOVSKY_H300.iter().zip(&LOBOVSKY_H300_EVENT5).enumerate() {
-            let Some((impulse, _)) = r.impulse(k, span) else {
+            let Some((impulse, onset)) = r.impulse(k, span) else {
                 println!("  {} against the experiment's event 5: no onset", s.name);
                 continue;
             };
@@ -106,10 +106,14 @@ fn main() {
                     format!("{:.0} ms {ours:.0} ({:+.0} %)", 1e3 * w, pct(ours, theirs))
                 })
                 .collect();
+            let peak = r.first_pulse(k).map_or(f64::NAN, |p| p.peak);
             println!(
-                "  {} against the experiment's event 5: impulse {impulse:.1} Pa·s ({:+.1} %), highest means {}",
+                "  {} against the experiment's event 5: onset t* {:.3} ({:.3}), impulse {impulse:.1} Pa·s ({:+.1} %), highest means 1 ms {peak:.0} ({:+.0} %), {}",
                 s.name,
+                onset * star,
+                e.onset_star,
                 pct(impulse, e.impulse),
+                pct(peak, e.peak),
                 boxes.join(", ")
             );
         }
