@@ -420,6 +420,12 @@ fn cases() -> Vec<Case> {
             "region = {",
         ),
         case(
+            "an end before the smallest step",
+            edit("end = 2.5", "end = 1e-300"),
+            "time.end",
+            "end = 1e-300",
+        ),
+        case(
             "Eq. 22 margin of 2.5 particle spacings",
             edit(
                 "scheme = \"parallel\"",

@@ -62,6 +62,19 @@ pub(super) fn time(c: &mut Checker, s: &Scene) {
             s.time.dt_min,
             "give the smallest acceptable step, e.g. dt_min = 1e-9",
         );
+        // An end before the smallest step the run may take: it would stop at once, with
+        // exit 0 and nothing but the start written (`--end 1e-300` did).
+        if s.time.end > 0.0 && s.time.end < s.time.dt_min {
+            c.fail(
+                "end",
+                s.time.end,
+                &format!(
+                    "is shorter than time.dt_min = {:e} s, the smallest step the run may take: it would end before its first step",
+                    s.time.dt_min
+                ),
+                "give the simulated end time in seconds, e.g. end = 3.0",
+            );
+        }
         if s.time.dt_min >= s.time.dt_max {
             c.fail(
                 "dt_min",
