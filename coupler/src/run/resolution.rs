@@ -161,6 +161,15 @@ pub fn choose_dx(
             "--target-error {target}: must be a positive relative error, e.g. 0.02"
         ));
     }
+    // A relative error of 100 % or more is no target (the coarsest column meets it): most
+    // likely a percentage, which fell back to 4 particles across the depth without a word.
+    if target >= 1.0 {
+        return Err(format!(
+            "--target-error {target}: is a relative error of {:.0} % or more, met by any column; \
+             fix: give a fraction, e.g. --target-error 0.02 for 2 %",
+            100.0 * target
+        ));
+    }
     let fit = fits
         .iter()
         .find(|f| f.solver == solver)
@@ -243,5 +252,21 @@ mod tests {
         let fine = choose_dx(&fits, "wcsph", &scene, 0.01).unwrap();
         assert!(fine.dx < coarse.dx, "{} vs {}", fine.dx, coarse.dx);
         assert!(coarse.explanation.contains("dx ="));
+    }
+
+    /// A percentage given for a fraction is refused with the fraction to give, not met by the
+    /// coarsest column.
+    #[test]
+    fn a_target_of_a_hundred_percent_or_more_is_refused() {
+        let fits = parse_csv(EMBEDDED_FIT).unwrap();
+        let scene = Scene::default_scene();
+        for target in [1.0, 2.0, 5.0] {
+            let e = choose_dx(&fits, "wcsph", &scene, target).unwrap_err();
+            assert!(
+                e.contains("give a fraction, e.g. --target-error 0.02"),
+                "{e}"
+            );
+        }
+        assert!(choose_dx(&fits, "wcsph", &scene, 0.5).is_ok());
     }
 }
