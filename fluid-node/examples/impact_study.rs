@@ -8,12 +8,16 @@
 //! (`LOBOVSKY_H300_EVENT5`).
 
 use fluid_node::validation::{
-    ImpactCase, LOAD_BOXES, LOBOVSKY_H300, LOBOVSKY_H300_EVENT5, LOBOVSKY_H600_S1_IMPACT_TIME,
-    LOBOVSKY_H600_S1_IMPULSE, RINGING_SPAN, dry_as_zero, impact, integral,
+    Impact, ImpactCase, LOAD_BOXES, LOBOVSKY_H300, LOBOVSKY_H300_EVENT5,
+    LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, RINGING_SPAN, ROW_INTERVAL,
+    dry_as_zero, impact, integral,
 };
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--experiment") {
+        return experiment(&args[1..]);
+    }
     let num = |i: usize| -> f64 { args.get(i).and_then(|a| a.parse().ok()).expect("H PER_H") };
     let mut case = ImpactCase::new(num(0), num(1) as usize, None);
     let (mut solver, mut csv) = ("wcsph".to_string(), None);
@@ -140,4 +144,63 @@ fn main() {
         }
         std::fs::write(path, out).expect("write csv");
     }
+}
+
+/// `--experiment FILE [H]`: a raw sensor series of the experiment, rows of (t·sqrt(g/H),
+/// p/(ρ0 g H)), reduced as ours (1 ms means every `ROW_INTERVAL`, then `Impact`'s onset,
+/// peak, impulse and box means): how `LOBOVSKY_H300_EVENT5` was made (docs/REFERENCES.md §1.3).
+fn experiment(args: &[String]) {
+    let file = args.first().expect("--experiment FILE [H]");
+    let height: f64 = args.get(1).map_or(0.3, |h| h.parse().expect("H [m]"));
+    let (star, rgh) = ((9.81 / height).sqrt(), 1000.0 * 9.81 * height);
+    let text = std::fs::read_to_string(file).expect("read the series");
+    let (ts, ps): (Vec<f64>, Vec<f64>) = text
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .map(|l| {
+            let v: Vec<f64> = l
+                .split_whitespace()
+                .map(|x| x.parse().expect("a number"))
+                .collect();
+            (v[0] / star, v[1] * rgh)
+        })
+        .unzip();
+    let dt = ts[1] - ts[0];
+    let (n, every) = (
+        (1e-3 / dt).round() as usize,
+        (ROW_INTERVAL / dt).round() as usize,
+    );
+    let rows: Vec<usize> = (n - 1..ps.len()).step_by(every).collect();
+    let run = Impact {
+        case: ImpactCase::new(height, 15, Some(1e-3)),
+        times: rows.iter().map(|&i| ts[i]).collect(),
+        series: vec![
+            rows.iter()
+                .map(|&i| ps[i + 1 - n..=i].iter().sum::<f64>() / n as f64)
+                .collect(),
+        ],
+        pulses: vec![None],
+        particles: 0,
+        steps: 0,
+        seconds: 0.0,
+    };
+    let span = LOBOVSKY_H600_S1_IMPACT_TIME;
+    let (impulse, onset) = run.impulse(0, span).expect("an onset");
+    let peak = run.first_pulse(0).map_or(f64::NAN, |p| p.peak);
+    let boxes: Vec<String> = LOAD_BOXES
+        .iter()
+        .map(|&w| {
+            format!(
+                "{:.0} ms {:.0}",
+                1e3 * w,
+                run.box_peak(0, w, span).unwrap_or(f64::NAN)
+            )
+        })
+        .collect();
+    println!(
+        "{file}: {:.0} Hz, onset t* {:.3}, highest 1 ms mean {peak:.0} Pa, impulse {impulse:.1} Pa·s, highest means {}",
+        1.0 / dt,
+        onset * star,
+        boxes.join(", ")
+    );
 }

@@ -274,7 +274,7 @@ fn known_solvers(args: &RunArgs) -> Result<(), String> {
 /// end. Refused past the limits [`crate::run::sizes::crawl`] sets for a scene, unless
 /// `--allow-long` (a resumed run was let through when it started).
 fn dt_factor(args: &RunArgs, scene: &Scene, resume: Option<&Resumed>) -> Result<(), String> {
-    use crate::run::sizes::{MAX_STEPS, MAX_WALL_SECONDS, duration, steps_and_wall};
+    use crate::run::sizes::{MAX_STEPS, MAX_WALL_SECONDS, duration, steps_dt_wall};
     let f = args.dt_factor;
     if !(f.is_finite() && f > 0.0) {
         return Err(format!(
@@ -284,7 +284,7 @@ fn dt_factor(args: &RunArgs, scene: &Scene, resume: Option<&Resumed>) -> Result<
     if args.allow_long || resume.is_some() || f >= 1.0 {
         return Ok(());
     }
-    let (steps, wall) = steps_and_wall(scene, args.fluid_solver.as_deref());
+    let (steps, _, wall, _) = steps_dt_wall(scene, args.fluid_solver.as_deref());
     let (steps, wall) = (steps / f, wall / f);
     if steps <= MAX_STEPS && wall <= MAX_WALL_SECONDS {
         return Ok(());

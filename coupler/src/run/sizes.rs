@@ -224,7 +224,7 @@ pub fn duration(seconds: f64) -> String {
 
 /// Steps to time.end, the step [s], the wall time [s] (a floor) and what sets the step, by the
 /// estimate (a scene without water steps at `time.dt_max`).
-fn steps_dt_wall(scene: &Scene, solver: Option<&str>) -> (f64, f64, f64, &'static str) {
+pub fn steps_dt_wall(scene: &Scene, solver: Option<&str>) -> (f64, f64, f64, &'static str) {
     let t = &scene.time;
     match estimate(scene, solver) {
         Some(e) => (e.steps, e.dt, e.wall, e.bound_by),
@@ -233,13 +233,6 @@ fn steps_dt_wall(scene: &Scene, solver: Option<&str>) -> (f64, f64, f64, &'stati
             (steps, t.dt_max, steps * SECONDS_PER_STEP, "time.dt_max")
         }
     }
-}
-
-/// Steps to time.end and the wall time [s] as [`crawl`] estimates them, for the flags that
-/// multiply them (`--dt-factor`).
-pub fn steps_and_wall(scene: &Scene, solver: Option<&str>) -> (f64, f64) {
-    let (steps, _, wall, _) = steps_dt_wall(scene, solver);
-    (steps, wall)
 }
 
 /// Refuses a run that would crawl: more than [`MAX_STEPS`] steps or [`MAX_WALL_SECONDS`] of
