@@ -858,3 +858,106 @@ fn a_spreads_bad_run_arguments_are_named_before_any_run() {
         assert!(!out.join("runs/00").exists(), "{words:?}: a member ran");
     }
 }
+
+/// Every file under `dir` with its bytes, by path: what a refused command must leave as it was.
+fn files_under(dir: &std::path::Path) -> std::collections::BTreeMap<std::path::PathBuf, Vec<u8>> {
+    let mut found = std::collections::BTreeMap::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                todo.push(p);
+            } else {
+                found.insert(p.clone(), std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    found
+}
+
+/// More than one fluid rank on a fluid node built without MPI failed only once the launcher had
+/// started the node: after the run directory was made, and, under `--resume`, after the run had
+/// been cut back to its checkpoint (its last frame and table rows lost). The node is asked first
+/// (`fluid-node --ranks-support`), and the run refused with its fix before anything is written.
+/// A node built with MPI (`--features tests/mpi`) says so, and only that answer is checked.
+#[test]
+fn ranks_on_a_node_built_without_mpi_are_refused_before_anything_is_written() {
+    let node = std::path::Path::new(env!("CARGO_BIN_EXE_coupler")).with_file_name("fluid-node");
+    let o = Command::new(&node)
+        .arg("--ranks-support")
+        .output_within(LIMIT);
+    let said = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(o.status.success(), "{said}");
+    if said.starts_with("MPI ranks: yes") {
+        return;
+    }
+    assert!(
+        said.starts_with("MPI ranks: no: built without MPI"),
+        "{said}"
+    );
+    let dir = temp("nompi");
+    let out = dir.join("run");
+    let o = out.to_str().unwrap();
+    let says = [
+        "cannot run as 2 MPI ranks: built without MPI",
+        "--features fluid-node/mpi",
+        "--fluid-ranks 1",
+    ];
+    let quick = ["--quiet", "--dx", "0.08", "--end", "0.05"];
+    let err = refused(
+        &[&["run"][..], &quick, &["--fluid-ranks", "2", "--out", o]].concat(),
+        1,
+        &out,
+    );
+    for s in ["--fluid-ranks 2: ", says[0], says[1], says[2]] {
+        assert!(err.contains(s), "no {s:?} in {err}");
+    }
+    // The scene's own `[fluid] ranks` is named as such.
+    let scene = dir.join("ranks.toml");
+    std::fs::write(
+        &scene,
+        shared::scene::DEFAULT_SCENE.replacen("[fluid]\n", "[fluid]\nranks = 2\n", 1),
+    )
+    .unwrap();
+    let err = refused(
+        &[&["run", scene.to_str().unwrap()][..], &quick, &["--out", o]].concat(),
+        1,
+        &out,
+    );
+    assert!(
+        err.contains("[fluid] ranks = 2: ") && err.contains(says[0]),
+        "{err}"
+    );
+    // A finished run with checkpoints, resumed on two ranks: every file stays as it was.
+    let done = dir.join("done");
+    let run = coupler()
+        .arg("run")
+        .args(quick)
+        .args(["--checkpoint-interval", "0.02", "--out"])
+        .arg(&done)
+        .output_within(LIMIT);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let before = files_under(&done);
+    assert!(before.keys().any(|p| p.ends_with("particles_00001.vtp")));
+    let err = refused(
+        &[
+            "run",
+            "--resume",
+            done.to_str().unwrap(),
+            "--fluid-ranks",
+            "2",
+        ],
+        1,
+        &out,
+    );
+    assert!(err.contains(says[0]), "{err}");
+    assert!(
+        files_under(&done) == before,
+        "the resumed run's files changed"
+    );
+}

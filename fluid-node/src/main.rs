@@ -1,7 +1,8 @@
 //! `fluid-node --solver NAME`: the SPH side of a rockwave run, with any solver of
 //! [`fluid_node::REGISTRY`]. Started by the coupler, or by hand with the run's `--prefix` (see
 //! the README). Started as N MPI ranks (built with `--features mpi`), rank 0 is the node and
-//! the others follow it ([`fluid_node::ranks`]).
+//! the others follow it ([`fluid_node::ranks`]). `fluid-node --ranks-support` says whether it can
+//! ([`fluid_node::ranks::probe`]).
 
 use fluid_node::ranks::{self, leader};
 use shared::solver::{FluidSolver, SetupContext, SolverError};
@@ -20,6 +21,12 @@ fn lead(name: &str, ctx: &SetupContext) -> Result<Box<dyn FluidSolver>, SolverEr
 }
 
 fn main() -> ExitCode {
+    // The coupler's question, before anything that could start MPI or wait for a coupler.
+    let mut args = std::env::args_os().skip(1);
+    if args.next().is_some_and(|a| a == ranks::probe::FLAG) && args.next().is_none() {
+        println!("{}", ranks::probe::answer());
+        return ExitCode::SUCCESS;
+    }
     if let Some(code) = join_ranks() {
         return code;
     }
@@ -66,7 +73,8 @@ fn join_ranks() -> Option<ExitCode> {
 fn join_ranks() -> Option<ExitCode> {
     let n = ranks::launched_ranks().filter(|&n| n > 1)?;
     eprintln!(
-        "fluid-node: started as one of {n} MPI ranks, but built without MPI: rebuild with `cargo build --release --features fluid-node/mpi` (Debian packages libopenmpi-dev openmpi-bin libclang-dev), or run one fluid rank"
+        "fluid-node: started as one of {n} MPI ranks, but built without MPI: {}",
+        ranks::probe::WITHOUT_MPI_FIX
     );
     Some(ExitCode::from(shared::runtime::exit::SOLVER))
 }

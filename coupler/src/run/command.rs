@@ -121,8 +121,8 @@ fn claim_run_id(args: &RunArgs) -> Result<(RunId, RunLock), String> {
 }
 
 /// The fluid and solid node commands, the fluid's through the MPI launcher on more than one
-/// rank ([`crate::run::launcher`]); a missing node binary or launcher is reported before
-/// anything is written.
+/// rank ([`crate::run::launcher`]); a missing node binary or launcher, or a node built without
+/// MPI for more than one rank, is reported before anything is written.
 fn node_commands(
     args: &RunArgs,
     scene: &Scene,
@@ -133,9 +133,14 @@ fn node_commands(
         None => NodeCommand::beside_me(Role::Fluid)?,
     };
     let fluid_cmd = if Session::roles(scene).contains(&Role::Fluid) {
+        let asked = match args.fluid_ranks {
+            Some(n) => format!("--fluid-ranks {n}"),
+            None => format!("[fluid] ranks = {}", checked.fluid_ranks),
+        };
         crate::run::launcher::fluid_command(
             fluid_cmd,
             checked.fluid_ranks,
+            &asked,
             &checked.launcher,
             args.attach,
         )?

@@ -6,10 +6,8 @@
 
 use crate::run::launch::NodeCommand;
 use shared::protocol::Role;
-use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// The launcher `coupler run --fluid-ranks N` starts the ranks with when `--mpirun` names none:
 /// Open MPI's and MPICH's both, on every Debian machine with either installed.
@@ -104,36 +102,9 @@ impl Launcher {
     /// ("mpirun (Open MPI) 4.1.4"); anything else, or no answer within [`PROBE_TIMEOUT`], is
     /// [`Flavour::Other`].
     pub fn flavour(program: &Path) -> Flavour {
-        let mut command = Command::new(program);
-        command
-            .arg("--version")
-            .envs(OPEN_MPI_ENV)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null());
-        let Ok(mut child) = command.spawn() else {
-            return Flavour::Other;
-        };
-        let started = Instant::now();
-        let exited = loop {
-            match child.try_wait() {
-                Ok(Some(_)) => break true,
-                Ok(None) if started.elapsed() < PROBE_TIMEOUT => {
-                    // No exit event for a child in std; the answer takes milliseconds.
-                    std::thread::sleep(Duration::from_millis(5))
-                }
-                _ => break false,
-            }
-        };
-        if !exited {
-            let _ = child.kill();
-            let _ = child.wait();
-            return Flavour::Other;
-        }
-        let mut said = String::new();
-        if let Some(mut out) = child.stdout.take() {
-            let _ = out.read_to_string(&mut said);
-        }
+        let env = OPEN_MPI_ENV.map(|(k, v)| (k.to_string(), v.to_string()));
+        let said = crate::run::node_ranks::answer_within(program, "--version", &env, PROBE_TIMEOUT)
+            .unwrap_or_default();
         if said.contains("Open MPI") || said.contains("OpenRTE") {
             Flavour::OpenMpi
         } else {
@@ -194,19 +165,23 @@ impl Launcher {
     }
 }
 
-/// The fluid node's command for `ranks` ranks: unchanged for one; for more, wrapped in
-/// `launcher` after checking that the node's binary and the launcher exist (unless `attach`:
-/// the user starts the ranks, maybe on other hosts).
+/// The fluid node's command for `ranks` ranks (asked by `asked`, e.g. `--fluid-ranks 2`):
+/// unchanged for one; for more, wrapped in `launcher` after checking that the node's binary
+/// exists and can run as ranks, and that the launcher exists (unless `attach`: the user starts
+/// the ranks, maybe on other hosts).
 pub fn fluid_command(
     node: NodeCommand,
     ranks: u32,
+    asked: &str,
     launcher: &Launcher,
     attach: bool,
 ) -> Result<NodeCommand, String> {
     if ranks <= 1 || attach {
         return Ok(node);
     }
-    node.check()?;
+    let binary = node.check()?;
+    // Before the launcher: a node without MPI needs rebuilding whether MPI is installed or not.
+    crate::run::node_ranks::refuse_without_mpi(&node, &binary, ranks, asked)?;
     let program = launcher.check()?;
     Ok(launcher.wrap(&node, ranks, Launcher::flavour(&program)))
 }
@@ -235,7 +210,8 @@ mod tests {
                 (n.program.clone(), n.args.clone(), vec![])
             );
         }
-        let given = fluid_command(n.clone(), 1, &Launcher::default(), false).unwrap();
+        let given =
+            fluid_command(n.clone(), 1, "--fluid-ranks 1", &Launcher::default(), false).unwrap();
         assert_eq!((given.program, given.args), (n.program, n.args));
         assert_eq!(
             Launcher::default().attach_line(1, "fluid-node --prefix r"),
@@ -334,10 +310,10 @@ mod tests {
             program: me,
             ..node()
         };
-        let err = fluid_command(n.clone(), 2, &l, false).unwrap_err();
+        let err = fluid_command(n.clone(), 2, "--fluid-ranks 2", &l, false).unwrap_err();
         assert_eq!(err, msg);
         // Under --attach the user starts the ranks: nothing is checked, nothing wrapped.
-        let attached = fluid_command(n.clone(), 2, &l, true).unwrap();
+        let attached = fluid_command(n.clone(), 2, "--fluid-ranks 2", &l, true).unwrap();
         assert_eq!(attached.program, n.program);
     }
 

@@ -1,7 +1,8 @@
 //! One coupled run, as `coupler run`, `check` and `clean` do it. Read `coupler run` from
 //! `command.rs` (the run in order), with `resume.rs` and `settings.rs` (the scene, its overrides
-//! and the flags), `lock.rs`, `launch.rs` and `launcher.rs` (the run id, the node processes,
-//! the MPI launcher of the fluid ranks), `output.rs` (the run directory), `session/` (the
+//! and the flags), `lock.rs`, `launch.rs`, `launcher.rs` and `node_ranks.rs` (the run id, the
+//! node processes, the MPI launcher of the fluid ranks and whether the node can run on them),
+//! `output.rs` (the run directory), `session/` (the
 //! coupled steps), `checkpoint.rs`, and `summary/` (`summary.json`). `scenes.rs`, `sizes.rs`,
 //! `per_rank.rs`, `not_on_ranks.rs`, `slides.rs` and `resolution.rs` check and size a
 //! scene; `povray.rs` renders a run directory.
@@ -17,6 +18,7 @@ pub mod launch;
 pub mod launcher;
 pub mod lock;
 pub mod mpi_segments;
+pub mod node_ranks;
 pub mod not_on_ranks;
 pub mod output;
 pub mod per_rank;

@@ -19,6 +19,7 @@ pub mod comm;
 pub mod leader;
 #[cfg(feature = "mpi")]
 pub mod mpi;
+pub mod probe;
 pub mod share;
 pub mod slabs;
 
