@@ -104,7 +104,27 @@ fn refused_run(scene: &std::path::Path, dir: &std::path::Path) -> String {
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(!out.exists(), "{} was written", out.display());
+    assert!(
+        long_number(&err).is_none(),
+        "a number of many digits: {err}"
+    );
     err
+}
+
+/// The first run of 20 digits or more in `text`: a number printed with Rust's `{}` far from 1
+/// (`1e300` as 301 digits), where `shared::math::readable` prints `1e300`. (As in
+/// shared/tests/malformed_scenes.rs.)
+fn long_number(text: &str) -> Option<&str> {
+    let mut start = None;
+    for (i, ch) in text.char_indices() {
+        match (ch.is_ascii_digit(), start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) if i - s >= 20 => return Some(&text[s..i]),
+            (false, Some(_)) => start = None,
+            _ => {}
+        }
+    }
+    start.filter(|&s| text.len() - s >= 20).map(|s| &text[s..])
 }
 
 /// Every scene in the repository passes `coupler check`, solver tables included.
@@ -711,6 +731,10 @@ fn refused(args: &[&str], code: i32, out: &std::path::Path) -> String {
     assert_eq!(o.status.code(), Some(code), "{args:?}: {err}");
     assert!(!err.contains("panicked"), "{args:?}: {err}");
     assert!(!out.exists(), "{args:?}: {} was written", out.display());
+    assert!(
+        long_number(&err).is_none(),
+        "{args:?}: a number of many digits: {err}"
+    );
     err
 }
 
@@ -960,4 +984,54 @@ fn ranks_on_a_node_built_without_mpi_are_refused_before_anything_is_written() {
         files_under(&done) == before,
         "the resumed run's files changed"
     );
+}
+
+/// A number far from 1 in a refused flag or field came back with every digit (Rust's `{}`:
+/// `--dx=-1e300` as 301 digits, `--cell 1e-300` as 300 zeros); it prints as `-1e300` now
+/// (`shared::math::readable`), and ordinary numbers as before (`--step-timeout 0.5`).
+#[test]
+fn numbers_far_from_one_are_printed_readably_when_refused() {
+    let dir = temp("digits");
+    let out = dir.join("out");
+    let o = out.to_str().unwrap();
+    let margin = dir.join("margin.toml");
+    std::fs::write(
+        &margin,
+        shared::scene::DEFAULT_SCENE.replacen("[coupling]\n", "[coupling]\nmargin = 1e300\n", 1),
+    )
+    .unwrap();
+    let m = margin.to_str().unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["run", "--dx=-1e300", "--out", o], "--dx -1e300: "),
+        (
+            &["run", "--dt-factor=-1e300", "--out", o],
+            "--dt-factor -1e300: ",
+        ),
+        (
+            &["run", "--target-error", "1e300", "--out", o],
+            "--target-error 1e300: ",
+        ),
+        (
+            &["run", "--target-error=-1e-300", "--out", o],
+            "--target-error -1e-300: ",
+        ),
+        (&["run", "--end", "1e300", "--out", o], "time.end = 1e300 s"),
+        (
+            &["run", "--step-timeout", "0.5", "--out", o],
+            "--step-timeout 0.5: ",
+        ),
+        (&["check", m], "is 2.500e301 particle spacings"),
+        (
+            &["make-site", "--cell", "1e-300", "--out", o],
+            "--cell 1e-300: ",
+        ),
+        (
+            &["make-site", "--cell", "1e300", "--out", o],
+            "--cell 1e300: ",
+        ),
+    ];
+    for (args, says) in cases {
+        let err = refused(args, 1, &out);
+        assert!(err.contains(says), "{args:?}: no {says:?} in {err}");
+    }
 }

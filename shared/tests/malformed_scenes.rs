@@ -425,6 +425,29 @@ fn cases() -> Vec<Case> {
             "time.end",
             "end = 1e-300",
         ),
+        // Numbers far from 1 in fields whose messages print them or numbers made from them
+        // (each printed hundreds of digits: `numbers_in_errors_are_readable`).
+        case(
+            "output.interval of 1e-300",
+            edit("interval = 0.05", "interval = 1e-300"),
+            "output.interval",
+            "interval = 1e-300",
+        ),
+        case(
+            "time.end of 1e300",
+            edit("end = 2.5", "end = 1e300"),
+            "output.interval",
+            "interval = 0.05",
+        ),
+        case(
+            "Eq. 22 margin of 1e300",
+            edit(
+                "scheme = \"parallel\"",
+                "scheme = \"parallel\"\nmargin = 1e300",
+            ),
+            "coupling.margin",
+            "margin = 1e300",
+        ),
         case(
             "Eq. 22 margin of 2.5 particle spacings",
             edit(
@@ -887,6 +910,22 @@ fn cases() -> Vec<Case> {
     ]
 }
 
+/// The first run of 20 digits or more in `text`: a number printed with Rust's `{}` far from 1
+/// (`1e300` as 301 digits), where `shared::math::readable` prints `1e300`.
+fn long_number(text: &str) -> Option<&str> {
+    let mut start = None;
+    for (i, ch) in text.char_indices() {
+        match (ch.is_ascii_digit(), start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) if i - s >= 20 => return Some(&text[s..i]),
+            (false, Some(_)) => start = None,
+            _ => {}
+        }
+    }
+    start.filter(|&s| text.len() - s >= 20).map(|s| &text[s..])
+}
+
+/// Every refusal of the table prints its numbers readably (see [`long_number`]).
 #[test]
 fn every_malformed_scene_is_refused_naming_its_field_and_line() {
     let cases = cases();
@@ -910,6 +949,12 @@ fn every_malformed_scene_is_refused_naming_its_field_and_line() {
         match Scene::parse(&c.text, "case.toml") {
             Ok(_) => failures.push(format!("{}: accepted", c.what)),
             Err(SceneError::Invalid { errors, .. }) => {
+                if let Some(e) = errors
+                    .iter()
+                    .find(|e| long_number(&e.to_string()).is_some())
+                {
+                    failures.push(format!("{}: a number of many digits in: {e}", c.what));
+                }
                 let named = errors.iter().find(|e| e.path == c.field);
                 match named {
                     None => failures.push(format!(

@@ -279,7 +279,7 @@ fn sampling_warning(scene: &Scene) -> Option<String> {
             "the scene's {instruments} gauges and probes record at most every output.interval/{ROWS_PER_INTERVAL} = {every:.3e} s, about {} row(s) over time.end = {} s: too few for a crest or a peak; fix: output.interval ≤ {:.3e} s gives {FEW_ROWS} rows or more",
             // The first row at the first step, then one each `every`: ⌈end/every⌉.
             (rows.ceil() as u64).max(1),
-            scene.time.end,
+            shared::math::readable(scene.time.end),
             scene.time.end * ROWS_PER_INTERVAL / FEW_ROWS
         )
     })

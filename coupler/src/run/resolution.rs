@@ -10,6 +10,7 @@
 //! goes into `docs/charts/fluid_convergence.csv` (committed, and compiled into the coupler), so
 //! a run picks dx from a measured curve, not a guess.
 
+use shared::math::readable;
 use shared::scene::{Scene, ShapeSpec};
 
 /// The fit compiled into the coupler (written by `coupler chart`).
@@ -158,16 +159,18 @@ pub fn choose_dx(
 ) -> Result<Choice, String> {
     if !(target.is_finite() && target > 0.0) {
         return Err(format!(
-            "--target-error {target}: must be a positive relative error, e.g. 0.02"
+            "--target-error {}: must be a positive relative error, e.g. 0.02",
+            readable(target)
         ));
     }
     // A relative error of 100 % or more is no target (the coarsest column meets it): most
     // likely a percentage, which fell back to 4 particles across the depth without a word.
     if target >= 1.0 {
         return Err(format!(
-            "--target-error {target}: is a relative error of {:.0} % or more, met by any column; \
+            "--target-error {}: is a relative error of {:.0} % or more, met by any column; \
              fix: give a fraction, e.g. --target-error 0.02 for 2 %",
-            100.0 * target
+            readable(target),
+            readable(100.0 * target)
         ));
     }
     let fit = fits

@@ -101,7 +101,8 @@ fn resumed(args: &RunArgs, dir: &std::path::Path) -> Result<Resumed, String> {
     if args.dt_factor != 1.0 && args.dt_factor != ck.dt_factor {
         return Err(format!(
             "--resume: --dt-factor {}, but the run was started with {}. Fix: drop --dt-factor",
-            args.dt_factor, ck.dt_factor
+            shared::math::readable(args.dt_factor),
+            shared::math::readable(ck.dt_factor)
         ));
     }
     Ok(Resumed {

@@ -4,13 +4,17 @@
 use crate::cli::RunArgs;
 use crate::run::launcher::Launcher;
 use crate::run::resume::Resumed;
+use shared::math::readable;
 use shared::scene::Scene;
 use shared::transport::{Endpoints, Kind};
 
 /// `--dx`: the scene's particle spacing overridden, once checked.
 pub fn set_dx(scene: &mut Scene, dx: f64) -> Result<(), String> {
     if !(dx.is_finite() && dx > 0.0) {
-        return Err(format!("--dx {dx}: must be a positive length in metres"));
+        return Err(format!(
+            "--dx {}: must be a positive length in metres",
+            readable(dx)
+        ));
     }
     scene.set_dx(dx);
     Ok(())
@@ -179,7 +183,8 @@ fn timeouts(args: &RunArgs) -> Result<(), String> {
     ] {
         if !(v.is_finite() && (MIN_TIMEOUT_SECONDS..MAX_TIMEOUT_SECONDS).contains(&v)) {
             return Err(format!(
-                "{flag} {v:e}: must be a number of seconds from {MIN_TIMEOUT_SECONDS} (a shorter one risks declaring a healthy node hung) to below 1e9 (about 30 years). Fix: e.g. {flag} 60"
+                "{flag} {}: must be a number of seconds from {MIN_TIMEOUT_SECONDS} (a shorter one risks declaring a healthy node hung) to below 1e9 (about 30 years). Fix: e.g. {flag} 60",
+                readable(v)
             ));
         }
     }
@@ -218,7 +223,9 @@ fn checkpoints(args: &RunArgs, scene: &Scene) -> Result<(), String> {
     ) && !(v.is_finite() && v >= dt_min)
     {
         return Err(format!(
-            "{name} {v:e}: must be a number of simulated seconds of at least time.dt_min = {dt_min:e} (the shortest step; one checkpoint a step at most). Fix: e.g. {good}, or --checkpoint-wall-minutes for checkpoints by the clock"
+            "{name} {}: must be a number of simulated seconds of at least time.dt_min = {} (the shortest step; one checkpoint a step at most). Fix: e.g. {good}, or --checkpoint-wall-minutes for checkpoints by the clock",
+            readable(v),
+            readable(dt_min)
         ));
     }
     if let Some((name, v, good)) = named(
@@ -229,7 +236,8 @@ fn checkpoints(args: &RunArgs, scene: &Scene) -> Result<(), String> {
     ) && !(v.is_finite() && v > 0.0 && v < MAX_CHECKPOINT_WALL_MINUTES)
     {
         return Err(format!(
-            "{name} {v:e}: must be a positive number of minutes below {MAX_CHECKPOINT_WALL_MINUTES:.3e} (about 30 years). Fix: e.g. {good}, or --no-checkpoints"
+            "{name} {}: must be a positive number of minutes below {MAX_CHECKPOINT_WALL_MINUTES:.3e} (about 30 years). Fix: e.g. {good}, or --no-checkpoints",
+            readable(v)
         ));
     }
     Ok(())
@@ -278,7 +286,8 @@ fn dt_factor(args: &RunArgs, scene: &Scene, resume: Option<&Resumed>) -> Result<
     let f = args.dt_factor;
     if !(f.is_finite() && f > 0.0) {
         return Err(format!(
-            "--dt-factor {f}: must be a positive number. Fix: e.g. --dt-factor 0.5 halves every step"
+            "--dt-factor {}: must be a positive number. Fix: e.g. --dt-factor 0.5 halves every step",
+            readable(f)
         ));
     }
     if args.allow_long || resume.is_some() || f >= 1.0 {
@@ -290,7 +299,8 @@ fn dt_factor(args: &RunArgs, scene: &Scene, resume: Option<&Resumed>) -> Result<
         return Ok(());
     }
     Err(format!(
-        "--dt-factor {f:e}: makes the run crawl: about {steps:.3e} steps, {} of wall time or more; past the limit of {MAX_STEPS:e} steps or {:.0} h. Fix: a factor nearer 1 (0.5 halves every step), or pass --allow-long to run it anyway",
+        "--dt-factor {}: makes the run crawl: about {steps:.3e} steps, {} of wall time or more; past the limit of {MAX_STEPS:e} steps or {:.0} h. Fix: a factor nearer 1 (0.5 halves every step), or pass --allow-long to run it anyway",
+        readable(f),
         duration(wall),
         MAX_WALL_SECONDS / 3600.0
     ))

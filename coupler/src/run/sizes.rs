@@ -279,7 +279,7 @@ pub fn crawl(scene: &Scene, solver: Option<&str>) -> Vec<FieldError> {
              {} of wall time or more ({SECONDS_PER_STEP:e} s per step + \
              {SECONDS_PER_PARTICLE_STEP:e} s per water particle-step, measured); past the \
              limit of {MAX_STEPS:e} steps or {:.0} h",
-            t.end,
+            shared::math::readable(t.end),
             duration(wall),
             MAX_WALL_SECONDS / 3600.0
         ),

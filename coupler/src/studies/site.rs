@@ -7,6 +7,7 @@
 //! slopes rising from 100 m inside each end (to z = 17.7 m). The still water is at z = 0.
 
 use clap::Args;
+use shared::math::readable;
 use shared::terrain::dem::Grid;
 use std::path::PathBuf;
 
@@ -73,7 +74,10 @@ fn check_size(cell: f64) -> Result<(), String> {
     let digits = 10f64.powf(finest.log10().floor() - 1.0);
     let finest = (finest / digits).ceil() * digits;
     Err(format!(
-        "--cell {cell}: the site would be {nx} × {ny} = {cells:.3e} cells ({:.3e} triangles, about {:.1e} bytes to build and write), past the limit of {MAX_SITE_CELLS} cells (MAX_SITE_CELLS: what a terrain keeps whole); fix: give --cell {finest} or coarser",
+        "--cell {}: the site would be {} × {} = {cells:.3e} cells ({:.3e} triangles, about {:.1e} bytes to build and write), past the limit of {MAX_SITE_CELLS} cells (MAX_SITE_CELLS: what a terrain keeps whole); fix: give --cell {finest} or coarser",
+        readable(cell),
+        readable(nx),
+        readable(ny),
         2.0 * (nx - 1.0) * (ny - 1.0),
         cells * BYTES_PER_CELL
     ))
@@ -94,7 +98,7 @@ pub fn run(args: SiteArgs) -> u8 {
     if !(args.cell.is_finite() && args.cell > 0.0 && args.cell <= 0.5 * WIDTH) {
         eprintln!(
             "coupler: error: --cell {}: give a grid spacing in metres, in (0, {}]",
-            args.cell,
+            readable(args.cell),
             0.5 * WIDTH
         );
         return 1;

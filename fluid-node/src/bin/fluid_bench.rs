@@ -136,7 +136,7 @@ fn main() {
     if !(0.0..=scene::LAST_FROM).contains(&args.from) {
         eprintln!(
             "fluid-bench: --from {} is outside the bench's flow: give 0 to {} s (its dam break ends at {} s)",
-            args.from,
+            shared::math::readable(args.from),
             scene::LAST_FROM,
             scene::END
         );

@@ -19,7 +19,7 @@ use super::schema::{
 };
 use crate::geometry::cutting::{self, Cell, PlaneFamily};
 use crate::geometry::{Polyhedron, shape_points};
-use crate::math::{Point, Real, Vector};
+use crate::math::{Point, Real, Vector, readable};
 
 /// Default smallest block kept, as a fraction of the region's volume.
 pub const DEFAULT_MIN_BLOCK_FRACTION: Real = 1e-6;
@@ -413,8 +413,9 @@ pub(super) fn spacing_errors(scene: &Scene) -> Vec<FieldError> {
                 &format!("joint_set[{j}].spacing"),
                 spacing,
                 &format!(
-                    "is below a quarter of fluid.dx = {dx} m: the slabs between these joints \
+                    "is below a quarter of fluid.dx = {} m: the slabs between these joints \
                      would be thinner than the water can resolve ({:.3e} m)",
+                    readable(dx),
                     MIN_SPACING_OF_DX * dx
                 ),
                 &format!(

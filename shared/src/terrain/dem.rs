@@ -6,6 +6,7 @@
 //! triangles per grid square, wound counter-clockwise seen from above (normals up).
 
 use super::files::RawMesh;
+use crate::math::readable;
 use crate::scene::NoData;
 use std::io::BufRead;
 use std::path::Path;
@@ -274,7 +275,10 @@ impl<R: BufRead> AscReader<R> {
         }
         let cell = need("cellsize")?;
         if !(cell.is_finite() && cell > 0.0) {
-            return Err(format!("cellsize = {cell}: must be a positive length"));
+            return Err(format!(
+                "cellsize = {}: must be a positive length",
+                readable(cell)
+            ));
         }
         let centre = |corner: &str, center: &str| match (get(corner), get(center)) {
             (Some(c), _) => Ok(c + 0.5 * cell),
@@ -388,6 +392,7 @@ impl Grid {
                 .expect("some missing");
             let (row, col) = (first / self.ncols, first % self.ncols);
             let (x, y) = self.centre(row, col);
+            let (x, y) = (readable(x), readable(y));
             return Err(format!(
                 "{missing} cell(s) are no-data or NaN, the first at row {row}, column {col} \
                  (from the north-west corner; x = {x}, y = {y} in the file's units); \

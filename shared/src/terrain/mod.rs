@@ -19,7 +19,7 @@ pub mod geotiff;
 pub mod reuse;
 pub mod topology;
 
-use crate::math::{Point, Real, Rotation, Vector};
+use crate::math::{Point, Real, Rotation, Vector, readable};
 use crate::scene::{DomainSpec, FieldError, NoData, Scene, TerrainFormat, TerrainSpec};
 use crate::scene::{indexed_field_error, terrain_field_error};
 use files::RawMesh;
@@ -636,10 +636,10 @@ fn check_bounds(vertices: &[[Real; 3]], domain: &DomainSpec) -> Result<(), Terra
     if domain.open_top && hi[2] > domain.max[2] {
         return Err(fail(
             "offset",
-            format!("terrain top z = {} m", hi[2]),
+            format!("terrain top z = {} m", readable(hi[2])),
             format!(
                 "rises above the open domain top (max[2] = {} m), where the spray would pass through it",
-                domain.max[2]
+                readable(domain.max[2])
             ),
             "raise [domain] max[2] over the terrain's highest point, or crop the terrain below the top",
         ));

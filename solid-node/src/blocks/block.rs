@@ -76,8 +76,9 @@ impl Block {
         let inertia = shape.unit_inertia * spec.density;
         if spec.kind == BlockKind::Free && !(mass > 0.0 && mass.is_finite()) {
             return Err(SolverError::Failed(format!(
-                "block '{}': free block has mass {mass} kg; fix: give a positive density",
-                spec.name
+                "block '{}': free block has mass {} kg; fix: give a positive density",
+                spec.name,
+                shared::math::readable(mass)
             )));
         }
         let inv_inertia = inertia.try_inverse().unwrap_or_else(Matrix::zeros);

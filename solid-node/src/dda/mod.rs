@@ -160,8 +160,9 @@ impl Solver for DdaSolver {
     fn advance(&mut self, dt: Real) -> Result<StepReport, SolverError> {
         if !(dt > 0.0 && dt.is_finite()) {
             return Err(SolverError::Failed(format!(
-                "{} solver: cannot advance by dt = {dt}",
-                self.name()
+                "{} solver: cannot advance by dt = {}",
+                self.name(),
+                shared::math::readable(dt)
             )));
         }
         for &i in &self.world.moving {

@@ -736,7 +736,8 @@ impl<const N: usize> Integrator for Newmark<N> {
                                 ),
                                 Cut::Displacement { block, ratio } => format!(
                                     "block '{}' moves {ratio:.3e} of its size per step, above displacement_limit {}",
-                                    world.blocks[block].name, self.displacement_limit
+                                    world.blocks[block].name,
+                                    shared::math::readable(self.displacement_limit)
                                 ),
                                 Cut::Solve(e) => {
                                     format!("the global equations could not be solved ({e:?})")

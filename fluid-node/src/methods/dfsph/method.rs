@@ -396,7 +396,7 @@ impl SphMethod for Dfsph {
         {
             out.push(format!(
                 "[coupling] added_mass = {} relaxes the loads of blocks that DFSPH already moves inside its pressure solve (its default in the parallel scheme): the solid then moves them otherwise than the water predicted (docs/REFERENCES.md §4.1b). Fix: drop --added-mass, or set [fluid.dfsph] blocks_in_solve = false to relax lagged loads instead",
-                scene.coupling.added_mass
+                shared::math::readable(scene.coupling.added_mass)
             ));
         }
         out

@@ -709,7 +709,8 @@ impl SphMethod for Wcsph {
                 .collect::<Vec<_>>()
                 .join(", ");
             format!(
-                "this run's Courant number is cfl = {cfl} (the default is {DEFAULT_CFL}), and a step past its integrator's stable range blows up this way (on the Lobovský dam break at dx = 30 mm WCSPH went unstable from cfl = {measured}, the Riemann flux alike where measured; this run's integrator is {}); fix: lower [fluid.{name}] cfl, e.g. to the default",
+                "this run's Courant number is cfl = {} (the default is {DEFAULT_CFL}), and a step past its integrator's stable range blows up this way (on the Lobovský dam break at dx = 30 mm WCSPH went unstable from cfl = {measured}, the Riemann flux alike where measured; this run's integrator is {}); fix: lower [fluid.{name}] cfl, e.g. to the default",
+                shared::math::readable(cfl),
                 self.constants.integrator.name()
             )
         })

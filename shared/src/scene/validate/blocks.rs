@@ -3,7 +3,7 @@
 
 use super::checker::{Checker, Reach, shape_summary};
 use crate::geometry::Polyhedron;
-use crate::math::{Point, Vector};
+use crate::math::{Point, Vector, readable};
 use crate::scene::error::Seg;
 use crate::scene::schema::{BlockKind, BlockSpec, MotionSpec, Scene};
 
@@ -107,7 +107,14 @@ pub(super) fn each(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
                 "reaches outside the domain: {blocks} of the blocks cut from it do, together \
                  spanning [{:.4}, {:.4}, {:.4}] to [{:.4}, {:.4}, {:.4}] against the domain's \
                  {:?} to {:?}",
-                lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], d.min, d.max
+                readable(lo[0]),
+                readable(lo[1]),
+                readable(lo[2]),
+                readable(hi[0]),
+                readable(hi[1]),
+                readable(hi[2]),
+                d.min,
+                d.max
             ),
             "move or shrink the region to inside [domain], or enlarge [domain]",
         );
@@ -362,9 +369,11 @@ fn motion_path(
                     [u.x, u.y, u.z],
                     &format!(
                         "drives block '{}' {depth:.3e} m into fixed block '{}' (block[{j}]) before \
-                         time.end = {end} s: a kinematic block feels no contact with a fixed one, so \
+                         time.end = {} s: a kinematic block feels no contact with a fixed one, so \
                          it would run through the block and the water between them",
-                        b.name, s.blocks[j].name
+                        b.name,
+                        s.blocks[j].name,
+                        readable(end)
                     ),
                     "shorten the motion or move the block so that its path clears the fixed blocks \
                      (sliding along a face is fine)",

@@ -2,6 +2,7 @@
 //! every part of the scene uses (positive, finite, a name, a shape inside the domain).
 
 use crate::geometry::Polyhedron;
+use crate::math::readable;
 use crate::scene::error::{FieldError, Seg, render_path};
 use crate::scene::schema::{DomainSpec, ShapeSpec};
 
@@ -145,8 +146,9 @@ impl Checker {
                         "",
                         shape_summary(shape),
                         &format!(
-                            "reaches z = {top} m, above the open domain top (max[2] = {} m), where the spray would pass through it",
-                            domain.max[2]
+                            "reaches z = {} m, above the open domain top (max[2] = {} m), where the spray would pass through it",
+                            readable(top),
+                            readable(domain.max[2])
                         ),
                         "raise [domain] max[2] to the block's top, or cut the block at the top",
                     );

@@ -1,6 +1,7 @@
 //! `[coupling]`: the Eq. 22 penalty, the solid's sub-steps and the added mass.
 
 use super::checker::Checker;
+use crate::math::readable;
 use crate::scene::schema::Scene;
 
 /// `[coupling]`.
@@ -68,12 +69,12 @@ fn margin_reach(c: &mut Checker, s: &Scene, margin: f64) {
             &format!(
                 "is {:.3} particle spacings (dx = {} m): Eq. 22 would reach past the water laid \
                  half a spacing off every face and push it from the first step",
-                margin / f.dx,
-                f.dx
+                readable(margin / f.dx),
+                readable(f.dx)
             ),
             &format!(
                 "leave it out (dx/2 = {} m, the clearance of the initial lattice), or give at most dx",
-                0.5 * f.dx
+                readable(0.5 * f.dx)
             ),
         );
     }

@@ -1,6 +1,7 @@
 //! The run's frame: the scene's name and gravity, `[time]`, `[domain]` and `[output]`.
 
 use super::checker::Checker;
+use crate::math::readable;
 use crate::scene::schema::Scene;
 
 /// Largest domain coordinate [m]: a 10 000 km box holds any landslide tsunami.
@@ -139,14 +140,15 @@ pub(super) fn output(c: &mut Checker, s: &Scene) {
                 "interval",
                 s.output.interval,
                 &format!(
-                    "asks for {frames:.3e} frames over time.end = {} s (at most {max_frames:.0}, \
+                    "asks for {frames:.3e} frames over time.end = {} s (at most {:.0}, \
                      output.max_frames); each frame is a step landed exactly and a VTK file per node",
-                    s.time.end
+                    readable(s.time.end),
+                    readable(max_frames)
                 ),
                 &format!(
                     "use interval >= {:.3e}, or raise output.max_frames to {:.0} if you mean it",
                     s.time.end / max_frames,
-                    frames.ceil()
+                    readable(frames.ceil())
                 ),
             );
         }
