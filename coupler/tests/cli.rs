@@ -1035,3 +1035,54 @@ fn numbers_far_from_one_are_printed_readably_when_refused() {
         assert!(err.contains(says), "{args:?}: no {says:?} in {err}");
     }
 }
+
+/// `coupler stability --rows TEXT` that matches no row ran nothing, redrew the map from the CSV
+/// in --out and exited 0 (without a CSV: failed naming the file, after making --out). It is
+/// refused before anything is written, with the rows there are.
+#[test]
+fn stability_rows_that_match_no_row_are_refused_with_the_rows_there_are() {
+    let dir = temp("rows");
+    let charts = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/charts");
+    std::fs::copy(
+        charts.join("stability_density.csv"),
+        dir.join("stability_density.csv"),
+    )
+    .unwrap();
+    let d = dir.to_str().unwrap();
+    let err = refused(
+        &[
+            "stability",
+            "--only",
+            "density",
+            "--rows",
+            "no such row",
+            "--out",
+            d,
+        ],
+        1,
+        &dir.join("stability_density.svg"),
+    );
+    assert!(
+        err.contains("--rows 'no such row' matches no row of the density map")
+            && err.contains("wcsph+explicit/parallel"),
+        "{err}"
+    );
+    let out = dir.join("new");
+    let err = refused(
+        &[
+            "stability",
+            "--only",
+            "dt",
+            "--rows",
+            "nosuch",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        1,
+        &out,
+    );
+    assert!(
+        err.contains("no row of the dt map") && err.contains("explicit DDA, resting block"),
+        "{err}"
+    );
+}

@@ -176,6 +176,9 @@ fn run_inner(args: &StabilityArgs) -> Result<(), String> {
                 .into(),
         );
     }
+    if let Some(rows) = &args.rows {
+        rows_exist(plan, &args.only[0], rows)?;
+    }
     if args.replot {
         for map in [DT_MAP, STIFFNESS_MAP, DENSITY_MAP] {
             let trials = chart::read_trials(&args.out.join(map.0))?;
@@ -200,6 +203,35 @@ fn run_inner(args: &StabilityArgs) -> Result<(), String> {
         damping(plan, &args.out)?;
     }
     Ok(())
+}
+
+/// The labels of the rows of `map` (`dt` or `density`), in the map's order.
+fn row_labels(plan: &Plan, map: &str) -> Vec<String> {
+    if map == "density" {
+        return coupled_rows(study::STABILITY_DENSITY, plan)
+            .iter()
+            .map(Config::label)
+            .collect();
+    }
+    let solids = solid_node::REGISTRY.names().into_iter().map(resting_label);
+    let fluids = fluid_node::REGISTRY.names().into_iter().map(dam_label);
+    let coupled = coupled_rows(study::STABILITY_DT, plan)
+        .into_iter()
+        .map(|c| floating_label(&c));
+    solids.chain(fluids).chain(coupled).collect()
+}
+
+/// `--rows` that matches no row of `map` ran nothing, redrew the map from its CSV and exited 0
+/// (or failed on a missing CSV, naming the file): refused with the rows there are.
+fn rows_exist(plan: &Plan, map: &str, rows: &str) -> Result<(), String> {
+    let labels = row_labels(plan, map);
+    if labels.iter().any(|l| l.contains(rows)) {
+        return Ok(());
+    }
+    Err(format!(
+        "--rows '{rows}' matches no row of the {map} map. Fix: give text from one of its rows: {}",
+        labels.join("; ")
+    ))
 }
 
 /// `kept` with its rows matching `rows` replaced by `rerun`: where the first of them was, or at
@@ -302,6 +334,21 @@ fn coupled_trial(scratch: &Scratch, method: &str, value: f64, config: &Config) -
     }
 }
 
+/// The dt map's label of a solid solver's row (a block resting on springs).
+fn resting_label(solver: &str) -> String {
+    format!("{solver} DDA, resting block")
+}
+
+/// The dt map's label of a fluid solver's row (the dam break).
+fn dam_label(solver: &str) -> String {
+    format!("{solver} SPH, dam break")
+}
+
+/// The dt map's label of a coupled row (the floating block).
+fn floating_label(config: &Config) -> String {
+    format!("floating block, {}", config.label())
+}
+
 /// The dt map; with `rows`, only the rows whose label contains it are run, and the other rows
 /// are kept from the map's CSV in `out` (as [`density_map`] does).
 fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch, rows: Option<&str>) -> Result<(), String> {
@@ -309,7 +356,7 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch, rows: Option<&str>) -> Res
     let skip = |label: &str| rows.is_some_and(|r| !label.contains(r));
     let mut trials = Vec::new();
     for solver in solid_node::REGISTRY.names() {
-        let method = format!("{solver} DDA, resting block");
+        let method = resting_label(solver);
         if skip(&method) {
             continue;
         }
@@ -327,7 +374,7 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch, rows: Option<&str>) -> Res
         }
     }
     for solver in fluid_node::REGISTRY.names() {
-        let method = format!("{solver} SPH, dam break");
+        let method = dam_label(solver);
         if skip(&method) {
             continue;
         }
@@ -359,7 +406,7 @@ fn dt_map(plan: &Plan, out: &Path, scratch: &Scratch, rows: Option<&str>) -> Res
                 dt_factor: f,
                 ..row.clone()
             };
-            let label = format!("floating block, {}", config.label());
+            let label = floating_label(&config);
             if skip(&label) {
                 continue;
             }
