@@ -1086,3 +1086,30 @@ fn stability_rows_that_match_no_row_are_refused_with_the_rows_there_are() {
         "{err}"
     );
 }
+
+/// `coupler chart --replot --out DIR` with none of the charts' CSV files in DIR (empty, or not
+/// there: it was made) said each chart was skipped and exited 0. It is refused naming the files
+/// it looks for, and makes nothing.
+#[test]
+fn a_replot_of_a_directory_without_charts_is_refused_naming_the_files() {
+    let dir = temp("replot");
+    let missing = dir.join("missing");
+    for (out, written) in [
+        (&*dir, dir.join("fluid_speed_accuracy.svg")),
+        (&missing, missing.clone()),
+    ] {
+        let err = refused(
+            &["chart", "--replot", "--out", out.to_str().unwrap()],
+            1,
+            &written,
+        );
+        assert!(
+            err.contains(&format!(
+                "{} holds none of the charts' CSV files",
+                out.display()
+            )) && err.contains("fluid_speed_accuracy.csv")
+                && err.contains("Fix"),
+            "{err}"
+        );
+    }
+}

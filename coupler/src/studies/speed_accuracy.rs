@@ -137,34 +137,53 @@ pub fn run(args: ChartArgs) -> u8 {
     }
 }
 
+/// `--replot`: every chart whose CSV is in `out` redrawn, the others skipped (a run with
+/// `--only` writes some). A directory with none of them (empty, misspelt, not made yet) was
+/// made if missing, each chart "skipped", and the command exited 0: refused, naming the files.
+fn replot(out: &Path) -> Result<(), String> {
+    let charts = [
+        FLUID_CHART,
+        FLUID_SELF_CHART,
+        SOLID_CHART,
+        COUPLED_CHART,
+        PEAK_CHART,
+        IMPULSE_CHART,
+    ];
+    let csv = |c: &(&str, &str, &str)| out.join(c.0).with_extension("csv");
+    if !charts.iter().any(|c| csv(c).is_file()) {
+        let names: Vec<String> = charts.iter().map(|c| format!("{}.csv", c.0)).collect();
+        return Err(format!(
+            "--replot: {} holds none of the charts' CSV files ({}). Fix: name with --out the \
+             directory a `coupler chart` run wrote (default docs/charts), or run the charts \
+             without --replot",
+            out.display(),
+            names.join(", ")
+        ));
+    }
+    for c in charts {
+        match chart::read_samples(&out.join(c.0)) {
+            Ok(samples) => {
+                println!("{}", c.1);
+                draw(out, c, &samples)?
+            }
+            Err(e) => println!("{}: skipped ({e})", c.0),
+        }
+    }
+    Ok(())
+}
+
 fn wanted(args: &ChartArgs, what: &str) -> bool {
     args.only.is_empty() || args.only.iter().any(|o| o == what)
 }
 
 fn run_inner(args: &ChartArgs) -> Result<(), String> {
     let plan = if args.quick { &QUICK } else { &FULL };
+    if args.replot {
+        return replot(&args.out);
+    }
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let mode = if args.quick { "quick" } else { "full" };
-    if args.replot {
-        for c in [
-            FLUID_CHART,
-            FLUID_SELF_CHART,
-            SOLID_CHART,
-            COUPLED_CHART,
-            PEAK_CHART,
-            IMPULSE_CHART,
-        ] {
-            match chart::read_samples(&args.out.join(c.0)) {
-                Ok(samples) => {
-                    println!("{}", c.1);
-                    draw(&args.out, c, &samples)?
-                }
-                Err(e) => println!("{}: skipped ({e})", c.0),
-            }
-        }
-        return Ok(());
-    }
     if wanted(args, "fluid") {
         fluid(plan, &args.out, mode)?;
     }
