@@ -1113,3 +1113,31 @@ fn a_replot_of_a_directory_without_charts_is_refused_naming_the_files() {
         );
     }
 }
+
+/// `coupler povray` on a run directory whose block frame is damaged (a polygon naming a point
+/// past the last) panicked with an index out of bounds. It names the file, the polygon and the
+/// point, and writes nothing.
+#[test]
+fn povray_on_a_damaged_frame_names_the_file_and_what_is_wrong() {
+    use shared::scene::VtkFormat;
+    let dir = temp("povray");
+    std::fs::write(dir.join("scene.toml"), shared::scene::DEFAULT_SCENE).unwrap();
+    let frame = dir.join("blocks_00000.vtp");
+    let corners = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let faces = vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]];
+    shared::vtk::write_polyhedra(&frame, &[(&corners, &faces)], &[], VtkFormat::Ascii).unwrap();
+    shared::vtk::write_pvd(&dir.join("blocks.pvd"), &[(0.0, "blocks_00000.vtp".into())]).unwrap();
+    // The second face's last corner, 3, becomes 7: past the four points.
+    let text = std::fs::read_to_string(&frame).unwrap();
+    assert!(text.contains("0 2 1 0 1 3 0 3 2 1 2 3"), "{text}");
+    std::fs::write(&frame, text.replace("0 2 1 0 1 3 ", "0 2 1 0 1 7 ")).unwrap();
+    let err = refused(&["povray", dir.to_str().unwrap()], 1, &dir.join("povray"));
+    assert!(
+        err.contains(&format!(
+            "{}: polygon 1 names point 7, but the file has 4 points",
+            frame.display()
+        )) && err.contains("damaged")
+            && err.contains("Fix"),
+        "{err}"
+    );
+}

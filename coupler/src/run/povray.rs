@@ -2,6 +2,7 @@
 //! from the run directory's VTK frames (particles as spheres, blocks as triangle meshes), and
 //! rendered to PNG when `povray` is installed (Debian package `povray`).
 
+use shared::math::readable;
 use shared::scene::Scene;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -15,7 +16,13 @@ pub struct PolyData {
     pub kind: Vec<f64>,
 }
 
-/// Reads a PolyData frame that `shared::vtk` writes, binary or ASCII.
+/// What to do about a frame that reads but does not hold together.
+const DAMAGED_FIX: &str = "the file is damaged (cut short or overwritten). Fix: restore it, or run \
+     the scene again; a frame can be left out by removing its line from particles.pvd or blocks.pvd";
+
+/// Reads a PolyData frame that `shared::vtk` writes, binary or ASCII. Its polygons are checked
+/// against its points: a damaged file (a polygon naming a point past the last) panicked in
+/// [`scene_file`] instead of naming the file.
 pub fn read_vtp(path: &Path) -> Result<PolyData, String> {
     let file =
         shared::vtk::read_vtp(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
@@ -23,21 +30,19 @@ pub fn read_vtp(path: &Path) -> Result<PolyData, String> {
     let coords = array("Points", "Points")
         .ok_or_else(|| format!("{}: no points", path.display()))?
         .to_f64();
-    let points = coords.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let mut polys = Vec::new();
-    if let (Some(conn), Some(offsets)) = (array("Polys", "connectivity"), array("Polys", "offsets"))
-    {
-        let (conn, offsets) = (conn.to_f64(), offsets.to_f64());
-        let mut start = 0usize;
-        for &end in &offsets {
-            let end = end as usize;
-            let face = conn
-                .get(start..end)
-                .ok_or_else(|| format!("{}: polygon offsets out of range", path.display()))?;
-            polys.push(face.iter().map(|&i| i as usize).collect());
-            start = end;
-        }
+    if coords.len() % 3 != 0 {
+        return Err(format!(
+            "{}: {} point coordinates, not three per point: {DAMAGED_FIX}",
+            path.display(),
+            coords.len()
+        ));
     }
+    let points: Vec<[f64; 3]> = coords.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let polys = match (array("Polys", "connectivity"), array("Polys", "offsets")) {
+        (Some(conn), Some(offsets)) => polygons(&conn.to_f64(), &offsets.to_f64(), points.len())
+            .map_err(|e| format!("{}: {e}: {DAMAGED_FIX}", path.display()))?,
+        _ => Vec::new(),
+    };
     let kind = array("CellData", "kind")
         .map(|k| k.to_f64())
         .unwrap_or_default();
@@ -46,6 +51,49 @@ pub fn read_vtp(path: &Path) -> Result<PolyData, String> {
         polys,
         kind,
     })
+}
+
+/// The polygons of `connectivity` cut at `offsets` (each polygon's end), every index a point of
+/// the `points` there are; the error says which polygon is wrong and how.
+fn polygons(
+    connectivity: &[f64],
+    offsets: &[f64],
+    points: usize,
+) -> Result<Vec<Vec<usize>>, String> {
+    let index = |v: f64| (v >= 0.0 && v.fract() == 0.0).then_some(v as usize);
+    let mut polys = Vec::with_capacity(offsets.len());
+    let mut start = 0usize;
+    for (k, &end) in offsets.iter().enumerate() {
+        let face = index(end)
+            .filter(|&end| end >= start)
+            .and_then(|end| connectivity.get(start..end))
+            .ok_or_else(|| {
+                format!(
+                    "polygon {k} ends at offset {}, outside {start}..={} (the connectivity's length)",
+                    readable(end),
+                    connectivity.len()
+                )
+            })?;
+        let mut poly = Vec::with_capacity(face.len());
+        for &v in face {
+            match index(v).filter(|&i| i < points) {
+                Some(i) => poly.push(i),
+                None => {
+                    let have = match points {
+                        0 => "no points".to_string(),
+                        n => format!("{n} points, numbered 0 to {}", n - 1),
+                    };
+                    return Err(format!(
+                        "polygon {k} names point {}, but the file has {have}",
+                        readable(v)
+                    ));
+                }
+            }
+        }
+        polys.push(poly);
+        start += face.len();
+    }
+    Ok(polys)
 }
 
 /// Writes the .pov scene of one frame: camera framing the domain from the front-left, water
@@ -202,7 +250,6 @@ pub fn export(
         return Err("rendering needs POV-Ray: install it (Debian: apt-get install povray), or export without --render".into());
     }
     let out = run_dir.join("povray");
-    std::fs::create_dir_all(&out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let terrain_file = run_dir.join("terrain.vtp");
     let terrain = terrain_file
         .is_file()
@@ -219,6 +266,11 @@ pub fn export(
             .find(|f| (f.0 - t).abs() < 1e-9)
             .map(|f| read_vtp(&run_dir.join(&f.1)))
             .transpose()?;
+        if written.is_empty() {
+            // Once the first frame has been read: a damaged one leaves nothing behind.
+            std::fs::create_dir_all(&out)
+                .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+        }
         let path = out.join(format!("frame_{i:05}.pov"));
         std::fs::write(
             &path,
@@ -287,6 +339,44 @@ fn which(program: &str) -> Option<PathBuf> {
 mod tests {
     use super::*;
     use shared::scene::VtkFormat;
+
+    /// Polygons that do not fit their points or their connectivity are named, not indexed.
+    #[test]
+    fn polygons_past_their_points_or_connectivity_are_named() {
+        let conn = [0.0, 1.0, 2.0, 2.0, 1.0, 3.0];
+        assert_eq!(
+            polygons(&conn, &[3.0, 6.0], 4),
+            Ok(vec![vec![0, 1, 2], vec![2, 1, 3]])
+        );
+        for (conn, offsets, says) in [
+            (
+                &conn[..],
+                &[3.0, 6.0][..],
+                "polygon 1 names point 3, but the file has 3 points",
+            ),
+            (
+                &[0.0, -1.0, 2.0][..],
+                &[3.0][..],
+                "polygon 0 names point -1",
+            ),
+            (
+                &[0.0, 1.5, 2.0][..],
+                &[3.0][..],
+                "polygon 0 names point 1.5",
+            ),
+            (
+                &conn[..],
+                &[3.0, 7.0][..],
+                "polygon 1 ends at offset 7, outside 3..=6",
+            ),
+            (&conn[..], &[3.0, 2.0][..], "polygon 1 ends at offset 2"),
+            (&conn[..], &[1e300][..], "polygon 0 ends at offset 1e300"),
+        ] {
+            let points = if says.contains("3 points") { 3 } else { 4 };
+            let e = polygons(conn, offsets, points).unwrap_err();
+            assert!(e.contains(says), "{says}: {e}");
+        }
+    }
 
     #[test]
     fn reads_back_what_vtk_writes() {
