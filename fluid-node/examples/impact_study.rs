@@ -9,7 +9,7 @@
 
 use fluid_node::validation::{
     Impact, ImpactCase, LOAD_BOXES, LOBOVSKY_H300, LOBOVSKY_H300_EVENT5,
-    LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, RINGING_SPAN, ROW_INTERVAL,
+    LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, RINGING_SPAN, ROW_INTERVAL, WALL,
     dry_as_zero, impact, integral,
 };
 
@@ -44,8 +44,33 @@ fn main() {
         "H = {} m, H/dx = {}, window {:?}, {solver} {:?}: {} particles, {} steps, {:.1} s",
         case.height, case.per_h, case.window, case.params, r.particles, r.steps, r.seconds
     );
+    // Each sensor read twice: the water's pressure over its face, and the wall's load behind
+    // it (docs/VALIDATION.md, "What a sensor reads").
+    for (at, reading) in [
+        (0, "the water's pressure over the face"),
+        (WALL, "the wall's load"),
+    ] {
+        println!(" {reading}:");
+        report(&r, &case, at);
+    }
+    if let Some(path) = csv {
+        let mut out = String::from("time,s1,s2,s3,s4,s1_wall,s2_wall,s3_wall,s4_wall\n");
+        for (k, t) in r.times.iter().enumerate() {
+            out.push_str(&format!("{t}"));
+            for s in &r.series {
+                out.push_str(&format!(",{}", s[k]));
+            }
+            out.push('\n');
+        }
+        std::fs::write(path, out).expect("write csv");
+    }
+}
+
+/// The pulses, the spread and ringing of sensor 1, and the comparison with the experiment, of
+/// the series from `at` on (0: the water's pressure, `WALL`: the wall's load).
+fn report(r: &Impact, case: &ImpactCase, at: usize) {
     let star = (9.81 / case.height).sqrt();
-    for (s, p) in LOBOVSKY_H300.iter().zip(&r.pulses) {
+    for (s, p) in LOBOVSKY_H300.iter().zip(&r.pulses[at..]) {
         match p {
             Some(p) => println!(
                 "  {} z = {:.3}: peak {:7.0} Pa at t* {:.3}, rise {:5.1} ms, decay {:6.1} ms, impulse {:7.1} Pa·s",
@@ -63,8 +88,8 @@ fn main() {
     // How far sensor 1 swings about its level through the impact (docs/VALIDATION.md, "What
     // the DFSPH peak is").
     if let (Some((mean, sd)), Some((_, onset))) = (
-        r.spread(0, LOBOVSKY_H600_S1_IMPACT_TIME),
-        r.impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME),
+        r.spread(at, LOBOVSKY_H600_S1_IMPACT_TIME),
+        r.impulse(at, LOBOVSKY_H600_S1_IMPACT_TIME),
     ) {
         println!(
             "  s1 over the impact time ({:.0} ms) from the onset at t* {:.3}: mean {mean:.0} Pa, standard deviation {sd:.0} Pa",
@@ -76,10 +101,10 @@ fn main() {
     // (a box that removes the ringing and its harmonics) within the impact time from the
     // onset: a diagnosis, not a reading (docs/VALIDATION.md, "What the Riemann crest is").
     if let (Some(period), Some((_, onset))) = (
-        r.ringing_period(0),
-        r.impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME),
+        r.ringing_period(at),
+        r.impulse(at, LOBOVSKY_H600_S1_IMPACT_TIME),
     ) {
-        let p = dry_as_zero(&r.series[0]);
+        let p = dry_as_zero(&r.series[at]);
         let boxed = r
             .times
             .iter()
@@ -98,7 +123,7 @@ fn main() {
         let span = LOBOVSKY_H600_S1_IMPACT_TIME;
         let pct = |ours: f64, theirs: f64| 100.0 * (ours / theirs - 1.0);
         for (k, (s, e)) in LOBOVSKY_H300.iter().zip(&LOBOVSKY_H300_EVENT5).enumerate() {
-            let Some((impulse, onset)) = r.impulse(k, span) else {
+            let Some((impulse, onset)) = r.impulse(at + k, span) else {
                 println!("  {} against the experiment's event 5: no onset", s.name);
                 continue;
             };
@@ -106,11 +131,11 @@ fn main() {
                 .iter()
                 .zip(e.boxed)
                 .map(|(&w, theirs)| {
-                    let ours = r.box_peak(k, w, span).unwrap_or(f64::NAN);
+                    let ours = r.box_peak(at + k, w, span).unwrap_or(f64::NAN);
                     format!("{:.0} ms {ours:.0} ({:+.0} %)", 1e3 * w, pct(ours, theirs))
                 })
                 .collect();
-            let peak = r.first_pulse(k).map_or(f64::NAN, |p| p.peak);
+            let peak = r.first_pulse(at + k).map_or(f64::NAN, |p| p.peak);
             println!(
                 "  {} against the experiment's event 5: onset t* {:.3} ({:.3}), impulse {impulse:.1} Pa·s ({:+.1} %), highest means 1 ms {peak:.0} ({:+.0} %), {}",
                 s.name,
@@ -124,7 +149,7 @@ fn main() {
     }
     // The paper's impulse is for H = 600 mm (`fluid-validate`'s impulse row).
     if (case.height - 0.6).abs() < 1e-9
-        && let Some((impulse, onset)) = r.impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME)
+        && let Some((impulse, onset)) = r.impulse(at, LOBOVSKY_H600_S1_IMPACT_TIME)
     {
         println!(
             "  s1 impulse over the impact time ({:.0} ms) from the onset at t* {:.3}: {impulse:.1} Pa·s ({:+.1} % of the median)",
@@ -132,17 +157,6 @@ fn main() {
             onset * star,
             100.0 * (impulse / LOBOVSKY_H600_S1_IMPULSE - 1.0)
         );
-    }
-    if let Some(path) = csv {
-        let mut out = String::from("time,s1,s2,s3,s4\n");
-        for (k, t) in r.times.iter().enumerate() {
-            out.push_str(&format!("{t}"));
-            for s in &r.series {
-                out.push_str(&format!(",{}", s[k]));
-            }
-            out.push('\n');
-        }
-        std::fs::write(path, out).expect("write csv");
     }
 }
 

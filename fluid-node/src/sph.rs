@@ -121,6 +121,9 @@ impl<S: SphMethod> Solver for Sph<S> {
             self.prepare_step();
         }
         let mut report = self.method.step(&mut self.sys, dt)?;
+        let method = &self.method;
+        self.sys
+            .read_wall_loads(|sys, i, visit| method.fixed_wall_forces(sys, i, visit));
         let (low, reference) = self.method.density_check();
         let (v, a) = self
             .sys

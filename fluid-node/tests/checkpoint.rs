@@ -59,18 +59,26 @@ fn scene_with_probes(solver: &str) -> Scene {
     let face = Some(shared::scene::ProbeFace {
         diameter: 0.02,
         normal: [0.0, 0.0, 1.0],
+        reading: Default::default(),
     });
-    for (name, window, face) in [
-        ("p_inst", None, None),
-        ("p_avg", Some(0.008), None),
-        ("p_face", Some(0.008), face),
+    // And a face reading the wall: the floor's load under the column.
+    let wall = Some(shared::scene::ProbeFace {
+        diameter: 0.02,
+        normal: [0.0, 0.0, 1.0],
+        reading: shared::scene::FaceReading::Wall,
+    });
+    for (name, window, face, z) in [
+        ("p_inst", None, None, 0.02),
+        ("p_avg", Some(0.008), None, 0.02),
+        ("p_face", Some(0.008), face, 0.02),
+        ("p_wall", Some(0.008), wall, 0.0),
     ] {
         scene.probes.push(shared::scene::ProbeSpec {
             name: name.into(),
             position: [
                 0.05,
                 scene.domain.min[1] + 0.5 * (scene.domain.max[1] - scene.domain.min[1]),
-                0.02,
+                z,
             ],
             window,
             face,

@@ -24,6 +24,17 @@ fn the_wall_probe_sees_the_impact_and_its_impulse() {
     );
     let pulse = r.pulses[0].expect("a pulse at sensor 1");
     assert!(pulse.t_peak >= onset, "{pulse:?}");
+    // The wall's load behind the same face reads 0 Pa (not NaN) while the wall is dry, and
+    // the surge's arrival within a few rows of the pressure's onset.
+    let wall = &r.series[WALL];
+    assert_eq!(wall[0], 0.0, "the wall's load at t = 0");
+    let (_, wall_onset) = r
+        .impulse(WALL, LOBOVSKY_H600_S1_IMPACT_TIME)
+        .expect("the wall's load sees the impact");
+    assert!(
+        (wall_onset - onset).abs() <= 0.02,
+        "onsets: pressure {onset} s, wall load {wall_onset} s"
+    );
     // Already at H/dx = 8 the impulse is within the validation's tolerance (measured −8 %).
     let e = impulse / LOBOVSKY_H600_S1_IMPULSE - 1.0;
     assert!(

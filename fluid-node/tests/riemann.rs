@@ -43,26 +43,37 @@ fn riemann_parameters_are_checked() {
 }
 
 /// The impact study's rows (`fluid-validate --only impact-study-riemann` runs H/dx = 15, 30,
-/// 60), here at H/dx = 6 and 8: a peak and an impulse row per resolution, then one row on the
-/// peak's growth whose verdict is its own ratio against the tolerance.
+/// 60), here at H/dx = 6 and 8: per resolution a peak and an impulse row for each reading of
+/// sensor 1 (the water's pressure, the wall's load), then one row per reading on the peak's
+/// growth whose verdict is its own ratio against the tolerance.
 #[test]
 fn the_impact_study_tables_each_resolution_and_the_peaks_growth() {
     use fluid_node::validation::{PEAK_GROWTH_TOLERANCE, validate_impact_study};
     let rows = validate_impact_study("riemann", &[6, 8], |_| {});
-    assert_eq!(rows.len(), 5, "{rows:#?}");
-    let peak = |k: usize| -> f64 {
-        let r = &rows[2 * k];
-        assert_eq!(r.quantity, "peak pressure", "{r:?}");
-        r.measured.trim_end_matches(" mbar").parse().unwrap()
-    };
-    let (coarse, fine) = (peak(0), peak(1));
-    assert!(coarse > 10.0 && fine > 10.0, "{coarse} and {fine} mbar");
-    assert!(rows[1].quantity.starts_with("impulse"), "{:?}", rows[1]);
-    let growth = &rows[4];
-    assert_eq!(growth.measured, format!("{coarse:.1} → {fine:.1}"));
-    assert_eq!(
-        growth.pass,
-        fine / coarse <= 1.0 + PEAK_GROWTH_TOLERANCE,
-        "{growth:?}"
-    );
+    assert_eq!(rows.len(), 10, "{rows:#?}");
+    for (at, quantity) in [(0, "peak pressure"), (1, "peak wall load")] {
+        let peak = |k: usize| -> f64 {
+            let r = &rows[4 * k + at];
+            assert_eq!(r.quantity, quantity, "{r:?}");
+            r.measured.trim_end_matches(" mbar").parse().unwrap()
+        };
+        let (coarse, fine) = (peak(0), peak(1));
+        assert!(
+            coarse > 10.0 && fine > 10.0,
+            "{quantity}: {coarse} and {fine} mbar"
+        );
+        let impulse = &rows[2 + at];
+        assert!(
+            impulse.quantity.starts_with("impulse of the"),
+            "{impulse:?}"
+        );
+        let growth = &rows[8 + at];
+        assert!(growth.quantity.starts_with(quantity), "{growth:?}");
+        assert_eq!(growth.measured, format!("{coarse:.1} → {fine:.1}"));
+        assert_eq!(
+            growth.pass,
+            fine / coarse <= 1.0 + PEAK_GROWTH_TOLERANCE,
+            "{growth:?}"
+        );
+    }
 }

@@ -800,6 +800,43 @@ fn cases() -> Vec<Case> {
             "diametre",
         ),
         case(
+            "probe face reading the wall off the lattice's axes",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.5], reading = \"wall\" }",
+            ),
+            "probe[0].face.normal",
+            "normal = [-1.0, 0.0, 0.5]",
+        ),
+        case(
+            "probe face reading the wall with no wall behind it",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0], reading = \"wall\" }",
+            ),
+            "probe[0].face.reading",
+            "reading = \"wall\"",
+        ),
+        case(
+            "probe face reading the wall of penalty walls",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [5.0, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0], reading = \"wall\" }",
+            )
+            .replacen("\ndx = 0.04", "\ndx = 0.04\nwalls = \"penalty\"", 1),
+            "probe[0].face.reading",
+            "reading = \"wall\"",
+        ),
+        case(
+            "probe face reading misspelt",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [5.0, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0], reading = \"walls\" }",
+            ),
+            "probe[0].face.reading",
+            "walls",
+        ),
+        case(
             "probe window not a number",
             edit(
                 "position = [4.95, 0.4, 0.05]",

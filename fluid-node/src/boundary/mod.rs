@@ -115,6 +115,13 @@ impl Boundary {
     /// of a Müller step).
     #[inline(always)]
     pub fn for_each_neighbor(&self, i: usize, mut f: impl FnMut(Near<'_>)) {
+        self.for_each_fixed_neighbor(i, &mut f);
+        self.for_each_moving_neighbor(i, f);
+    }
+
+    /// Calls `f` on each boundary neighbour of fluid particle `i` on a fixed block.
+    #[inline(always)]
+    pub fn for_each_fixed_neighbor(&self, i: usize, mut f: impl FnMut(Near<'_>)) {
         if let Some(set) = &self.fixed {
             for &j in self.fixed_lists.of(i) {
                 f(Near {
@@ -124,7 +131,29 @@ impl Boundary {
                 });
             }
         }
-        self.for_each_moving_neighbor(i, f);
+    }
+
+    /// Calls `f(b, r, |r|)` on each fixed boundary neighbour b of fluid particle `i` (at `x`)
+    /// closer than `support`, r = x − x_b: a method's wall term pair by pair.
+    pub fn for_each_fixed_within(
+        &self,
+        i: usize,
+        x: &Vector,
+        support: Real,
+        mut f: impl FnMut(Near<'_>, &Vector, Real),
+    ) {
+        self.for_each_fixed_neighbor(i, |b| {
+            let r = x - b.position();
+            let len = r.norm();
+            if len < support {
+                f(b, &r, len);
+            }
+        });
+    }
+
+    /// The fixed blocks' boundary particles, if any.
+    pub fn fixed(&self) -> Option<&WallParticles> {
+        self.fixed.as_ref()
     }
 
     /// Calls `f` on each boundary neighbour of fluid particle `i` on a moving block.

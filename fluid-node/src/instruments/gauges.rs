@@ -57,14 +57,16 @@
 //! the weighted sum of seven point probes ([`shared::scene::ProbeFace::points`], Stroud's rule),
 //! each read (and box-averaged) as above and owned on several ranks by the rank holding its own
 //! point, then combined as the row is written; a dry point counts as 0 Pa, and a face whose
-//! every point is dry reads NaN.
+//! every point is dry reads NaN. A face with `reading = "wall"` is read once, as the wall's
+//! load behind it ([`super::wall_load`], summed before the row by the method's wall term), and
+//! reads 0 Pa while the wall is dry.
 
 use crate::core::grid::CellGrid;
 use crate::core::particles::Particles;
 use crate::kernels::Kernel;
 use crate::ranks::share::Share;
 use shared::math::{Real, Vector};
-use shared::scene::{GaugeSpec, ProbeSpec};
+use shared::scene::{FaceReading, GaugeSpec, ProbeSpec};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -181,7 +183,9 @@ impl BoxAverage {
 }
 
 /// The points the probes are read at: each probe's own, or its face's seven, as point probes
-/// with the probe's window; and each probe's weights over its consecutive points.
+/// with the probe's window; and each probe's weights over its consecutive points. A face that
+/// reads the wall is one point, its centre, keeping its face (the reading is the wall's,
+/// [`super::wall_load`]).
 fn probe_points(probes: &[ProbeSpec]) -> (Vec<ProbeSpec>, Vec<Vec<Real>>) {
     let (mut points, mut weights) = (Vec::new(), Vec::new());
     for p in probes {
@@ -193,6 +197,10 @@ fn probe_points(probes: &[ProbeSpec]) -> (Vec<ProbeSpec>, Vec<Vec<Real>>) {
         match p.face {
             None => {
                 points.push(point(p.position));
+                weights.push(vec![1.0]);
+            }
+            Some(face) if face.reading == FaceReading::Wall => {
+                points.push(p.clone());
                 weights.push(vec![1.0]);
             }
             Some(face) => {
@@ -234,6 +242,9 @@ pub struct Recorder {
     beds: Vec<Real>,
     /// The points read: every probe's own point, or its face's seven ([`probe_points`]).
     probes: Vec<ProbeSpec>,
+    /// Of each point, the scene's probe whose wall load it reads ([`FluidView::wall_loads`]),
+    /// if its face reads the wall.
+    walls: Vec<Option<usize>>,
     /// Of each probe of the scene, in order: the weights of its consecutive points in `probes`.
     weights: Vec<Vec<Real>>,
     gauge_file: Option<Series>,
@@ -278,7 +289,18 @@ impl Recorder {
             )?)
         };
         let (points, weights) = probe_points(probes);
+        let walls = weights
+            .iter()
+            .enumerate()
+            .flat_map(|(k, w)| {
+                let wall = probes[k]
+                    .face
+                    .is_some_and(|f| f.reading == FaceReading::Wall);
+                std::iter::repeat_n(wall.then_some(k), w.len())
+            })
+            .collect();
         Ok(Self {
+            walls,
             gauges: gauges.to_vec(),
             beds: beds.to_vec(),
             averages: points
@@ -309,9 +331,9 @@ impl Recorder {
             return Ok(());
         }
         // Windowed probes read after every step.
-        for (p, avg) in self.probes.iter().zip(&mut self.averages) {
+        for ((p, avg), wall) in self.probes.iter().zip(&mut self.averages).zip(&self.walls) {
             if let Some(avg) = avg {
-                avg.push(time, view.pressure_at(&Vector::from(p.position)));
+                avg.push(time, view.probe(p, *wall));
             }
         }
         if time - self.last < self.min_interval * (1.0 - 1e-9) {
@@ -327,15 +349,12 @@ impl Recorder {
                 .map(|(g, &bed)| view.surface_elevation(g.x, g.y, bed, reference)),
         );
         row.extend(cols.map(|(g, &bed)| view.spray_elevation(g.x, g.y, bed)));
-        row.extend(
-            self.probes
-                .iter()
-                .zip(&self.averages)
-                .map(|(p, avg)| match avg {
-                    Some(avg) => avg.mean(),
-                    None => view.pressure_at(&Vector::from(p.position)),
-                }),
-        );
+        row.extend(self.probes.iter().zip(&self.averages).zip(&self.walls).map(
+            |((p, avg), wall)| match avg {
+                Some(avg) => avg.mean(),
+                None => view.probe(p, *wall),
+            },
+        ));
         if let Some(s) = share {
             let at = |x: Real, y: Real| s.owner_at(view.grid, &Vector::new(x, y, 0.0));
             let gauges = self.gauges.iter().map(|g| at(g.x, g.y));
@@ -370,11 +389,16 @@ impl Recorder {
         Ok(())
     }
 
-    /// The rank owning each probe's point (on several ranks).
+    /// The rank owning each probe's point (on several ranks): rank 0 for a wall reading, which
+    /// rank 0 sums from every rank's terms ([`super::wall_load::WallLoads::read`]).
     pub fn probe_owners(&self, share: &Share, grid: &CellGrid) -> Vec<usize> {
         self.probes
             .iter()
-            .map(|p| share.owner_at(grid, &Vector::from(p.position)))
+            .zip(&self.walls)
+            .map(|(p, wall)| match wall {
+                Some(_) => 0,
+                None => share.owner_at(grid, &Vector::from(p.position)),
+            })
             .collect()
     }
 
@@ -425,9 +449,21 @@ pub struct FluidView<'a, K: Kernel> {
     /// Rest density ρ0: m/ρ0 is the reference volume of the fluid fraction.
     pub rest_density: Real,
     pub dx: Real,
+    /// Each scene probe's wall load of the step ([`super::wall_load`]; read by the probes whose
+    /// face reads the wall).
+    pub wall_loads: &'a [Real],
 }
 
 impl<K: Kernel> FluidView<'_, K> {
+    /// What probe point `p` reads: the wall load of scene probe `wall`, or the water's pressure
+    /// at the point.
+    fn probe(&self, p: &ProbeSpec, wall: Option<usize>) -> Real {
+        match wall {
+            Some(k) => self.wall_loads[k],
+            None => self.pressure_at(&Vector::from(p.position)),
+        }
+    }
+
     /// φ0: the fluid fraction Σ (m/ρ0) W at a node of a full cubic lattice of spacing dx (the
     /// fill lattice), the reference the half threshold is taken of (≈ 1; 1.0098 for the poly6
     /// kernel with h = 2 dx).
@@ -600,6 +636,7 @@ mod tests {
         let face = shared::scene::ProbeFace {
             diameter: 0.02,
             normal: [-2.0, 0.0, 0.0],
+            reading: Default::default(),
         };
         let (c, r) = ([1.0, 0.5, 0.003], 0.01);
         let rule = face.points(c);
@@ -671,6 +708,7 @@ mod tests {
             mass: RHO * DX.powi(3),
             rest_density: RHO,
             dx: DX,
+            wall_loads: &[],
         };
         let reference = view.lattice_fraction();
         (

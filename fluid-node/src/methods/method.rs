@@ -7,7 +7,7 @@
 
 use crate::kernels::Kernel;
 use crate::system::{FluidSystem, Initial, Layout};
-use shared::math::Real;
+use shared::math::{Real, Vector};
 use shared::protocol::BlockLoad;
 use shared::registry::{SolverParams, Variant};
 use shared::scene::{CouplingScheme, FieldError, Scene};
@@ -49,6 +49,12 @@ pub trait SphMethod:
     /// them, pair by pair the reverse of this method's pressure force on the fluid
     /// ([`crate::boundary::Boundary::react`]).
     fn react(&mut self, sys: &mut FluidSystem);
+
+    /// The force of each fixed boundary particle near fluid particle `i` on it, this method's
+    /// wall term at the state the step left (the pressures its step computed last), passed to
+    /// `visit(boundary particle, force)`: what a probe reading the wall sums, reversed
+    /// ([`crate::instruments::wall_load`]).
+    fn fixed_wall_forces(&self, sys: &FluidSystem, i: usize, visit: &mut dyn FnMut(usize, Vector));
 
     /// Whether this method moves the free blocks within its step, so that its loads are the
     /// forces of the step just taken ([`shared::solver::FluidSolver::loads_follow_step`]).

@@ -25,7 +25,7 @@
 //! use fluid_node::kernels::{Kernel, WendlandC2};
 //! use fluid_node::methods::SphMethod;
 //! use fluid_node::system::{FluidSystem, Initial, Layout};
-//! use shared::math::Real;
+//! use shared::math::{Real, Vector};
 //! use shared::registry::{ParamCheck, SolverParams};
 //! use shared::solver::{SolverError, StepReport};
 //!
@@ -84,6 +84,9 @@
 //!     }
 //!
 //!     fn react(&mut self, _sys: &mut FluidSystem) {}
+//!
+//!     // No pressure, so no wall term: a probe reading the wall reads 0 Pa.
+//!     fn fixed_wall_forces(&self, _: &FluidSystem, _: usize, _: &mut dyn FnMut(usize, Vector)) {}
 //!
 //!     fn kernel(&self) -> &WendlandC2 {
 //!         &self.kernel

@@ -20,8 +20,13 @@ use std::sync::Arc;
 /// front runs a tenth of the tank, the work drifts and the cuts move, and particles change
 /// owner.
 fn scene() -> Scene {
-    scene_with("")
+    scene_with(WALL_PROBES)
 }
+
+/// Two faces that read the wall (`instruments::wall_load`): one on the left wall under the
+/// column, one on the floor 3 cm across where the column's foot spreads, which the cuts pass
+/// as they move (each rank sums its own particles' pairs, rank 0 adds them in one order).
+const WALL_PROBES: &str = "\n[[probe]]\nname = \"left\"\nposition = [0.0, 0.03, 0.02]\nwindow = 0.002\nface = { diameter = 0.02, normal = [1.0, 0.0, 0.0], reading = \"wall\" }\n\n[[probe]]\nname = \"foot\"\nposition = [0.2, 0.03, 0.0]\nface = { diameter = 0.03, normal = [0.0, 0.0, 1.0], reading = \"wall\" }\n";
 
 /// [`scene`] with `extra` TOML appended (a method's table).
 fn scene_with(extra: &str) -> Scene {
@@ -139,7 +144,7 @@ fn muller_gives_the_same_bits_on_one_to_four_ranks() {
 #[test]
 fn riemann_and_a_probe_face_give_the_same_bits_on_one_to_four_ranks() {
     let face = "\n[[probe]]\nname = \"face\"\nposition = [0.2, 0.03, 0.0]\nwindow = 0.002\nface = { diameter = 0.03, normal = [0.0, 0.0, 1.0] }\n";
-    same_bits_in::<Riemann>(&scene_with(face), 800);
+    same_bits_in::<Riemann>(&scene_with(&format!("{face}{WALL_PROBES}")), 800);
 }
 
 /// DFSPH's steps are capped at the scene's 1 ms (its CFL step is longer): 150 steps run the
@@ -154,9 +159,9 @@ fn dfsph_gives_the_same_bits_on_one_to_four_ranks() {
 /// surface density.
 #[test]
 fn dfsph_options_give_the_same_bits_on_one_to_four_ranks() {
-    let scene = scene_with(
-        "\n[fluid.dfsph]\npressure_tolerance = 5.0\nwall_pressure = \"extrapolated\"\ncontinued_surface = true\n",
-    );
+    let scene = scene_with(&format!(
+        "{WALL_PROBES}\n[fluid.dfsph]\npressure_tolerance = 5.0\nwall_pressure = \"extrapolated\"\ncontinued_surface = true\n"
+    ));
     same_bits_in::<Dfsph>(&scene, 150);
 }
 

@@ -14,6 +14,7 @@ use crate::core::particles::{Carried, Particles};
 use crate::core::phases::{Phase, PhaseClock};
 use crate::instruments::gauges::{FluidView, Recorder};
 use crate::instruments::survey::{Rules, Survey};
+use crate::instruments::wall_load::WallLoads;
 use crate::kernels::Kernel;
 use crate::ranks::comm::Comm;
 use crate::ranks::share::Share;
@@ -49,6 +50,8 @@ pub struct FluidSystem {
     /// Eq. 22 against the terrain's triangles (the backstop of its boundary particles).
     pub terrain: TerrainPenalty,
     recorder: Recorder,
+    /// The probes whose face reads the wall: their boundary particles and last readings.
+    wall_loads: WallLoads,
     pub dx: Real,
     pub mass: Real,
     pub rest_density: Real,
@@ -140,6 +143,7 @@ impl FluidSystem {
         let terrain = eq22.terrain(init);
         let lead = ranks.as_ref().is_none_or(|c| c.rank() == 0);
         let recorder = setup::recorder(ctx, init, lead)?;
+        let wall_loads = setup::wall_loads(scene, init, fixed.as_ref(), cell, ranks.is_none())?;
         // The outer halo column holds the cells next to the fixed walls, or all of it when
         // blocks move (their particles move between sorts).
         let walls = match (&bodies, &fixed) {
@@ -178,6 +182,7 @@ impl FluidSystem {
             penalty,
             terrain,
             recorder,
+            wall_loads,
             dx,
             mass,
             rest_density: fluid.density,
@@ -407,6 +412,28 @@ impl FluidSystem {
         self.phases.stop(Phase::BlockLoads, t);
     }
 
+    /// Reads the probes whose face reads the wall, before [`Self::end_step`] samples them:
+    /// `forces(sys, i, visit)` is the method's wall term on fluid particle i
+    /// ([`crate::methods::SphMethod::fixed_wall_forces`]).
+    pub fn read_wall_loads(
+        &mut self,
+        forces: impl Fn(&FluidSystem, usize, &mut dyn FnMut(usize, Vector)),
+    ) {
+        let Some(walls) = self.boundary.fixed() else {
+            return;
+        };
+        if self.wall_loads.is_empty() {
+            return;
+        }
+        let t = self.phases.start();
+        let mut loads = std::mem::take(&mut self.wall_loads);
+        loads.read(walls, &self.grid, self.share.as_ref(), |i, visit| {
+            forces(self, i, visit)
+        });
+        self.wall_loads = loads;
+        self.phases.stop(Phase::Gauges, t);
+    }
+
     /// After the particles moved by `dt`: checks stability, re-sorts and samples the
     /// instruments; returns the largest speed and acceleration (for the next step's proposal).
     /// `check_low_density` is false for summed densities, which are low at a free surface by
@@ -510,6 +537,7 @@ impl FluidSystem {
             mass: self.mass,
             rest_density: self.rest_density,
             dx: self.dx,
+            wall_loads: &self.wall_loads.loads,
         };
         self.recorder
             .sample(self.time, &view, self.share.as_ref())?;

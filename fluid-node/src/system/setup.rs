@@ -11,6 +11,7 @@ use crate::core::fill::{Fill, fill_water_with, lattice_key};
 use crate::core::grid::CellGrid;
 use crate::core::particles::Carried;
 use crate::instruments::gauges::Recorder;
+use crate::instruments::wall_load::WallLoads;
 use shared::geometry::Polyhedron;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockState;
@@ -232,13 +233,7 @@ pub(super) fn wall_particles(
     match init.fluid.walls {
         Walls::Penalty => None,
         Walls::Particles => {
-            let fixed: Vec<Polyhedron> = scene
-                .blocks
-                .iter()
-                .zip(&init.blocks)
-                .filter(|(b, _)| b.kind == BlockKind::Fixed)
-                .map(|(_, p)| p.clone())
-                .collect();
+            let fixed = fixed_blocks(scene, init);
             let reach = Vector::repeat(cell);
             let mut pts = WallParticles::sample(
                 &fixed,
@@ -267,6 +262,33 @@ pub(super) fn wall_particles(
             Some(WallParticles::new(pts, grid.clone()))
         }
     }
+}
+
+/// The scene's fixed blocks, as polyhedra.
+fn fixed_blocks(scene: &Scene, init: &Initial) -> Vec<Polyhedron> {
+    scene
+        .blocks
+        .iter()
+        .zip(&init.blocks)
+        .filter(|(b, _)| b.kind == BlockKind::Fixed)
+        .map(|(_, p)| p.clone())
+        .collect()
+}
+
+/// The probes whose face reads the wall ([`WallLoads`]) over the fixed blocks' boundary
+/// particles `walls`; `support` is the kernel's. One process (`whole`) holds every wall, so a
+/// face with no boundary particle behind it is an error there; a rank may hold none of a
+/// face's wall, which another rank holds.
+pub(super) fn wall_loads(
+    scene: &Scene,
+    init: &Initial,
+    walls: Option<&WallParticles>,
+    support: Real,
+    whole: bool,
+) -> Result<WallLoads, SolverError> {
+    let fixed = fixed_blocks(scene, init);
+    WallLoads::new(&scene.probes, walls, &fixed, init.fluid.dx, support, whole)
+        .map_err(SolverError::Failed)
 }
 
 /// The wave gauges and pressure probes, each gauge with the bed under it (the highest fixed

@@ -208,6 +208,11 @@ impl ImpactCase {
     }
 }
 
+/// Where the wall readings start among an [`Impact`]'s series (and the scene's probes): sensor
+/// k's face reads the water's pressure in series k and the wall's load behind it
+/// (`reading = "wall"`, `instruments::wall_load`) in series `WALL + k`.
+pub const WALL: usize = LOBOVSKY_H300.len();
+
 /// Time between probe rows [s] (`output.interval`/50): 5 kHz.
 pub const ROW_INTERVAL: f64 = 2e-4;
 
@@ -231,15 +236,20 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
         .window
         .map(|w| format!("window = {w}\n"))
         .unwrap_or_default();
-    let probes: String = LOBOVSKY_H300
+    // Each sensor twice: the water's pressure over its face, then the wall's load behind it
+    // (`<name>_wall`, [`WALL`] columns on).
+    let probes: String = [("", ""), ("_wall", ", reading = \"wall\"")]
         .iter()
-        .map(|s| {
-            format!(
-                "[[probe]]\nname = \"{}\"\nposition = [{TANK_LENGTH}, {}, {}]\n{window}face = {{ diameter = {SENSOR_DIAMETER}, normal = [-1.0, 0.0, 0.0] }}\n\n",
-                s.name,
-                0.5 * w,
-                s.z
-            )
+        .flat_map(|(suffix, reading)| {
+            let window = &window;
+            LOBOVSKY_H300.iter().map(move |s| {
+                format!(
+                    "[[probe]]\nname = \"{}{suffix}\"\nposition = [{TANK_LENGTH}, {}, {}]\n{window}face = {{ diameter = {SENSOR_DIAMETER}, normal = [-1.0, 0.0, 0.0]{reading} }}\n\n",
+                    s.name,
+                    0.5 * w,
+                    s.z
+                )
+            })
         })
         .collect();
     let params = if case.params.is_empty() {
@@ -390,10 +400,11 @@ pub fn ringing_period(ts: &[f64], p: &[f64], t_peak: f64) -> Option<f64> {
 #[derive(Debug, Clone)]
 pub struct Impact {
     pub case: ImpactCase,
-    /// Row times [s] and, per sensor of [`LOBOVSKY_H300`], the probe's readings [Pa].
+    /// Row times [s] and, per sensor of [`LOBOVSKY_H300`], the probe's readings [Pa]: the
+    /// water's pressure over the face, then from [`WALL`] on the wall's load behind it.
     pub times: Vec<f64>,
     pub series: Vec<Vec<f64>>,
-    /// Each sensor's first impact ([`Impact::first_pulse`]).
+    /// Each series' first impact ([`Impact::first_pulse`]).
     pub pulses: Vec<Option<Pulse>>,
     pub particles: usize,
     pub steps: u64,
@@ -479,7 +490,7 @@ pub fn impact(solver: &str, case: &ImpactCase) -> Result<Impact, SolverError> {
     drop(s);
     let rows = read_csv(&dir.path().join("probes.csv"))?;
     let times: Vec<f64> = rows.iter().map(|r| r[0]).collect();
-    let series: Vec<Vec<f64>> = (1..=LOBOVSKY_H300.len())
+    let series: Vec<Vec<f64>> = (1..=2 * LOBOVSKY_H300.len())
         .map(|k| rows.iter().map(|r| r[k]).collect())
         .collect();
     let mut r = Impact {
@@ -620,11 +631,17 @@ mod tests {
     fn the_scene_has_the_tank_the_column_and_the_sensors() {
         let case = ImpactCase::new(0.3, 10, Some(1e-3));
         let s = impact_scene("wcsph", &case);
-        assert_eq!(s.probes.len(), 4);
+        // Each sensor twice: its face's pressure, then (from WALL on) the wall's load.
+        assert_eq!(s.probes.len(), 2 * WALL);
         assert!(s.probes.iter().all(|p| p.position[0] == TANK_LENGTH));
         assert_eq!(s.probes[0].window, Some(1e-3));
         let face = s.probes[0].face.expect("a sensing face");
         assert_eq!((face.diameter, face.normal), (0.0042, [-1.0, 0.0, 0.0]));
+        assert_eq!(face.reading, shared::scene::FaceReading::Fluid);
+        let wall = s.probes[WALL].face.expect("a sensing face");
+        assert_eq!(wall.reading, shared::scene::FaceReading::Wall);
+        assert_eq!(s.probes[WALL].position, s.probes[0].position);
+        assert_eq!(s.probes[WALL].name, "s1_wall");
         assert!((s.probes[3].position[2] - 0.08).abs() < 1e-12);
         // The step cap is the window's length and the slab the tank's width (150 mm: 5
         // layers of 30 mm), at least SLAB_LAYERS (8 of 37.5 mm at H = 600 mm, H/dx = 16,

@@ -56,6 +56,23 @@ impl Lite {
     fn density_of(&self, p: Real) -> Real {
         self.lattice + p / self.c2
     }
+
+    /// The pressure force of a boundary particle (p_w, ρ_w) at r = x_i − x_w on fluid
+    /// particle i: what a moving block takes reversed, and a wall-reading probe reads.
+    #[allow(clippy::too_many_arguments)]
+    fn wall_force(
+        &self,
+        m: Real,
+        p: &Particles,
+        i: usize,
+        pw: Real,
+        rw: Real,
+        r: &Vector,
+        len: Real,
+    ) -> Vector {
+        let rho = p.density[i];
+        self.kernel.gradient(r, len) * (-m * m * (p.pressure[i] / (rho * rho) + pw / (rw * rw)))
+    }
 }
 
 impl SphMethod for Lite {
@@ -195,16 +212,23 @@ impl SphMethod for Lite {
             self.lattice,
             |p| self.density_of(p),
         );
-        let (m, kernel, p) = (sys.mass, &self.kernel, &sys.particles);
+        let (m, p, this) = (sys.mass, &sys.particles, &*self);
         sys.boundary.react(
             &p.position,
-            kernel.support(),
-            |i, pw, rw, r, len| {
-                let rho = p.density[i];
-                kernel.gradient(r, len) * (-m * m * (p.pressure[i] / (rho * rho) + pw / (rw * rw)))
-            },
+            self.kernel.support(),
+            |i, pw, rw, r, len| this.wall_force(m, p, i, pw, rw, r, len),
             None,
         );
+    }
+
+    fn fixed_wall_forces(&self, sys: &FluidSystem, i: usize, visit: &mut dyn FnMut(usize, Vector)) {
+        let p = &sys.particles;
+        let support = self.kernel.support();
+        sys.boundary
+            .for_each_fixed_within(i, &p.position[i], support, |b, r, len| {
+                let f = self.wall_force(sys.mass, p, i, b.pressure(), b.density(), r, len);
+                visit(b.index(), f);
+            });
     }
 
     fn kernel(&self) -> &WendlandC2 {

@@ -586,6 +586,31 @@ impl Dfsph {
     fn mirror(&self) -> Real {
         if self.mirrored { 1.0 } else { 0.0 }
     }
+
+    /// The pressure force of the last step's solves on fluid particle i from a boundary
+    /// particle (p_w, ρ_w) at r = x_i − x_w, m·(−m (k_i + k_b) ∇W_ib) with k_i = k_ρ + k_v:
+    /// mirrored, k_b = k_i + H_ib (k_i for the solves' k̄_i: summed over a wall's pairs the
+    /// two differ by the noise of single stiffnesses); extrapolated, p_b/ρ_b². The moving
+    /// blocks take its reverse (`react`), the wall-reading probes read it.
+    #[allow(clippy::too_many_arguments)]
+    fn wall_force(
+        &self,
+        (p, m, g): (&Particles, Real, &Vector),
+        i: usize,
+        pw: Real,
+        rw: Real,
+        r: &Vector,
+        len: Real,
+    ) -> Vector {
+        let (kd, kv) = stiffnesses(p);
+        let ki = kd[i] + kv[i];
+        let k = if self.mirrored {
+            MIRROR * ki + hydrostatic(g, r, self.rest_density, ki)
+        } else {
+            ki + pw / (rw * rw)
+        };
+        r * (-m * m * k * self.kernel.gradient_factor(len))
+    }
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@ use crate::validation::Check;
 use pairs::{PairConstants, boundary_forces, density_sum, fluid_forces, record};
 use rayon::prelude::*;
 use serde::Deserialize;
-use shared::math::Real;
+use shared::math::{Real, Vector};
 use shared::registry::{ParamCheck, SolverParams, Variant, study};
 use shared::solver::{SolverError, StepReport};
 
@@ -108,6 +108,23 @@ pub struct Muller {
 }
 
 impl Muller {
+    /// Eq. 14's pressure force of a boundary particle (p_w, ρ_w) at r = x_i − x_w on fluid
+    /// particle i, as a force (m·f_pressure/ρ_i): the moving blocks take its reverse
+    /// (`react`), the wall-reading probes read it (`fixed_wall_forces`).
+    #[allow(clippy::too_many_arguments)]
+    fn wall_force(
+        &self,
+        m: Real,
+        p: &crate::core::particles::Particles,
+        i: usize,
+        pw: Real,
+        rw: Real,
+        r: &Vector,
+        len: Real,
+    ) -> Vector {
+        self.spiky.gradient(r, len) * (-m * m * (p.pressure[i] + pw) / (2.0 * rw * p.density[i]))
+    }
+
     /// ρ0 + p/k: the density Eq. 17 gives a pressure (the boundary particles' density).
     fn density_of(&self, p: Real) -> Real {
         self.rest_density + p / self.stiffness
@@ -361,17 +378,23 @@ impl SphMethod for Muller {
             self.rest_density,
             |p| self.density_of(p),
         );
-        let (m, spiky, p) = (sys.mass, &self.spiky, &sys.particles);
-        // Eq. 14's pressure force of the wall particle on fluid particle i (r = x_i − x_w),
-        // as a force: m·f_pressure/ρ_i.
+        let (p, m, this) = (&sys.particles, sys.mass, &*self);
         sys.boundary.react(
             &p.position,
-            spiky.support(),
-            |i, pw, rw, r, len| {
-                spiky.gradient(r, len) * (-m * m * (p.pressure[i] + pw) / (2.0 * rw * p.density[i]))
-            },
+            self.spiky.support(),
+            |i, pw, rw, r, len| this.wall_force(m, p, i, pw, rw, r, len),
             sys.share.as_ref().map(|s| (s, &sys.grid)),
         );
+    }
+
+    fn fixed_wall_forces(&self, sys: &FluidSystem, i: usize, visit: &mut dyn FnMut(usize, Vector)) {
+        let p = &sys.particles;
+        let support = self.spiky.support();
+        sys.boundary
+            .for_each_fixed_within(i, &p.position[i], support, |b, r, len| {
+                let f = self.wall_force(sys.mass, p, i, b.pressure(), b.density(), r, len);
+                visit(b.index(), f);
+            });
     }
 
     fn kernel(&self) -> &Poly6 {

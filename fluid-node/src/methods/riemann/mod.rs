@@ -15,7 +15,7 @@ use crate::methods::wcsph::{Flux, Wcsph, WcsphParams, sound_speed};
 use crate::system::{FluidSystem, Initial, Layout};
 use crate::validation::Check;
 use serde::Deserialize;
-use shared::math::Real;
+use shared::math::{Real, Vector};
 use shared::registry::{ParamCheck, SolverParams, Variant};
 use shared::scene::{FieldError, Scene};
 use shared::solver::{SolverError, StepReport};
@@ -80,6 +80,10 @@ impl SphMethod for Riemann {
         self.0.react(sys)
     }
 
+    fn fixed_wall_forces(&self, sys: &FluidSystem, i: usize, visit: &mut dyn FnMut(usize, Vector)) {
+        self.0.fixed_wall_forces(sys, i, visit)
+    }
+
     fn kernel(&self) -> &WendlandC2 {
         self.0.kernel()
     }
@@ -106,11 +110,21 @@ impl SphMethod for Riemann {
 
     /// With its walls' dissipation (`wcsph::riemann::WALL_ETA`) its impact peak, in the tank's
     /// width, is inside the experiment's band at H/dx = 15 and above it from 30, growing with
-    /// resolution (docs/VALIDATION.md, "Impact pressure: resolution study").
+    /// resolution (docs/VALIDATION.md, "Impact pressure: resolution study"). The wall's load
+    /// behind the sensor is inside the band from H/dx = 30 and within ±10 % of the median
+    /// impulse at 60; at H/dx = 15 (and H = 600 mm to 30) the wall's lowest cell, 20–40 mm
+    /// tall, reads low, so its peak grows from 15 to 30 ("What a sensor reads").
     fn known_limitation(check: &str, per_h: usize) -> Option<&'static str> {
         let peak = per_h >= 30 && check == Check::ImpactPeak { per_h }.name();
-        (peak || check == Check::ImpactPeakGrowth.name()).then_some(
-            "the Riemann solver's impact crest is inside the band at H/dx = 15 but grows past it from 30; the impulse is the check",
+        if peak || check == Check::ImpactPeakGrowth.name() {
+            return Some(
+                "the Riemann solver's impact crest is inside the band at H/dx = 15 but grows past it from 30; the impulse is the check",
+            );
+        }
+        let coarse = (per_h == 15 && check == Check::WallPeak { per_h }.name())
+            || (per_h <= 30 && check == Check::WallImpulse { per_h }.name());
+        (coarse || check == Check::WallPeakGrowth.name()).then_some(
+            "the wall's lowest cell is one spacing tall (20–40 mm where this fails, the sensor 4 mm): its load reads low until the spacing nears the sensor's size",
         )
     }
 }

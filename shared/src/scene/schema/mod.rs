@@ -502,6 +502,31 @@ pub struct ProbeFace {
     pub diameter: f64,
     /// The face's normal (any length; the disk lies in the plane through `position` normal to it).
     pub normal: [f64; 3],
+    /// What the face reads: the water's pressure at its points ([`FaceReading::Fluid`], the
+    /// default) or the wall's load behind it ([`FaceReading::Wall`]).
+    #[serde(default, skip_serializing_if = "FaceReading::is_fluid")]
+    pub reading: FaceReading,
+}
+
+/// What a probe's face reads (`face = { …, reading = "wall" }`).
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum FaceReading {
+    /// The mean over the disk of the water's pressure, interpolated at seven points (SPH's
+    /// Shepard interpolation of the particles' pressures).
+    #[default]
+    Fluid,
+    /// The mean over the disk of the normal load the water puts on the wall behind it: the
+    /// force of the fluid on the wall's boundary particles, per unit area of the wall (a
+    /// transducer's diaphragm is pushed by that force). Needs boundary particles on a fixed
+    /// block whose face the disk lies on, with a normal along x, y or z.
+    Wall,
+}
+
+impl FaceReading {
+    pub fn is_fluid(&self) -> bool {
+        *self == Self::Fluid
+    }
 }
 
 impl ProbeFace {

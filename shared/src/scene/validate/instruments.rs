@@ -4,9 +4,9 @@
 use super::checker::Checker;
 use crate::geometry::Polyhedron;
 use crate::math::Point;
-use crate::scene::BlockKind;
 use crate::scene::error::Seg;
 use crate::scene::schema::Scene;
+use crate::scene::{BlockKind, FaceReading, Walls};
 
 /// Shortest probe averaging window [s]: a pressure sensor's acquisition samples at 1 MHz at
 /// most, so a shorter window averages nothing a sensor could record; and a window below the
@@ -27,6 +27,75 @@ pub(super) fn check(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
     gauge_columns(c, s);
     placement(c, s);
     probes_in_walls(c, s, polys);
+    wall_faces(c, s, polys);
+}
+
+/// A face that reads the wall (`reading = "wall"`) needs what that reading sums: boundary
+/// particles (`[fluid] walls = "particles"`), a face along the water's lattice (the particles'
+/// columns behind it are whole only there), and a fixed block behind it.
+fn wall_faces(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
+    // Without water there is nothing to read (and nothing to check here).
+    let Some(fluid) = &s.fluid else {
+        return;
+    };
+    let walls: Vec<&Polyhedron> = s
+        .blocks
+        .iter()
+        .zip(polys)
+        .filter(|(b, _)| b.kind == BlockKind::Fixed)
+        .filter_map(|(_, p)| p.as_ref())
+        .collect();
+    let depth = |p: &Polyhedron, x: [f64; 3]| -> f64 {
+        -p.plane_distance(&(Point::from(x) - p.centroid.coords)).0
+    };
+    for (i, probe) in s.probes.iter().enumerate() {
+        let Some(f) = probe.face.filter(|f| f.reading == FaceReading::Wall) else {
+            continue;
+        };
+        c.key("probe", |c| {
+            c.at(Seg::Index(i), |c| {
+                c.key("face", |c| {
+                    if fluid.walls != Walls::Particles {
+                        c.fail(
+                            "reading",
+                            "wall",
+                            &format!(
+                                "reads the force on the wall's boundary particles, and [fluid] walls = \"{}\" has none",
+                                fluid.walls
+                            ),
+                            "set [fluid] walls = \"particles\" (the default), or reading = \"fluid\"",
+                        );
+                        return;
+                    }
+                    let axes = f.normal.iter().filter(|&&n| n != 0.0).count();
+                    if axes != 1 {
+                        c.fail(
+                            "normal",
+                            f.normal,
+                            "is not along x, y or z: a wall reading sums the boundary particles' columns behind the face, which lie on the water's lattice, so only a wall facing along an axis has whole columns behind it",
+                            "give the wall's normal as [±1, 0, 0], [0, ±1, 0] or [0, 0, ±1], or reading = \"fluid\" on an inclined wall",
+                        );
+                        return;
+                    }
+                    // Half a spacing behind the face, against its normal: inside a fixed block.
+                    let len = f.normal.iter().map(|n| n * n).sum::<f64>().sqrt();
+                    let behind: [f64; 3] = std::array::from_fn(|k| {
+                        probe.position[k] - 0.5 * fluid.dx * f.normal[k] / len
+                    });
+                    if !walls.iter().any(|p| depth(p, behind) > 0.0) {
+                        c.fail(
+                            "reading",
+                            "wall",
+                            &format!(
+                                "reads the load on the wall behind the face, and no fixed block lies there (at {behind:?}, half a spacing behind the probe's position against the face's normal)"
+                            ),
+                            "put the probe's position on a fixed block's face with the normal pointing into the water, or use reading = \"fluid\"",
+                        );
+                    }
+                })
+            })
+        });
+    }
 }
 
 /// No point a probe reads (its position, or its face's seven) inside a fixed block: no water

@@ -1,0 +1,393 @@
+//! What a probe's face reads with `reading = "wall"` ([`shared::scene::FaceReading::Wall`]): the
+//! load the water puts on the wall behind the face, per unit area, averaged over the face's
+//! disk. A transducer's diaphragm is pushed by the water's force on the wall there, and the
+//! force on the wall is what stops the water: its time integral is the momentum the wall takes
+//! out of the flow (the probe's impulse is the wall's, not an interpolation's).
+//!
+//! # What is summed
+//!
+//! The wall's boundary particles (Adami, Hu & Adams 2012) take from each fluid neighbour the
+//! reverse of the method's wall term, the force the method's step puts on the water
+//! ([`crate::methods::SphMethod::fixed_wall_forces`]), as a moving block does
+//! ([`crate::boundary::Boundary::react`]). The boundary particles lie on the water's lattice,
+//! in columns behind the face; a column's force over its cell of the face (dx × dx) is the
+//! wall's mean normal stress there, and the reading is the mean of that piecewise-constant
+//! stress over the disk: each boundary particle behind the face, within one kernel support of
+//! it, weighs the fraction of the disk its column's cell covers, over dx². A particle whose
+//! column is buried in another fixed block (under the floor, where the wall meets it) is the
+//! wall's too, and belongs to the first column outside that block: in a corner the fluid's
+//! kernel reaches the particles below the floor, and their push on the water is the wall's
+//! (in the Lobovský tank, sensor 1 sits 3 mm above the floor).
+//!
+//! At rest the reading is ρ0 g times the depth of the cell's centre within 3 % (the deficit of
+//! the boundary force at the free surface and in the corner, `wall_load`'s hydrostatic test).
+//! What it leaves out: Eq. 22's backstop force (zero unless a particle comes within its margin
+//! of the face) and, for DFSPH, the position corrections that keep particles off the faces.
+//!
+//! # Same bits on any rank count
+//!
+//! Each rank sums its own particles' pairs; the terms are keyed by the fluid particle's place
+//! in one-rank order and the boundary particle's position, and rank 0 adds them in that order.
+
+use crate::boundary::walls::WallParticles;
+use crate::core::grid::CellGrid;
+use crate::ranks::share::Share;
+use shared::geometry::Polyhedron;
+use shared::math::{Point, Real, Vector};
+use shared::scene::{FaceReading, ProbeSpec};
+
+/// Samples across the disk's diameter for the cells' shares of it (setup only): the shares
+/// are exact to about 1/SAMPLES of the disk.
+const SAMPLES: usize = 96;
+
+/// One wall-reading face: its boundary particles and their weights.
+#[derive(Debug, Clone)]
+struct Face {
+    /// Unit normal out of the wall, into the water.
+    normal: Vector,
+    /// (fixed boundary particle, weight [1/m²]): the share of the disk its column's cell
+    /// covers, over dx². Sorted by particle.
+    members: Vec<(u32, Real)>,
+    /// The box the members' fluid neighbours lie in (the members' box grown by the support).
+    lo: Vector,
+    hi: Vector,
+}
+
+/// The wall-reading faces of a scene's probes, and their last readings.
+#[derive(Debug, Clone, Default)]
+pub struct WallLoads {
+    /// (probe index in the scene, its face).
+    faces: Vec<(usize, Face)>,
+    /// Each probe's last reading [Pa] (0 for a probe that does not read the wall).
+    pub loads: Vec<Real>,
+    /// Scratch: (fluid particle's key, [face slot, x_b, y_b, z_b, term]).
+    terms: Vec<(u64, [Real; 5])>,
+}
+
+impl WallLoads {
+    /// The faces of the `probes` that read the wall, from the fixed boundary particles `walls`
+    /// and the fixed blocks `fixed` (to find the columns buried under another block). With
+    /// every wall at hand (`whole`: one process), an error names a probe with no boundary
+    /// particle behind its face.
+    pub fn new(
+        probes: &[ProbeSpec],
+        walls: Option<&WallParticles>,
+        fixed: &[Polyhedron],
+        dx: Real,
+        support: Real,
+        whole: bool,
+    ) -> Result<Self, String> {
+        let mut faces = Vec::new();
+        for (k, p) in probes.iter().enumerate() {
+            let Some(f) = p.face.filter(|f| f.reading == FaceReading::Wall) else {
+                continue;
+            };
+            let normal = Vector::from(f.normal).normalize();
+            let centre = Vector::from(p.position);
+            let members = match walls {
+                Some(w) => members(
+                    &w.position,
+                    fixed,
+                    &centre,
+                    &normal,
+                    f.diameter,
+                    dx,
+                    support,
+                ),
+                None => Vec::new(),
+            };
+            if members.is_empty() && whole {
+                return Err(format!(
+                    "probe '{}' (face reading = \"wall\"): no boundary particle lies behind its face at {:?}: put the probe's position on a fixed block's face, its normal into the water, or use reading = \"fluid\"",
+                    p.name, p.position
+                ));
+            }
+            // (A face with no member here, on a rank that holds none of its wall, reads
+            // nothing: its empty box holds no fluid.)
+            let (mut lo, mut hi) = (centre, centre);
+            if let Some(w) = walls {
+                for &(b, _) in &members {
+                    lo = lo.inf(&w.position[b as usize]);
+                    hi = hi.sup(&w.position[b as usize]);
+                }
+            }
+            let reach = Vector::repeat(support);
+            faces.push((
+                k,
+                Face {
+                    normal,
+                    members,
+                    lo: lo - reach,
+                    hi: hi + reach,
+                },
+            ));
+        }
+        Ok(Self {
+            faces,
+            loads: vec![0.0; probes.len()],
+            terms: Vec::new(),
+        })
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.faces.is_empty()
+    }
+
+    /// Whether probe `k` reads the wall.
+    pub fn reads(&self, k: usize) -> bool {
+        self.faces.iter().any(|(p, _)| *p == k)
+    }
+
+    /// Reads every face: `pairs(i, visit)` calls `visit(b, F)` with the force F of each fixed
+    /// boundary particle b near fluid particle i on it (the method's wall term). The fluid is
+    /// found in the cells of the last sort (`grid`), grown by how far particles may have moved
+    /// since; on several ranks only `share`'s own particles are summed here and rank 0 holds
+    /// the readings ([`Self::loads`]; the other ranks' are not meaningful).
+    pub fn read(
+        &mut self,
+        walls: &WallParticles,
+        grid: &CellGrid,
+        share: Option<&Share>,
+        mut pairs: impl FnMut(usize, &mut dyn FnMut(usize, Vector)),
+    ) {
+        if self.faces.is_empty() {
+            return;
+        }
+        let mut terms = std::mem::take(&mut self.terms);
+        terms.clear();
+        let stale = Vector::repeat(grid.stale_reach());
+        for (slot, (_, face)) in self.faces.iter().enumerate() {
+            let (lo, hi) = (face.lo - stale, face.hi + stale);
+            grid.box_cells(&lo, &hi, |_, range| {
+                for i in range {
+                    if share.is_some_and(|s| !s.owned[i]) {
+                        continue;
+                    }
+                    let key = share.map_or(i as u64, |s| s.key(i));
+                    pairs(i, &mut |b, force| {
+                        if let Ok(m) = face.members.binary_search_by_key(&(b as u32), |m| m.0) {
+                            let x = walls.position[b];
+                            // The wall takes −F; its normal load is −F·(−n) = F·n.
+                            let term = face.members[m].1 * force.dot(&face.normal);
+                            terms.push((key, [slot as Real, x.x, x.y, x.z, term]));
+                        }
+                    });
+                }
+            });
+        }
+        let all = match share {
+            None => Some(std::mem::take(&mut terms)),
+            Some(s) => s.gather_items(&terms),
+        };
+        self.loads.iter_mut().for_each(|l| *l = 0.0);
+        if let Some(mut all) = all {
+            // One order on any rank count: by face, fluid particle (one-rank order: its index
+            // on one rank, its (cell, place in cell) key on several), then the boundary
+            // particle's position.
+            all.sort_unstable_by(|a, b| {
+                a.1[0].total_cmp(&b.1[0]).then(a.0.cmp(&b.0)).then_with(|| {
+                    (1..4)
+                        .map(|q| a.1[q].total_cmp(&b.1[q]))
+                        .find(|o| o.is_ne())
+                        .unwrap_or(std::cmp::Ordering::Equal)
+                })
+            });
+            for (_, v) in &all {
+                let (probe, _) = self.faces[v[0] as usize];
+                self.loads[probe] += v[4];
+            }
+            if share.is_none() {
+                terms = all;
+            }
+        }
+        self.terms = terms;
+    }
+}
+
+/// The boundary particles behind a face (centre `c`, unit normal `n` into the water, diameter
+/// `d`) within `support` of it, each with the share of the disk its column's cell covers over
+/// dx², sorted by particle.
+fn members(
+    walls: &[Vector],
+    fixed: &[Polyhedron],
+    c: &Vector,
+    n: &Vector,
+    d: Real,
+    dx: Real,
+    support: Real,
+) -> Vec<(u32, Real)> {
+    let radius = 0.5 * d;
+    // The disk's samples, equal areas on a square lattice (the disk's points of it).
+    let step = d / SAMPLES as Real;
+    let (u, v) = in_plane(n);
+    let disk: Vec<Vector> = (0..SAMPLES * SAMPLES)
+        .map(|s| {
+            let a = ((s % SAMPLES) as Real + 0.5) * step - radius;
+            let b = ((s / SAMPLES) as Real + 0.5) * step - radius;
+            (a, b)
+        })
+        .filter(|(a, b)| a * a + b * b <= radius * radius)
+        .map(|(a, b)| c + u * a + v * b)
+        .collect();
+    let mut out = Vec::new();
+    for (b, x) in walls.iter().enumerate() {
+        let depth = (c - x).dot(n);
+        if depth <= 0.0 || depth > support {
+            continue;
+        }
+        // The column's cell centre on the face, out of any block that buries it.
+        let Some(q) = column(&(x + n * depth), n, fixed, dx) else {
+            continue;
+        };
+        if (q - c).norm() > radius + dx {
+            continue;
+        }
+        let inside = disk
+            .iter()
+            .filter(|s| {
+                let r = *s - q;
+                // Half-open cells: a sample on a shared edge is in one of them.
+                let half = |t: Real| (-0.5 * dx..0.5 * dx).contains(&t);
+                half(r.dot(&u)) && half(r.dot(&v))
+            })
+            .count();
+        if inside > 0 {
+            let share = inside as Real / disk.len() as Real;
+            out.push((b as u32, share / (dx * dx)));
+        }
+    }
+    out
+}
+
+/// Where on the face the column through face point `q` counts: `q` itself, or, when the
+/// water side of `q` is inside a fixed block (the column is under the floor), the first
+/// lattice row out of that block (half a spacing past the block's nearest face), projected
+/// back onto the face's plane. None when that is buried too.
+fn column(q: &Vector, n: &Vector, fixed: &[Polyhedron], dx: Real) -> Option<Vector> {
+    let probe = q + n * (0.25 * dx);
+    let buried = |x: &Vector| {
+        fixed.iter().find_map(|p| {
+            let local = Point::from(*x - p.centroid.coords);
+            let (d, f) = p.plane_distance(&local);
+            (d < 0.0).then(|| (-d, p.faces[f].normal))
+        })
+    };
+    match buried(&probe) {
+        None => Some(*q),
+        Some((depth, out)) => {
+            let moved = probe + out * (depth + 0.5 * dx);
+            if buried(&moved).is_some() {
+                return None;
+            }
+            // Back onto the face's plane through q.
+            Some(moved - n * (moved - q).dot(n))
+        }
+    }
+}
+
+/// Two unit vectors spanning the plane normal to `n` (an axis: validation refuses others).
+fn in_plane(n: &Vector) -> (Vector, Vector) {
+    let k = (0..3)
+        .min_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+        .unwrap_or(0);
+    let mut e = Vector::zeros();
+    e[k] = 1.0;
+    let u = (e - n * e.dot(n)).normalize();
+    (u, n.cross(&u))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared::scene::ShapeSpec;
+
+    fn boxed(min: [Real; 3], max: [Real; 3]) -> Polyhedron {
+        Polyhedron::from_shape(&ShapeSpec::Box { min, max }).unwrap()
+    }
+
+    /// Boundary particles on the lattice (k + ½) dx inside [lo, hi].
+    fn lattice(lo: [Real; 3], hi: [Real; 3], dx: Real) -> Vec<Vector> {
+        let n = |a: usize| ((hi[a] - lo[a]) / dx).round() as usize;
+        let mut out = Vec::new();
+        for i in 0..n(0) {
+            for j in 0..n(1) {
+                for k in 0..n(2) {
+                    out.push(Vector::new(
+                        lo[0] + (i as Real + 0.5) * dx,
+                        lo[1] + (j as Real + 0.5) * dx,
+                        lo[2] + (k as Real + 0.5) * dx,
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    /// A right wall x ∈ [1, 1.1] over a floor z ∈ [−0.1, 0] that runs under it, the lattice
+    /// of both (each point once).
+    fn corner(dx: Real) -> (Vec<Vector>, Vec<Polyhedron>) {
+        let mut pts = lattice([1.0, 0.0, 0.0], [1.1, 0.2, 0.3], dx);
+        pts.extend(lattice([0.5, 0.0, -0.1], [1.1, 0.2, 0.0], dx));
+        let blocks = vec![
+            boxed([1.0, 0.0, 0.0], [1.1, 0.2, 0.3]),
+            boxed([0.5, 0.0, -0.1], [1.1, 0.2, 0.0]),
+        ];
+        (pts, blocks)
+    }
+
+    /// The weights of each column (the members' shares summed over a column's depth, times
+    /// dx², by the column's (y, z) cell after the corner's move) add up to the whole disk,
+    /// however the disk sits on the cells.
+    #[test]
+    fn the_columns_shares_cover_the_disk_once() {
+        let dx = 0.02;
+        let (pts, blocks) = corner(dx);
+        let n = Vector::new(-1.0, 0.0, 0.0);
+        for (z, d) in [(0.15, 0.0042), (0.1, 0.0042), (0.15, 0.05), (0.06, 0.03)] {
+            let c = Vector::new(1.0, 0.1, z);
+            let m = members(&pts, &blocks, &c, &n, d, dx, 2.6 * dx);
+            // One row of particles per column counts each column once.
+            let front: Real = m
+                .iter()
+                .filter(|(b, _)| (pts[*b as usize].x - (1.0 + 0.5 * dx)).abs() < 1e-9)
+                .map(|(_, w)| w * dx * dx)
+                .sum();
+            assert!((front - 1.0).abs() < 0.01, "z {z}, d {d}: {front}");
+        }
+    }
+
+    /// A sensor 3 mm above the floor at dx = 20 mm: its column is the lowest row of the wall
+    /// (z = 10 mm) and the particles below the floor behind the wall join it, each with the
+    /// whole disk's weight 1/dx² (the disk lies in one cell across y when centred on a
+    /// column); nothing of the floor in front of the wall, nor beyond one support, is in.
+    #[test]
+    fn a_sensor_by_the_floor_takes_the_particles_under_it() {
+        let dx = 0.02;
+        let support = 2.6 * dx;
+        let (pts, blocks) = corner(dx);
+        let c = Vector::new(1.0, 0.09, 0.003);
+        let m = members(
+            &pts,
+            &blocks,
+            &c,
+            &Vector::new(-1.0, 0.0, 0.0),
+            0.0042,
+            dx,
+            support,
+        );
+        assert!(!m.is_empty());
+        for (b, w) in &m {
+            let x = pts[*b as usize];
+            assert!(x.x > 1.0 && x.x - 1.0 <= support, "{x}");
+            assert!((x.y - 0.09).abs() < 1e-9, "{x}");
+            assert!(x.z < dx, "{x}");
+            assert!((w * dx * dx - 1.0).abs() < 1e-9, "{w}");
+        }
+        // Two rows deep in the wall (1.01, 1.03; 1.05 is past the support of 52 mm? no: in)
+        // and the wall's lowest row plus the floor's rows under the wall within the support.
+        let under = m.iter().filter(|(b, _)| pts[*b as usize].z < 0.0).count();
+        let lowest = m.iter().filter(|(b, _)| pts[*b as usize].z > 0.0).count();
+        assert_eq!(lowest, 3);
+        assert!(under >= 3, "{under}");
+    }
+}
