@@ -1,5 +1,6 @@
 //! The coupler's command line on bad input: clear errors, nothing written.
 
+use shared::math::long_number;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -109,22 +110,6 @@ fn refused_run(scene: &std::path::Path, dir: &std::path::Path) -> String {
         "a number of many digits: {err}"
     );
     err
-}
-
-/// The first run of 20 digits or more in `text`: a number printed with Rust's `{}` far from 1
-/// (`1e300` as 301 digits), where `shared::math::readable` prints `1e300`. (As in
-/// shared/tests/malformed_scenes.rs.)
-fn long_number(text: &str) -> Option<&str> {
-    let mut start = None;
-    for (i, ch) in text.char_indices() {
-        match (ch.is_ascii_digit(), start) {
-            (true, None) => start = Some(i),
-            (false, Some(s)) if i - s >= 20 => return Some(&text[s..i]),
-            (false, Some(_)) => start = None,
-            _ => {}
-        }
-    }
-    start.filter(|&s| text.len() - s >= 20).map(|s| &text[s..])
 }
 
 /// Every scene in the repository passes `coupler check`, solver tables included.

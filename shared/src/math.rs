@@ -40,6 +40,22 @@ impl std::fmt::Display for Readable {
     }
 }
 
+/// The first run of 20 digits or more in `text`: a number printed with Rust's `{}` far from 1
+/// (`1e300` as 301 digits), which [`readable`] never prints. What the refusal tests look for
+/// in every message (`coupler/tests/cli.rs`, `shared/tests/malformed_scenes.rs`).
+pub fn long_number(text: &str) -> Option<&str> {
+    let mut start = None;
+    for (i, ch) in text.char_indices() {
+        match (ch.is_ascii_digit(), start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) if i - s >= 20 => return Some(&text[s..i]),
+            (false, Some(_)) => start = None,
+            _ => {}
+        }
+    }
+    start.filter(|&s| text.len() - s >= 20).map(|s| &text[s..])
+}
+
 #[cfg(test)]
 mod tests {
     use super::readable;

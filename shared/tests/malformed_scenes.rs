@@ -5,6 +5,7 @@
 //! checked by the coupler (it knows the solver registries and the machine): see
 //! `coupler/tests/cli.rs`.
 
+use shared::math::long_number;
 use shared::scene::{DEFAULT_SCENE, Scene, SceneError};
 
 /// The default scene with `from` replaced by `to` (once; `from` must be there).
@@ -945,21 +946,6 @@ fn cases() -> Vec<Case> {
             "loose",
         ),
     ]
-}
-
-/// The first run of 20 digits or more in `text`: a number printed with Rust's `{}` far from 1
-/// (`1e300` as 301 digits), where `shared::math::readable` prints `1e300`.
-fn long_number(text: &str) -> Option<&str> {
-    let mut start = None;
-    for (i, ch) in text.char_indices() {
-        match (ch.is_ascii_digit(), start) {
-            (true, None) => start = Some(i),
-            (false, Some(s)) if i - s >= 20 => return Some(&text[s..i]),
-            (false, Some(_)) => start = None,
-            _ => {}
-        }
-    }
-    start.filter(|&s| text.len() - s >= 20).map(|s| &text[s..])
 }
 
 /// Every refusal of the table prints its numbers readably (see [`long_number`]).

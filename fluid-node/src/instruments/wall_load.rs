@@ -232,11 +232,14 @@ fn members(
     let mut out = Vec::new();
     for (b, x) in walls.iter().enumerate() {
         let depth = (c - x).dot(n);
-        if depth <= 0.0 || depth > support {
+        let on_face = x + n * depth;
+        // Behind the face, within a support; and near enough along it that its column, or the
+        // one a burying block moves it to (by up to a support), can meet the disk.
+        if depth <= 0.0 || depth > support || (on_face - c).norm() > radius + support + 2.0 * dx {
             continue;
         }
         // The column's cell centre on the face, out of any block that buries it.
-        let Some(q) = column(&(x + n * depth), n, fixed, dx) else {
+        let Some(q) = column(&on_face, n, fixed, dx) else {
             continue;
         };
         if (q - c).norm() > radius + dx {
