@@ -133,11 +133,6 @@ impl WallLoads {
         self.faces.is_empty()
     }
 
-    /// Whether probe `k` reads the wall.
-    pub fn reads(&self, k: usize) -> bool {
-        self.faces.iter().any(|(p, _)| *p == k)
-    }
-
     /// Reads every face: `pairs(i, visit)` calls `visit(b, F)` with the force F of each fixed
     /// boundary particle b near fluid particle i on it (the method's wall term). The fluid is
     /// found in the cells of the last sort (`grid`), grown by how far particles may have moved
