@@ -33,7 +33,7 @@ pub enum Cmd {
         #[arg(long)]
         allow_long: bool,
         /// Say what each of N fluid ranks would hold (overrides the scene's `[fluid] ranks`),
-        /// and refuse more ranks than the water can fill.
+        /// and refuse more ranks than the water can fill, or a fluid node built without MPI.
         #[arg(long, value_name = "N")]
         fluid_ranks: Option<u32>,
         /// Particle spacing [m] (overrides the scene's fluid.dx): what the scene would cost at

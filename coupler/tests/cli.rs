@@ -885,13 +885,10 @@ fn files_under(dir: &std::path::Path) -> std::collections::BTreeMap<std::path::P
     found
 }
 
-/// More than one fluid rank on a fluid node built without MPI failed only once the launcher had
-/// started the node: after the run directory was made, and, under `--resume`, after the run had
-/// been cut back to its checkpoint (its last frame and table rows lost). The node is asked first
-/// (`fluid-node --ranks-support`), and the run refused with its fix before anything is written.
-/// A node built with MPI (`--features tests/mpi`) says so, and only that answer is checked.
-#[test]
-fn ranks_on_a_node_built_without_mpi_are_refused_before_anything_is_written() {
+/// Whether the fluid node beside the coupler says it was built without MPI
+/// (`fluid-node --ranks-support`); one built with MPI (`--features tests/mpi`) says so, and the
+/// tests of the refusal have nothing to check.
+fn node_built_without_mpi() -> bool {
     let node = std::path::Path::new(env!("CARGO_BIN_EXE_coupler")).with_file_name("fluid-node");
     let o = Command::new(&node)
         .arg("--ranks-support")
@@ -899,12 +896,25 @@ fn ranks_on_a_node_built_without_mpi_are_refused_before_anything_is_written() {
     let said = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(o.status.success(), "{said}");
     if said.starts_with("MPI ranks: yes") {
-        return;
+        return false;
     }
     assert!(
         said.starts_with("MPI ranks: no: built without MPI"),
         "{said}"
     );
+    true
+}
+
+/// More than one fluid rank on a fluid node built without MPI failed only once the launcher had
+/// started the node: after the run directory was made, and, under `--resume`, after the run had
+/// been cut back to its checkpoint (its last frame and table rows lost). The node is asked first
+/// (`fluid-node --ranks-support`), and the run refused with its fix before anything is written.
+/// A node built with MPI (`--features tests/mpi`) says so, and only that answer is checked.
+#[test]
+fn ranks_on_a_node_built_without_mpi_are_refused_before_anything_is_written() {
+    if !node_built_without_mpi() {
+        return;
+    }
     let dir = temp("nompi");
     let out = dir.join("run");
     let o = out.to_str().unwrap();
@@ -969,6 +979,42 @@ fn ranks_on_a_node_built_without_mpi_are_refused_before_anything_is_written() {
         files_under(&done) == before,
         "the resumed run's files changed"
     );
+}
+
+/// `coupler check --fluid-ranks 2` did not ask the fluid node, as `coupler run` does: it called
+/// the ranks fine on a node built without MPI that `run` then refused. It refuses them with
+/// `run`'s message, as it does the scene's `[fluid] ranks`; one rank still passes.
+#[test]
+fn check_refuses_ranks_on_a_node_built_without_mpi_as_run_does() {
+    if !node_built_without_mpi() {
+        return;
+    }
+    let dir = temp("check-nompi");
+    let nothing = dir.join("nothing");
+    let err = refused(&["check", "--fluid-ranks", "2"], 1, &nothing);
+    for s in [
+        "--fluid-ranks 2: ",
+        "cannot run as 2 MPI ranks: built without MPI",
+        "--features fluid-node/mpi",
+        "--fluid-ranks 1",
+    ] {
+        assert!(err.contains(s), "no {s:?} in {err}");
+    }
+    let scene = dir.join("ranks.toml");
+    std::fs::write(
+        &scene,
+        shared::scene::DEFAULT_SCENE.replacen("[fluid]\n", "[fluid]\nranks = 2\n", 1),
+    )
+    .unwrap();
+    let err = refused(&["check", scene.to_str().unwrap()], 1, &nothing);
+    assert!(
+        err.contains("[fluid] ranks = 2: ") && err.contains("cannot run as 2 MPI ranks"),
+        "{err}"
+    );
+    let o = coupler()
+        .args(["check", "--fluid-ranks", "1"])
+        .output_within(LIMIT);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 /// A number far from 1 in a refused flag or field came back with every digit (Rust's `{}`:

@@ -148,8 +148,9 @@ fn the_size_estimate_counts_the_terrain() {
 }
 
 /// `coupler check --dx` estimates the scene at another spacing: half the fjord's dx holds about
-/// 8× the water (3D), and what each fluid rank would hold follows; a spacing that is no length
-/// is refused naming the flag.
+/// 8× the water (3D), and what each fluid rank would hold follows (said also by a check that
+/// then refuses the ranks, on a fluid node built without MPI); a spacing that is no length is
+/// refused naming the flag.
 #[test]
 fn check_estimates_the_scene_at_another_dx() {
     let scene = fjord();
@@ -158,7 +159,12 @@ fn check_estimates_the_scene_at_another_dx() {
         args.extend(dx.map(|d| ["--dx", d]).into_iter().flatten());
         let out = Command::new(bin("coupler")).args(&args).output().unwrap();
         let text = String::from_utf8_lossy(&out.stdout).into_owned();
-        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+        let without_mpi = stderr(&out).contains("cannot run as 2 MPI ranks: built without MPI");
+        assert!(
+            out.status.success() || without_mpi,
+            "{args:?}: {}",
+            stderr(&out)
+        );
         assert!(text.contains("on 2 fluid ranks"), "{text}");
         let line = text.lines().find(|l| l.starts_with("estimate:")).unwrap();
         line.split_whitespace()

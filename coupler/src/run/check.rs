@@ -4,8 +4,8 @@ use std::path::Path;
 
 /// Runs `coupler check`; returns the process exit code. A run estimated to crawl
 /// ([`crate::run::sizes::crawl`]) fails the check unless `allow_long`; so do more fluid ranks
-/// (`fluid_ranks`, else the scene's) than the water can fill. `dx` overrides the scene's
-/// particle spacing, as `coupler run --dx` does.
+/// (`fluid_ranks`, else the scene's) than the water can fill, or than the fluid node can run as.
+/// `dx` overrides the scene's particle spacing, as `coupler run --dx` does.
 pub fn run(
     scene: Option<&Path>,
     slides_vtk: Option<&Path>,
@@ -77,6 +77,11 @@ pub fn run(
                     return 1;
                 }
             }
+            // After what each rank would hold: that is worth knowing before building with MPI.
+            if let Err(e) = node_runs_ranks(&s, fluid_ranks) {
+                eprintln!("coupler: error: {e}");
+                return 1;
+            }
             for e in crate::run::sizes::crawl(&s, None) {
                 if allow_long {
                     eprintln!("coupler: warning (--allow-long): {e}");
@@ -120,6 +125,20 @@ fn per_rank_lines(scene: &shared::scene::Scene, flag: Option<u32>) -> Result<Vec
         .map(|p| p.describe())
         .into_iter()
         .collect())
+}
+
+/// Whether the fluid node beside the coupler can run as the scene's ranks (`flag`, else its
+/// `[fluid] ranks`), asked as `coupler run` asks it ([`crate::run::node_ranks`]): a node built
+/// without MPI is refused with `run`'s message. A node that is not there gives no answer and is
+/// let through: the check is of the scene.
+fn node_runs_ranks(scene: &shared::scene::Scene, flag: Option<u32>) -> Result<(), String> {
+    use crate::run::{launch::NodeCommand, node_ranks};
+    let ranks = crate::run::per_rank::ranks(flag, scene)?;
+    if ranks <= 1 || !scene.has_fluid() {
+        return Ok(());
+    }
+    let node = NodeCommand::beside_me(shared::protocol::Role::Fluid)?;
+    node_ranks::refuse_without_mpi(&node, &node.program, ranks, &node_ranks::asked(flag, ranks))
 }
 
 #[cfg(test)]

@@ -133,14 +133,10 @@ fn node_commands(
         None => NodeCommand::beside_me(Role::Fluid)?,
     };
     let fluid_cmd = if Session::roles(scene).contains(&Role::Fluid) {
-        let asked = match args.fluid_ranks {
-            Some(n) => format!("--fluid-ranks {n}"),
-            None => format!("[fluid] ranks = {}", checked.fluid_ranks),
-        };
         crate::run::launcher::fluid_command(
             fluid_cmd,
             checked.fluid_ranks,
-            &asked,
+            &crate::run::node_ranks::asked(args.fluid_ranks, checked.fluid_ranks),
             &checked.launcher,
             args.attach,
         )?

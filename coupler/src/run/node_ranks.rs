@@ -49,6 +49,15 @@ pub fn answer_within(
     Some(said)
 }
 
+/// What asked for `ranks` fluid ranks, as the refusals name it: `--fluid-ranks N` (`flag`),
+/// else the scene's `[fluid] ranks = N`.
+pub fn asked(flag: Option<u32>, ranks: u32) -> String {
+    match flag {
+        Some(n) => format!("--fluid-ranks {n}"),
+        None => format!("[fluid] ranks = {ranks}"),
+    }
+}
+
 /// Refuses `ranks` fluid ranks (asked by `asked`, e.g. `--fluid-ranks 2`) when the node at
 /// `program` says it cannot run as several; a node that gives no answer (one of one's own,
 /// through `--fluid-cmd`) is let through, as before, and answers for itself when started.
