@@ -1017,6 +1017,38 @@ fn check_refuses_ranks_on_a_node_built_without_mpi_as_run_does() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
+/// `coupler spread -- --fluid-ranks 2` on a node built without MPI ran every member in turn,
+/// each refused by its `coupler run`, and exited 0 with a table of "no summary" rows. It is
+/// refused once, before the first run, and leaves no --out.
+#[test]
+fn a_spread_on_ranks_a_node_cannot_run_is_refused_once_before_any_run() {
+    if !node_built_without_mpi() {
+        return;
+    }
+    let dir = temp("spread-nompi");
+    let out = dir.join("spread");
+    let err = refused(
+        &[
+            "spread",
+            "--vary",
+            "fluid.wcsph.alpha=0,0.01",
+            "--out",
+            out.to_str().unwrap(),
+            "--",
+            "--fluid-ranks",
+            "2",
+        ],
+        1,
+        &out,
+    );
+    assert_eq!(err.matches("cannot run as 2 MPI ranks").count(), 1, "{err}");
+    assert!(
+        err.contains("-- --fluid-ranks 2: --fluid-ranks 2: ")
+            && err.contains("--features fluid-node/mpi"),
+        "{err}"
+    );
+}
+
 /// A number far from 1 in a refused flag or field came back with every digit (Rust's `{}`:
 /// `--dx=-1e300` as 301 digits, `--cell 1e-300` as 300 zeros); it prints as `-1e300` now
 /// (`shared::math::readable`), and ordinary numbers as before (`--step-timeout 0.5`).

@@ -128,21 +128,7 @@ fn node_commands(
     scene: &Scene,
     checked: &Checked,
 ) -> Result<(NodeCommand, NodeCommand), String> {
-    let fluid_cmd = match &args.fluid_cmd {
-        Some(c) => NodeCommand::given(Role::Fluid, c),
-        None => NodeCommand::beside_me(Role::Fluid)?,
-    };
-    let fluid_cmd = if Session::roles(scene).contains(&Role::Fluid) {
-        crate::run::launcher::fluid_command(
-            fluid_cmd,
-            checked.fluid_ranks,
-            &crate::run::node_ranks::asked(args.fluid_ranks, checked.fluid_ranks),
-            &checked.launcher,
-            args.attach,
-        )?
-    } else {
-        fluid_cmd
-    };
+    let fluid_cmd = fluid_node(args, scene, checked.fluid_ranks, &checked.launcher)?;
     let solid_cmd = match &args.solid_cmd {
         Some(c) => NodeCommand::given(Role::Solid, c),
         None => NodeCommand::beside_me(Role::Solid)?,
@@ -158,6 +144,27 @@ fn node_commands(
         }
     }
     Ok((fluid_cmd, solid_cmd))
+}
+
+/// The fluid node's command (`--fluid-cmd`, else the fluid-node beside the coupler), through
+/// `launcher` on more than one of `ranks` when the scene has water: a missing node binary or
+/// launcher, or a node built without MPI, is refused ([`crate::run::launcher::fluid_command`]).
+/// `coupler spread` asks it of its runs before the first starts.
+pub fn fluid_node(
+    args: &RunArgs,
+    scene: &Scene,
+    ranks: u32,
+    launcher: &crate::run::launcher::Launcher,
+) -> Result<NodeCommand, String> {
+    let node = match &args.fluid_cmd {
+        Some(c) => NodeCommand::given(Role::Fluid, c),
+        None => NodeCommand::beside_me(Role::Fluid)?,
+    };
+    if !Session::roles(scene).contains(&Role::Fluid) {
+        return Ok(node);
+    }
+    let asked = crate::run::node_ranks::asked(args.fluid_ranks, ranks);
+    crate::run::launcher::fluid_command(node, ranks, &asked, launcher, args.attach)
 }
 
 /// The run directory: a new one (with its lock), or the resumed run's cut back to its

@@ -14,7 +14,8 @@
 //! Every member is a real `coupler run` of its own (its own nodes, shared memory and run directory,
 //! [`crate::studies::runner`]); its scene is the base scene's TOML with one key set, written beside
 //! its run directory, so each member can be rerun alone. All member scenes are checked before the
-//! first run starts: a misspelt key is named at once, not after an hour of runs. A member that
+//! first run starts, with the run arguments and the fluid node on its ranks: a misspelt key is
+//! named at once, not after an hour of runs, and nothing is left in `--out`. A member that
 //! stops (unstable, failed) is tabled with its status and left out of the statistics; a crest whose
 //! window the run did not reach is left empty.
 
@@ -106,8 +107,9 @@ fn parse_vary(text: &str) -> Result<Vec<Member>, String> {
 }
 
 /// The arguments after `--` as `coupler run` of member `scene` reads and checks them before it
-/// starts anything (the flags, the scene with their overrides): a bad one failed every member
-/// in turn (`-- --end nan`: a table of "no summary" rows, and exit code 0).
+/// starts anything (the flags, the scene with their overrides, the fluid node on its ranks): a
+/// bad one failed every member in turn (`-- --end nan`, or `-- --fluid-ranks 2` on a node built
+/// without MPI: a table of "no summary" rows, and exit code 0).
 fn check_run_args(scene: &Path, run_args: &[String]) -> Result<(), String> {
     use crate::cli::{Cli, Cmd};
     use clap::Parser;
@@ -127,9 +129,13 @@ fn check_run_args(scene: &Path, run_args: &[String]) -> Result<(), String> {
     let Cmd::Run(run) = cli.command else {
         unreachable!("parsed as `coupler run`")
     };
-    let (checked, _) =
-        crate::run::settings::scene(&run, None).map_err(|e| format!("{words}: {e}"))?;
-    crate::run::settings::check_values(&run, &checked, None).map_err(|e| format!("{words}: {e}"))
+    let named = |e: String| format!("{words}: {e}");
+    let (scene, _) = crate::run::settings::scene(&run, None).map_err(named)?;
+    crate::run::settings::check_values(&run, &scene, None).map_err(named)?;
+    let ranks = crate::run::per_rank::ranks(run.fluid_ranks, &scene).map_err(named)?;
+    let launcher = crate::run::launcher::Launcher::parse(run.mpirun.as_deref()).map_err(named)?;
+    crate::run::command::fluid_node(&run, &scene, ranks, &launcher).map_err(named)?;
+    Ok(())
 }
 
 /// A gauge's window `GAUGE=T0:T1`.
@@ -415,6 +421,36 @@ fn table(rows: &[Row], windows: &[(String, f64, f64)], against: Option<&[Row]>) 
     s
 }
 
+/// The member scenes a spread writes into --out (empty or absent when it began) before its first
+/// run: removed when dropped unless `kept`, so a spread refused before any run leaves nothing
+/// and the same command can be given again once fixed ("--out is not empty" otherwise).
+struct Written<'a> {
+    out: &'a Path,
+    /// Whether the spread made --out.
+    made: bool,
+    kept: bool,
+}
+
+impl Drop for Written<'_> {
+    fn drop(&mut self) {
+        if self.kept {
+            return;
+        }
+        if self.made {
+            let _ = std::fs::remove_dir_all(self.out);
+            return;
+        }
+        for entry in std::fs::read_dir(self.out).into_iter().flatten().flatten() {
+            let path = entry.path();
+            let _ = if path.is_dir() {
+                std::fs::remove_dir_all(&path)
+            } else {
+                std::fs::remove_file(&path)
+            };
+        }
+    }
+}
+
 fn run_inner(args: &SpreadArgs) -> Result<(), String> {
     let windows = args
         .windows
@@ -474,7 +510,13 @@ fn run_inner(args: &SpreadArgs) -> Result<(), String> {
         write!(origin, ", {}", m.label()).unwrap();
     }
 
-    // Every member's scene, written and checked before the first run starts.
+    // Every member's scene, written and checked before the first run starts; a refusal takes
+    // them back.
+    let mut written = Written {
+        out: &args.out,
+        made: !args.out.exists(),
+        kept: false,
+    };
     std::fs::create_dir_all(args.out.join("runs"))
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let mut scenes = Vec::new();
@@ -519,6 +561,7 @@ fn run_inner(args: &SpreadArgs) -> Result<(), String> {
         }
         scenes.push(path);
     }
+    written.kept = true;
 
     let mut csv = csv_header(&gauges) + "\n";
     let csv_path = args.out.join("spread.csv");
