@@ -1177,6 +1177,77 @@ fn a_replot_of_a_directory_without_charts_is_refused_naming_the_files() {
     }
 }
 
+/// `coupler chart --only loads --replot` redrew every chart whose CSV was in --out, and
+/// `coupler stability --only dt --replot` every map (failing at the first CSV absent, after
+/// redrawing the others). `--only` picks the charts and maps redrawn; one whose CSV is absent is
+/// refused, naming the file and the fix, before anything is redrawn.
+#[test]
+fn a_replot_redraws_only_the_charts_named_and_refuses_those_not_there() {
+    let dir = temp("replot-only");
+    let charts = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/charts");
+    for f in [
+        "loads_peak_speed_accuracy.csv",
+        "loads_impulse_speed_accuracy.csv",
+        "solid_speed_accuracy.csv",
+        "stability_dt_factor.csv",
+        "stability_density.csv",
+    ] {
+        std::fs::copy(charts.join(f), dir.join(f)).unwrap();
+    }
+    let d = dir.to_str().unwrap();
+    for (cmd, only, drawn, not_drawn) in [
+        (
+            "chart",
+            "loads",
+            "loads_impulse_speed_accuracy.svg",
+            "solid_speed_accuracy.svg",
+        ),
+        (
+            "stability",
+            "dt",
+            "stability_dt_factor.svg",
+            "stability_density.svg",
+        ),
+    ] {
+        let o = coupler()
+            .args([cmd, "--only", only, "--replot", "--out", d])
+            .output_within(LIMIT);
+        assert!(
+            o.status.success(),
+            "{cmd}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(dir.join(drawn).is_file(), "{cmd}: no {drawn}");
+        assert!(!dir.join(not_drawn).exists(), "{cmd}: {not_drawn} redrawn");
+    }
+    for (cmd, only, absent, kept) in [
+        (
+            "chart",
+            "solid,coupled",
+            "coupled_speed_accuracy.csv",
+            "solid_speed_accuracy.svg",
+        ),
+        (
+            "stability",
+            "density,stiffness",
+            "stability_stiffness.csv",
+            "stability_density.svg",
+        ),
+    ] {
+        let err = refused(
+            &[cmd, "--only", only, "--replot", "--out", d],
+            1,
+            &dir.join(kept),
+        );
+        assert!(
+            err.contains(&dir.join(absent).display().to_string())
+                && err.contains(&format!("--only {only}"))
+                && err.contains("Fix"),
+            "{cmd}: {err}"
+        );
+    }
+}
+
 /// `coupler povray` on a run directory whose block frame is damaged (a polygon naming a point
 /// past the last) panicked with an index out of bounds. It names the file, the polygon and the
 /// point, and writes nothing.

@@ -35,7 +35,8 @@ pub struct ChartArgs {
     // A misspelt name ran nothing and said nothing: clap names the ones there are.
     #[arg(long, value_delimiter = ',', value_parser = ["fluid", "solid", "coupled", "loads"])]
     pub only: Vec<String>,
-    /// Redraw the charts from the CSV files already in --out, running nothing.
+    /// Redraw the charts (with --only, those) from the CSV files already in --out, running
+    /// nothing.
     #[arg(long)]
     pub replot: bool,
 }
@@ -137,20 +138,48 @@ pub fn run(args: ChartArgs) -> u8 {
     }
 }
 
-/// `--replot`: every chart whose CSV is in `out` redrawn, the others skipped (a run with
+/// A chart's file stem, title and error label.
+type Chart = (&'static str, &'static str, &'static str);
+
+/// The charts of each `--only` name, in the order they are drawn.
+const CHARTS: [(&str, &[Chart]); 4] = [
+    ("fluid", &[FLUID_CHART, FLUID_SELF_CHART]),
+    ("solid", &[SOLID_CHART]),
+    ("coupled", &[COUPLED_CHART]),
+    ("loads", &[PEAK_CHART, IMPULSE_CHART]),
+];
+
+/// `--replot`: every chart whose CSV is in --out redrawn, the others skipped (a run with
 /// `--only` writes some). A directory with none of them (empty, misspelt, not made yet) was
 /// made if missing, each chart "skipped", and the command exited 0: refused, naming the files.
-fn replot(out: &Path) -> Result<(), String> {
-    let charts = [
-        FLUID_CHART,
-        FLUID_SELF_CHART,
-        SOLID_CHART,
-        COUPLED_CHART,
-        PEAK_CHART,
-        IMPULSE_CHART,
-    ];
-    let csv = |c: &(&str, &str, &str)| out.join(c.0).with_extension("csv");
-    if !charts.iter().any(|c| csv(c).is_file()) {
+/// With `--only`, only those charts, and each one's CSV must be there: `--only loads` redrew
+/// every chart there was.
+fn replot(args: &ChartArgs) -> Result<(), String> {
+    let out = &args.out;
+    let charts: Vec<Chart> = CHARTS
+        .iter()
+        .filter(|(name, _)| wanted(args, name))
+        .flat_map(|(_, charts)| charts.iter().copied())
+        .collect();
+    let csv = |c: &Chart| out.join(c.0).with_extension("csv");
+    if !args.only.is_empty() {
+        let absent: Vec<String> = charts
+            .iter()
+            .map(csv)
+            .filter(|p| !p.is_file())
+            .map(|p| p.display().to_string())
+            .collect();
+        if !absent.is_empty() {
+            let only = args.only.join(",");
+            let verb = if absent.len() == 1 { "does" } else { "do" };
+            return Err(format!(
+                "--replot --only {only}: {} {verb} not exist. Fix: run `coupler chart --only \
+                 {only}` without --replot (it writes the CSV files), or name with --out the \
+                 directory that holds them",
+                absent.join(", ")
+            ));
+        }
+    } else if !charts.iter().any(|c| csv(c).is_file()) {
         let names: Vec<String> = charts.iter().map(|c| format!("{}.csv", c.0)).collect();
         return Err(format!(
             "--replot: {} holds none of the charts' CSV files ({}). Fix: name with --out the \
@@ -179,7 +208,7 @@ fn wanted(args: &ChartArgs, what: &str) -> bool {
 fn run_inner(args: &ChartArgs) -> Result<(), String> {
     let plan = if args.quick { &QUICK } else { &FULL };
     if args.replot {
-        return replot(&args.out);
+        return replot(args);
     }
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;

@@ -39,7 +39,8 @@ pub struct StabilityArgs {
     // A misspelt name ran nothing and said nothing: clap names the ones there are.
     #[arg(long, value_delimiter = ',', value_parser = ["dt", "stiffness", "density", "damping"])]
     pub only: Vec<String>,
-    /// Redraw the maps from the CSV files already in --out, running nothing.
+    /// Redraw the maps (with --only, those) from the CSV files already in --out, running
+    /// nothing.
     #[arg(long)]
     pub replot: bool,
     /// Rerun only the rows whose label contains this text (e.g. "added mass", "blocks in
@@ -65,6 +66,13 @@ const DENSITY_MAP: (&str, &str, &str) = (
     "Block-to-water density ratio under each coupling scheme",
     "ρ_block / ρ_water",
 );
+
+/// The map of each `--only` name that has one, in the order they are drawn.
+const MAPS: [(&str, (&str, &str, &str)); 3] = [
+    ("dt", DT_MAP),
+    ("stiffness", STIFFNESS_MAP),
+    ("density", DENSITY_MAP),
+];
 
 fn draw(out: &Path, map: (&str, &str, &str), trials: &[Trial]) -> Result<(), String> {
     let stem = out.join(map.0);
@@ -180,12 +188,7 @@ fn run_inner(args: &StabilityArgs) -> Result<(), String> {
         rows_exist(plan, &args.only[0], rows)?;
     }
     if args.replot {
-        for map in [DT_MAP, STIFFNESS_MAP, DENSITY_MAP] {
-            let trials = chart::read_trials(&args.out.join(map.0))?;
-            summarise(&trials);
-            draw(&args.out, map, &trials)?;
-        }
-        return Ok(());
+        return replot(args);
     }
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
@@ -201,6 +204,48 @@ fn run_inner(args: &StabilityArgs) -> Result<(), String> {
     }
     if wanted(args, "damping") {
         damping(plan, &args.out)?;
+    }
+    Ok(())
+}
+
+/// `--replot`: the maps `--only` names (default all three; the damping table has none)
+/// redrawn from their CSV files in --out, each of which must be there. `--only dt` redrew every
+/// map, and an absent CSV was found after the maps before it were redrawn.
+fn replot(args: &StabilityArgs) -> Result<(), String> {
+    let maps: Vec<(&str, &str, &str)> = MAPS
+        .into_iter()
+        .filter(|(name, _)| wanted(args, name))
+        .map(|(_, map)| map)
+        .collect();
+    let only = if args.only.is_empty() {
+        String::new()
+    } else {
+        format!(" --only {}", args.only.join(","))
+    };
+    if maps.is_empty() {
+        return Err(format!(
+            "--replot{only}: the damping table has no map to redraw. Fix: --only dt, stiffness \
+             or density, or run `coupler stability{only}` without --replot"
+        ));
+    }
+    let absent: Vec<String> = maps
+        .iter()
+        .map(|m| args.out.join(m.0).with_extension("csv"))
+        .filter(|p| !p.is_file())
+        .map(|p| p.display().to_string())
+        .collect();
+    if !absent.is_empty() {
+        let verb = if absent.len() == 1 { "does" } else { "do" };
+        return Err(format!(
+            "--replot{only}: {} {verb} not exist. Fix: run `coupler stability{only}` without \
+             --replot (it writes the CSV files), or name with --out the directory that holds them",
+            absent.join(", ")
+        ));
+    }
+    for map in maps {
+        let trials = chart::read_trials(&args.out.join(map.0))?;
+        summarise(&trials);
+        draw(&args.out, map, &trials)?;
     }
     Ok(())
 }
