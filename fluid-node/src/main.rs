@@ -2,7 +2,10 @@
 //! [`fluid_node::REGISTRY`]. Started by the coupler, or by hand with the run's `--prefix` (see
 //! the README). Started as N MPI ranks (built with `--features mpi`), rank 0 is the node and
 //! the others follow it ([`fluid_node::ranks`]). `fluid-node --ranks-support` says whether it can
-//! ([`fluid_node::ranks::probe`]).
+//! ([`fluid_node::ranks::probe`]). `--help` does not list it, on purpose: it is the coupler's
+//! question, answered here before MPI is joined and before the command line is parsed (that is
+//! the node runtime's, shared with the toy and extended nodes of tests/, which do not answer
+//! it); a user asks with `coupler check --fluid-ranks N`.
 
 use fluid_node::ranks::{self, leader};
 use shared::solver::{FluidSolver, SetupContext, SolverError};
