@@ -41,8 +41,15 @@ fn main() {
     case.params = params.join("\n");
     let r = impact(&solver, &case).expect("run");
     println!(
-        "H = {} m, H/dx = {}, window {:?}, {solver} {:?}: {} particles, {} steps, {:.1} s",
-        case.height, case.per_h, case.window, case.params, r.particles, r.steps, r.seconds
+        "H = {} m, H/dx = {}, window {:?}, {solver} {:?}: {} particles, {} steps, {:.1} s (tank {:.4} m)",
+        case.height,
+        case.per_h,
+        case.window,
+        case.params,
+        r.particles,
+        r.steps,
+        r.seconds,
+        case.length
     );
     // Each sensor read twice: the water's pressure over its face, and the wall's load behind
     // it (docs/VALIDATION.md, "What a sensor reads").

@@ -35,7 +35,8 @@ fn the_wall_probe_sees_the_impact_and_its_impulse() {
         (wall_onset - onset).abs() <= 0.02,
         "onsets: pressure {onset} s, wall load {wall_onset} s"
     );
-    // Already at H/dx = 8 the impulse is within the validation's tolerance (measured −8 %).
+    // Already at H/dx = 8 the impulse is within the validation's tolerance (measured −16 % in a
+    // tank of 21 spacings, 1.575 m; −8 % in 1.61 m, off the lattice).
     let e = impulse / LOBOVSKY_H600_S1_IMPULSE - 1.0;
     assert!(
         e.abs() <= IMPULSE_TOLERANCE,
@@ -48,9 +49,9 @@ fn the_wall_probe_sees_the_impact_and_its_impulse() {
 /// right wall's face (H = 300 mm, H/dx = 15, at t = 0.469 s; H = 600 mm, H/dx = 30, likewise)
 /// and stop the run: the summed density of a particle in the corner misses the water's quarter
 /// of its support, so the solve let it reach the face. With fixed walls that cannot be
-/// crossed (`Penalty::keep_out`) both complete, and at H = 600 mm, H/dx = 30 sensor 1's
-/// impulse is within the validation's ±25 % of the paper's median (measured −3.4 % in the
-/// tank's width, 8 layers; +7.5 % in 4 layers; +72 % at H/dx = 15: the coarser run is not).
+/// crossed (`Penalty::keep_out`) both complete, and at H = 600 mm, H/dx = 30 the impulse of
+/// the wall's load behind sensor 1 is within issue 44's ±10 % of the paper's median (measured
+/// +2.5 % in the tank's width, the tank on the lattice; +0.1 % at H/dx = 15, +8.3 % at 60).
 #[test]
 fn dfsph_completes_the_impact_and_its_impulse() {
     let mut case = ImpactCase::new(0.3, 15, Some(IMPACT_WINDOW));
@@ -60,16 +61,18 @@ fn dfsph_completes_the_impact_and_its_impulse() {
     let mut case = ImpactCase::new(0.6, 30, Some(IMPACT_WINDOW));
     case.end_star = 3.0;
     let r = impact("dfsph", &case).expect("DFSPH completes the H = 600 mm impact");
+    // The wall's load behind sensor 1 (the reading for loads: docs/VALIDATION.md, "What a
+    // sensor reads"); DFSPH's interpolated pressure, noisy at the wall, reads +37 % here.
     let (impulse, _) = r
-        .impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME)
+        .impulse(WALL, LOBOVSKY_H600_S1_IMPACT_TIME)
         .expect("an impact");
     let e = impulse / LOBOVSKY_H600_S1_IMPULSE - 1.0;
     eprintln!(
-        "dfsph H = 600 mm, H/dx = 30: impulse {impulse:.0} Pa·s, {:+.1} %",
+        "dfsph H = 600 mm, H/dx = 30: the wall's impulse {impulse:.0} Pa·s, {:+.1} %",
         100.0 * e
     );
     assert!(
-        e.abs() <= IMPULSE_TOLERANCE,
+        e.abs() <= WALL_IMPULSE_TOLERANCE,
         "impulse {impulse:.0} Pa·s: {:+.0} %",
         100.0 * e
     );
@@ -93,13 +96,15 @@ fn a_large_density_diffusion_shortens_the_step_instead_of_blowing_up() {
         r.steps,
         plain.steps
     );
+    // The wall's load (the momentum the wall takes): −11.7 % at δ = 2 (−26.0 % at δ = 0.1);
+    // the interpolated pressure of these 256 particles reads −34 % (−16 %).
     let (impulse, _) = r
-        .impulse(0, LOBOVSKY_H600_S1_IMPACT_TIME)
+        .impulse(WALL, LOBOVSKY_H600_S1_IMPACT_TIME)
         .expect("an impact");
     let e = impulse / LOBOVSKY_H600_S1_IMPULSE - 1.0;
     assert!(
         e.abs() <= IMPULSE_TOLERANCE,
-        "impulse at δ = 2: {impulse:.0} Pa·s, {:+.0} %",
+        "the wall's impulse at δ = 2: {impulse:.0} Pa·s, {:+.0} %",
         100.0 * e
     );
 }

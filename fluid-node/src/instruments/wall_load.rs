@@ -19,10 +19,19 @@
 //! kernel reaches the particles below the floor, and their push on the water is the wall's
 //! (in the Lobovský tank, sensor 1 sits 3 mm above the floor).
 //!
+//! The wall also holds the water by paper Eq. 22's backstop, a spring on any particle that
+//! comes within its margin of the face (a quarter spacing by default, `system::setup`). At rest
+//! it does nothing; where the face is off the lattice the water presses into it, the boundary
+//! particles standing up to a spacing behind the face (the Lobovský tank 80.5 spacings long:
+//! twice the boundary particles' impulse at sensor 1 over the impact; docs/VALIDATION.md,
+//! "What a sensor reads"). Its force on a particle within one
+//! spacing of the face counts in the column whose cell the particle's foot on the face lies in,
+//! with that column's weight: the reading is the wall's whole force on the water.
+//!
 //! At rest the reading is ρ0 g times the depth of the cell's centre within 3 % (the deficit of
 //! the boundary force at the free surface and in the corner, `wall_load`'s hydrostatic test).
-//! What it leaves out: Eq. 22's backstop force (zero unless a particle comes within its margin
-//! of the face) and, for DFSPH, the position corrections that keep particles off the faces.
+//! What it leaves out: for DFSPH, the position corrections that keep particles off the faces
+//! (they move particles, they exert no force).
 //!
 //! # Same bits on any rank count
 //!
@@ -40,6 +49,9 @@ use shared::scene::{FaceReading, ProbeSpec};
 /// are exact to about 1/SAMPLES of the disk.
 const SAMPLES: usize = 96;
 
+/// A column of the wall behind a face: its cell's centre on the face and its weight [1/m²].
+type Column = (Vector, Real);
+
 /// One wall-reading face: its boundary particles and their weights.
 #[derive(Debug, Clone)]
 struct Face {
@@ -48,6 +60,13 @@ struct Face {
     /// (fixed boundary particle, weight [1/m²]): the share of the disk its column's cell
     /// covers, over dx². Sorted by particle.
     members: Vec<(u32, Real)>,
+    /// The columns that meet the disk, for the backstop's force on the particles in front of
+    /// them.
+    columns: Vec<Column>,
+    /// Two unit vectors along the face (the cells' edges) and the spacing.
+    u: Vector,
+    v: Vector,
+    dx: Real,
     /// The box the members' fluid neighbours lie in (the members' box grown by the support).
     lo: Vector,
     hi: Vector,
@@ -84,7 +103,7 @@ impl WallLoads {
             };
             let normal = Vector::from(f.normal).normalize();
             let centre = Vector::from(p.position);
-            let members = match walls {
+            let (members, columns) = match walls {
                 Some(w) => members(
                     &w.position,
                     fixed,
@@ -94,7 +113,7 @@ impl WallLoads {
                     dx,
                     support,
                 ),
-                None => Vec::new(),
+                None => (Vec::new(), Vec::new()),
             };
             if members.is_empty() && whole {
                 return Err(format!(
@@ -112,11 +131,16 @@ impl WallLoads {
                 }
             }
             let reach = Vector::repeat(support);
+            let (u, v) = in_plane(&normal);
             faces.push((
                 k,
                 Face {
                     normal,
                     members,
+                    columns,
+                    u,
+                    v,
+                    dx,
                     lo: lo - reach,
                     hi: hi + reach,
                 },
@@ -134,7 +158,8 @@ impl WallLoads {
     }
 
     /// Reads every face: `pairs(i, visit)` calls `visit(b, F)` with the force F of each fixed
-    /// boundary particle b near fluid particle i on it (the method's wall term). The fluid is
+    /// boundary particle b near fluid particle i on it (the method's wall term), and
+    /// `backstop[i]` is the Eq. 22 force on particle i at `position[i]`. The fluid is
     /// found in the cells of the last sort (`grid`), grown by how far particles may have moved
     /// since; on several ranks only `share`'s own particles are summed here and rank 0 holds
     /// the readings ([`Self::loads`]; the other ranks' are not meaningful).
@@ -143,6 +168,8 @@ impl WallLoads {
         walls: &WallParticles,
         grid: &CellGrid,
         share: Option<&Share>,
+        position: &[Vector],
+        backstop: &[Vector],
         mut pairs: impl FnMut(usize, &mut dyn FnMut(usize, Vector)),
     ) {
         if self.faces.is_empty() {
@@ -167,6 +194,14 @@ impl WallLoads {
                             terms.push((key, [slot as Real, x.x, x.y, x.z, term]));
                         }
                     });
+                    // The backstop, keyed by its column's centre (on the face, where no
+                    // boundary particle is).
+                    if let Some((q, w)) = face.column_of(&position[i]) {
+                        let term = w * backstop[i].dot(&face.normal);
+                        if term != 0.0 {
+                            terms.push((key, [slot as Real, q.x, q.y, q.z, term]));
+                        }
+                    }
                 }
             });
         }
@@ -199,9 +234,29 @@ impl WallLoads {
     }
 }
 
+impl Face {
+    /// The column (its cell's centre on the face, its weight) in front of which a fluid
+    /// particle at `x` lies, when the particle is within one spacing of the face's plane (on
+    /// either side: one pushed through is still the wall's); None elsewhere.
+    fn column_of(&self, x: &Vector) -> Option<Column> {
+        let (&(q0, _), half) = (self.columns.first()?, 0.5 * self.dx);
+        if (x - q0).dot(&self.normal).abs() > self.dx {
+            return None;
+        }
+        let cell = |t: Real| (-half..half).contains(&t);
+        self.columns
+            .iter()
+            .find(|(q, _)| {
+                let r = x - q;
+                cell(r.dot(&self.u)) && cell(r.dot(&self.v))
+            })
+            .copied()
+    }
+}
+
 /// The boundary particles behind a face (centre `c`, unit normal `n` into the water, diameter
 /// `d`) within `support` of it, each with the share of the disk its column's cell covers over
-/// dx², sorted by particle.
+/// dx², sorted by particle; and the columns (cell centre on the face, the same weight).
 fn members(
     walls: &[Vector],
     fixed: &[Polyhedron],
@@ -210,7 +265,7 @@ fn members(
     d: Real,
     dx: Real,
     support: Real,
-) -> Vec<(u32, Real)> {
+) -> (Vec<(u32, Real)>, Vec<Column>) {
     let radius = 0.5 * d;
     // The disk's samples, equal areas on a square lattice (the disk's points of it).
     let step = d / SAMPLES as Real;
@@ -225,6 +280,7 @@ fn members(
         .map(|(a, b)| c + u * a + v * b)
         .collect();
     let mut out = Vec::new();
+    let mut columns: Vec<Column> = Vec::new();
     for (b, x) in walls.iter().enumerate() {
         let depth = (c - x).dot(n);
         let on_face = x + n * depth;
@@ -250,11 +306,15 @@ fn members(
             })
             .count();
         if inside > 0 {
-            let share = inside as Real / disk.len() as Real;
-            out.push((b as u32, share / (dx * dx)));
+            let weight = inside as Real / disk.len() as Real / (dx * dx);
+            out.push((b as u32, weight));
+            // One entry per column: its particles' cells coincide (to rounding).
+            if !columns.iter().any(|(p, _)| (p - q).norm() < 1e-6 * dx) {
+                columns.push((q, weight));
+            }
         }
     }
-    out
+    (out, columns)
 }
 
 /// Where on the face the column through face point `q` counts: `q` itself, or, when the
@@ -343,7 +403,7 @@ mod tests {
         let n = Vector::new(-1.0, 0.0, 0.0);
         for (z, d) in [(0.15, 0.0042), (0.1, 0.0042), (0.15, 0.05), (0.06, 0.03)] {
             let c = Vector::new(1.0, 0.1, z);
-            let m = members(&pts, &blocks, &c, &n, d, dx, 2.6 * dx);
+            let (m, _) = members(&pts, &blocks, &c, &n, d, dx, 2.6 * dx);
             // One row of particles per column counts each column once.
             let front: Real = m
                 .iter()
@@ -364,7 +424,7 @@ mod tests {
         let support = 2.6 * dx;
         let (pts, blocks) = corner(dx);
         let c = Vector::new(1.0, 0.09, 0.003);
-        let m = members(
+        let (m, columns) = members(
             &pts,
             &blocks,
             &c,
@@ -387,5 +447,44 @@ mod tests {
         let lowest = m.iter().filter(|(b, _)| pts[*b as usize].z > 0.0).count();
         assert_eq!(lowest, 3);
         assert!(under >= 3, "{under}");
+        // One column, the lowest row's cell (z in [0, dx)) on the face, with the whole weight.
+        assert_eq!(columns.len(), 1);
+        let (q, w) = columns[0];
+        assert!((q - Vector::new(1.0, 0.09, 0.01)).norm() < 1e-9, "{q}");
+        assert!((w * dx * dx - 1.0).abs() < 1e-9, "{w}");
+    }
+
+    /// The backstop of a particle counts in the column its foot on the face lies in, within one
+    /// spacing of the face (in front of it or pushed through it), and nowhere else.
+    #[test]
+    fn a_particle_at_the_face_counts_in_the_column_in_front_of_it() {
+        let dx = 0.02;
+        let (pts, blocks) = corner(dx);
+        let c = Vector::new(1.0, 0.09, 0.003);
+        let n = Vector::new(-1.0, 0.0, 0.0);
+        let (members, columns) = members(&pts, &blocks, &c, &n, 0.0042, dx, 2.6 * dx);
+        let (u, v) = in_plane(&n);
+        let face = Face {
+            normal: n,
+            members,
+            columns,
+            u,
+            v,
+            dx,
+            lo: Vector::zeros(),
+            hi: Vector::zeros(),
+        };
+        let w = 1.0 / (dx * dx);
+        for (x, expected) in [
+            (Vector::new(0.995, 0.085, 0.004), Some(w)),
+            (Vector::new(1.003, 0.099, 0.019), Some(w)),
+            (Vector::new(0.981, 0.081, 0.001), Some(w)),
+            // Above the lowest row, beside its cell, or farther than a spacing off the face.
+            (Vector::new(0.995, 0.09, 0.021), None),
+            (Vector::new(0.995, 0.101, 0.01), None),
+            (Vector::new(0.979, 0.09, 0.01), None),
+        ] {
+            assert_eq!(face.column_of(&x).map(|c| c.1), expected, "{x}");
+        }
     }
 }

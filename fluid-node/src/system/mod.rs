@@ -427,9 +427,15 @@ impl FluidSystem {
         }
         let t = self.phases.start();
         let mut loads = std::mem::take(&mut self.wall_loads);
-        loads.read(walls, &self.grid, self.share.as_ref(), |i, visit| {
-            forces(self, i, visit)
-        });
+        let p = &self.particles;
+        loads.read(
+            walls,
+            &self.grid,
+            self.share.as_ref(),
+            &p.position,
+            &p.penalty,
+            |i, visit| forces(self, i, visit),
+        );
         self.wall_loads = loads;
         self.phases.stop(Phase::Gauges, t);
     }

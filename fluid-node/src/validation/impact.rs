@@ -170,6 +170,9 @@ pub struct ImpactCase {
     pub layers: usize,
     /// Extra lines for the solver's parameter table (`[fluid.<solver>]`), e.g. `delta = 0.0`.
     pub params: String,
+    /// The modelled tank's length [m]: [`Self::lattice_length`] unless a test moves the wall
+    /// off the lattice.
+    pub length: f64,
     /// How far the neighbour grid's cells are moved [m] (the domain's lower corner moves down
     /// and back by it; water, walls and probes stay): another order of every sum, so a run of
     /// the same case that parts from the others after a few steps, as the experiment's
@@ -195,12 +198,25 @@ impl ImpactCase {
             dt_max: 1e-3,
             layers: ((TANK_WIDTH / dx).round() as usize).max(SLAB_LAYERS),
             params: String::new(),
+            length: Self::lattice_length(dx),
             grid_shift: 0.0,
         }
     }
 
     pub fn dx(&self) -> f64 {
         self.height / self.per_h as f64
+    }
+
+    /// [`TANK_LENGTH`] to the nearest whole number of spacings `dx` (1.62 m at dx = 20 mm, 1.60
+    /// at 40 mm, 1.61 at 10 and 5 mm): the right wall, which holds the sensors, then lies
+    /// between two rows of the lattice that water and boundary particles share. Off the lattice
+    /// the wall's first row of boundary particles sits up to a spacing behind the face, while
+    /// Eq. 22's backstop acts a quarter spacing in front of it: at dx = 20 mm (1.61 m is 80.5
+    /// spacings) the water pressed into the backstop, which took two thirds of sensor 1's
+    /// impulse, and the sensor's wall stood half a spacing off (docs/VALIDATION.md, "What a
+    /// sensor reads").
+    pub fn lattice_length(dx: f64) -> f64 {
+        (TANK_LENGTH / dx).round() * dx
     }
 
     pub fn end(&self) -> f64 {
@@ -219,7 +235,7 @@ pub const ROW_INTERVAL: f64 = 2e-4;
 /// The scene: tank, column and the four sensors (heights of [`LOBOVSKY_H300`]) as probes on the
 /// right wall's face, at mid-slab.
 pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
-    let (h, dx) = (case.height, case.dx());
+    let (h, dx, length) = (case.height, case.dx(), case.length);
     let w = case.layers as f64 * dx;
     // The run-up along the wall climbs past 2 H: room above it, and a lid at 3 H for the jet
     // of the finer runs (it left a 3 H domain at H/dx = 45, H = 600 mm); the experiment's tank
@@ -227,7 +243,7 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
     let top = 3.0 * h;
     let lid = format!(
         "[[block]]\nname = \"lid\"\nkind = \"fixed\"\nshape = {{ type = \"box\", min = [-0.1, -0.1, {top}], max = [{}, {}, {}] }}\n\n",
-        TANK_LENGTH + 0.1,
+        length + 0.1,
         w + 0.1,
         top + 0.1
     );
@@ -244,7 +260,7 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
             let window = &window;
             LOBOVSKY_H300.iter().map(move |s| {
                 format!(
-                    "[[probe]]\nname = \"{}{suffix}\"\nposition = [{TANK_LENGTH}, {}, {}]\n{window}face = {{ diameter = {SENSOR_DIAMETER}, normal = [-1.0, 0.0, 0.0]{reading} }}\n\n",
+                    "[[probe]]\nname = \"{}{suffix}\"\nposition = [{length}, {}, {}]\n{window}face = {{ diameter = {SENSOR_DIAMETER}, normal = [-1.0, 0.0, 0.0]{reading} }}\n\n",
                     s.name,
                     0.5 * w,
                     s.z
@@ -263,13 +279,13 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
         format!("{0}, {0}, {0}", -case.grid_shift)
     };
     let text = format!(
-        "name = \"lobovsky_impact\"\n[time]\nend = {end}\ndt_max = {dt_max}\n[domain]\nmin = [{min}]\nmax = [{TANK_LENGTH}, {w}, {domain_top}]\n\
+        "name = \"lobovsky_impact\"\n[time]\nend = {end}\ndt_max = {dt_max}\n[domain]\nmin = [{min}]\nmax = [{length}, {w}, {domain_top}]\n\
          [output]\ninterval = {interval}\n{fluid}\n{params}[[fluid.water]]\nshape = {{ type = \"box\", min = [0.0, 0.0, 0.0], max = [{COLUMN_LENGTH}, {w}, {h}] }}\n\n{tank}{lid}{probes}",
         domain_top = top + 0.1,
         dt_max = case.dt_max,
         interval = 50.0 * ROW_INTERVAL,
         fluid = fluid_table(solver, dx, None),
-        tank = tank(TANK_LENGTH, w, top, 0.1),
+        tank = tank(length, w, top, 0.1),
     );
     Scene::parse_checked(&text, "lobovsky_impact (generated)", &[&crate::check_scene])
         .expect("generated impact scene is valid")
@@ -633,7 +649,15 @@ mod tests {
         let s = impact_scene("wcsph", &case);
         // Each sensor twice: its face's pressure, then (from WALL on) the wall's load.
         assert_eq!(s.probes.len(), 2 * WALL);
-        assert!(s.probes.iter().all(|p| p.position[0] == TANK_LENGTH));
+        assert!(s.probes.iter().all(|p| p.position[0] == case.length));
+        // The tank's length is a whole number of spacings, within half a spacing of the
+        // experiment's: the sensors' wall lies between two rows of the lattice.
+        for (h, per_h) in [(0.3, 15), (0.6, 15), (0.6, 30), (0.3, 30), (0.3, 8)] {
+            let c = ImpactCase::new(h, per_h, None);
+            let cells = c.length / c.dx();
+            assert!((cells - cells.round()).abs() < 1e-9, "{h} {per_h}: {cells}");
+            assert!((c.length - TANK_LENGTH).abs() <= 0.5 * c.dx() + 1e-12);
+        }
         assert_eq!(s.probes[0].window, Some(1e-3));
         let face = s.probes[0].face.expect("a sensing face");
         assert_eq!((face.diameter, face.normal), (0.0042, [-1.0, 0.0, 0.0]));

@@ -108,23 +108,27 @@ impl SphMethod for Riemann {
         &[]
     }
 
-    /// With its walls' dissipation (`wcsph::riemann::WALL_ETA`) its impact peak, in the tank's
-    /// width, is inside the experiment's band at H/dx = 15 and above it from 30, growing with
-    /// resolution (docs/VALIDATION.md, "Impact pressure: resolution study"). The wall's load
-    /// behind the sensor is inside the band from H/dx = 30 and within ±10 % of the median
-    /// impulse at 60; at H/dx = 15 (and H = 600 mm to 30) the wall's lowest cell, 20–40 mm
-    /// tall, reads low, so its peak grows from 15 to 30 ("What a sensor reads").
+    /// With its walls' dissipation (`wcsph::riemann::WALL_ETA`) its interpolated impact peak,
+    /// in the tank's width, is above the experiment's band at every resolution of the study
+    /// and grows (141.8 → 190.7 → 201.9 mbar from H/dx = 15 to 60; docs/VALIDATION.md, "Impact
+    /// pressure: resolution study"). The wall's load behind the sensor is inside the band from
+    /// H/dx = 30 (102.5, 119.6 mbar: +17 %, past the +10 % of the growth row) and 4 % above it
+    /// at 15 (136.0), and its impulse at H = 600 mm is within ±10 % of the median from 30 on
+    /// (−9.9, −9.6 %) but 26.5 % short at 15, where the wall's lowest cell is 40 mm ("What a
+    /// sensor reads").
     fn known_limitation(check: &str, per_h: usize) -> Option<&'static str> {
-        let peak = per_h >= 30 && check == Check::ImpactPeak { per_h }.name();
-        if peak || check == Check::ImpactPeakGrowth.name() {
+        let crest =
+            check == Check::ImpactPeak { per_h }.name() || check == Check::ImpactPeakGrowth.name();
+        if crest {
             return Some(
-                "the Riemann solver's impact crest is inside the band at H/dx = 15 but grows past it from 30; the impulse is the check",
+                "the Riemann solver's interpolated impact crest is above the band at every resolution and grows; the wall's load is the reading for loads",
             );
         }
-        let coarse = (per_h == 15 && check == Check::WallPeak { per_h }.name())
-            || (per_h <= 30 && check == Check::WallImpulse { per_h }.name());
+        let coarse = per_h == 15
+            && (check == Check::WallPeak { per_h }.name()
+                || check == Check::WallImpulse { per_h }.name());
         (coarse || check == Check::WallPeakGrowth.name()).then_some(
-            "the wall's lowest cell is one spacing tall (20–40 mm where this fails, the sensor 4 mm): its load reads low until the spacing nears the sensor's size",
+            "the wall's load at H/dx = 15 is the mean over a cell 5–10 times the sensor (peak 4 % above the band, impulse at H = 600 mm 27 % short), and from H/dx = 30 to 60 its peak grows by 17 % inside the band",
         )
     }
 }
