@@ -933,12 +933,7 @@ fn ranks_on_a_node_built_without_mpi_are_refused_before_anything_is_written() {
         assert!(err.contains(s), "no {s:?} in {err}");
     }
     // The scene's own `[fluid] ranks` is named as such.
-    let scene = dir.join("ranks.toml");
-    std::fs::write(
-        &scene,
-        shared::scene::DEFAULT_SCENE.replacen("[fluid]\n", "[fluid]\nranks = 2\n", 1),
-    )
-    .unwrap();
+    let scene = two_ranks_scene(&dir);
     let err = refused(
         &[&["run", scene.to_str().unwrap()][..], &quick, &["--out", o]].concat(),
         1,
@@ -1000,12 +995,7 @@ fn check_refuses_ranks_on_a_node_built_without_mpi_as_run_does() {
     ] {
         assert!(err.contains(s), "no {s:?} in {err}");
     }
-    let scene = dir.join("ranks.toml");
-    std::fs::write(
-        &scene,
-        shared::scene::DEFAULT_SCENE.replacen("[fluid]\n", "[fluid]\nranks = 2\n", 1),
-    )
-    .unwrap();
+    let scene = two_ranks_scene(&dir);
     let err = refused(&["check", scene.to_str().unwrap()], 1, &nothing);
     assert!(
         err.contains("[fluid] ranks = 2: ") && err.contains("cannot run as 2 MPI ranks"),
@@ -1274,4 +1264,15 @@ fn povray_on_a_damaged_frame_names_the_file_and_what_is_wrong() {
             && err.contains("Fix"),
         "{err}"
     );
+}
+
+/// The default scene with `[fluid] ranks = 2`, written into `dir`.
+fn two_ranks_scene(dir: &std::path::Path) -> std::path::PathBuf {
+    let scene = dir.join("ranks.toml");
+    std::fs::write(
+        &scene,
+        shared::scene::DEFAULT_SCENE.replacen("[fluid]\n", "[fluid]\nranks = 2\n", 1),
+    )
+    .unwrap();
+    scene
 }
