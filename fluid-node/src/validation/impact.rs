@@ -3,7 +3,8 @@
 //! dynamic pressure loads during dam break", J. Fluids Struct. 48:407–434 (arXiv:1308.0115),
 //! with the reference data of docs/REFERENCES.md ("Lobovský et al. 2014").
 //!
-//! The tank is 1.61 m long; the water column is 0.6 m long and H high against the left wall,
+//! The tank is 1.61 m long (modelled to the nearest whole number of particle spacings,
+//! [`ImpactCase::lattice_length`]); the water column is 0.6 m long and H high against the left wall,
 //! released at once (the experiment's gate lift is not modelled). The pressure sensors sit on
 //! the right wall at heights z above the bed, on its centre line. The paper's tank is 0.15 m
 //! wide so that the flow stays quasi-2D: it is modelled at that width between free-slip side
