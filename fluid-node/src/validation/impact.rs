@@ -4,8 +4,8 @@
 //! with the reference data of docs/REFERENCES.md ("Lobovský et al. 2014").
 //!
 //! The tank is 1.61 m long (modelled to the nearest whole number of particle spacings,
-//! [`ImpactCase::lattice_length`]); the water column is 0.6 m long and H high against the left wall,
-//! released at once (the experiment's gate lift is not modelled). The pressure sensors sit on
+//! [`ImpactCase::lattice_length`]); the water column is 0.6 m long and H high against the left
+//! wall, released at once (the experiment's gate lift is not modelled). The pressure sensors sit on
 //! the right wall at heights z above the bed, on its centre line. The paper's tank is 0.15 m
 //! wide so that the flow stays quasi-2D: it is modelled at that width between free-slip side
 //! walls, [`TANK_WIDTH`]/dx particle layers at every resolution ([`ImpactCase::layers`]); a
