@@ -79,8 +79,8 @@ fn a_wall_reading_is_hydrostatic_for_every_solver() {
 /// boundary particles a whole spacing behind its face, and the water pressed into Eq. 22's
 /// backstop a quarter spacing in front of it), and 1.62 m, on the lattice (the backstop idle):
 /// sensor 1's wall load over the impact time agrees within 10 % (measured 30 Nov 2026: 493.6
-/// and 461.1 Pa·s, 7 %). The reading counts the backstop's force; without it the tank off the
-/// lattice read 165 Pa·s, a third.
+/// and 461.1 Pa·s, 7 %). The reading counts the backstop's force; without it (the reading of
+/// commit aefe4fa, whose tank was 1.61 m) the tank off the lattice read 165 Pa·s, a third.
 #[test]
 fn the_wall_takes_the_same_impulse_wherever_the_lattice_puts_its_face() {
     let mut on = ImpactCase::new(0.3, 15, Some(IMPACT_WINDOW));
