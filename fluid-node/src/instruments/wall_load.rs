@@ -343,6 +343,68 @@ fn column(q: &Vector, n: &Vector, fixed: &[Polyhedron], dx: Real) -> Option<Vect
     }
 }
 
+/// How the faces of the wall-reading probes among `probes` miss the water's lattice
+/// (`anchor + k·dx`, which the boundary particles share): one sentence per plane, naming its
+/// probes, none for a face on it. On the lattice a face lies half a spacing from the nearest
+/// row of boundary particles behind it and from the water's first row in front. Off it by more
+/// than a quarter spacing the wall that holds the water is not where the face is: a row behind
+/// the face by nearly a spacing leaves the water's first row within Eq. 22's margin of the
+/// face, on the backstop's spring, and the peak is the spring's (the Lobovský tank 1.61 m long
+/// at dx = 20 mm, 80.5 spacings: docs/VALIDATION.md, "What a sensor reads"); a row just behind
+/// it holds the water off the face. A probe's normal is an axis (the scene check refuses
+/// others).
+pub fn off_lattice(probes: &[ProbeSpec], anchor: &Vector, dx: Real) -> Vec<String> {
+    // (axis, the face's coordinate, the normal's sign) → the probes on that plane.
+    let mut planes: Vec<((usize, Real, bool), Vec<&str>)> = Vec::new();
+    for p in probes {
+        let Some(face) = p.face.filter(|f| f.reading == FaceReading::Wall) else {
+            continue;
+        };
+        let Some(k) = (0..3).max_by(|&a, &b| face.normal[a].abs().total_cmp(&face.normal[b].abs()))
+        else {
+            continue;
+        };
+        let key = (k, p.position[k], face.normal[k] < 0.0);
+        match planes.iter_mut().find(|(q, _)| *q == key) {
+            Some((_, names)) => names.push(&p.name),
+            None => planes.push((key, vec![&p.name])),
+        }
+    }
+    planes
+        .into_iter()
+        .filter_map(|((k, s, facing_down), names)| {
+            let a = anchor[k];
+            // Rows a + j·dx; the wall lies behind the face, against its normal.
+            let t = (s - a) / dx;
+            let frac = t - t.floor();
+            let behind = if frac.min(1.0 - frac) < 1e-6 {
+                1.0
+            } else if facing_down {
+                1.0 - frac
+            } else {
+                frac
+            };
+            if (behind - 0.5).abs() <= 0.25 {
+                return None;
+            }
+            let axis = ["x", "y", "z"][k];
+            let below = a + ((t - 0.5).floor() + 0.5) * dx;
+            // To a nanometre: a + (j + ½)·dx carries the float sums' last bits.
+            let on = |v: Real| shared::math::readable((v * 1e9).round() / 1e9);
+            let names: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+            Some(format!(
+                "probe {} (face reading = \"wall\"): the wall's first row of boundary particles stands {behind:.2} spacings behind the face at {axis} = {} m (half a spacing on the water's lattice, whose rows lie every dx = {} m from {axis} = {} m): the wall that holds the water is not at the face, and from 0.75 spacings on the water's first row lies within Eq. 22's margin of the face, on its spring, whose load a peak then reads; fix: put the face (its block and the probes) at {axis} = {} or {} m, half a spacing from a row",
+                names.join(", "),
+                on(s),
+                on(dx),
+                on(a),
+                on(below),
+                on(below + dx),
+            ))
+        })
+        .collect()
+}
+
 /// Two unit vectors spanning the plane normal to `n` (an axis: validation refuses others).
 fn in_plane(n: &Vector) -> (Vector, Vector) {
     let k = (0..3)
@@ -358,6 +420,48 @@ fn in_plane(n: &Vector) -> (Vector, Vector) {
 mod tests {
     use super::*;
     use shared::scene::ShapeSpec;
+
+    /// The Lobovský tank's right wall at dx = 20 mm with the water's corner at x = 0 (rows at
+    /// 0.01 + 0.02 j): 1.61 m lies on a row (the first row behind it a whole spacing back),
+    /// 1.62 m half a spacing past one; within a quarter spacing of that the face is on. The
+    /// probes on one plane are one warning.
+    #[test]
+    fn a_wall_face_off_the_lattice_is_named_with_the_faces_on_it() {
+        let probe = |name: &str, x: Real, reading: &str| -> ProbeSpec {
+            let text = format!(
+                "name = \"{name}\"\nposition = [{x}, 0.08, 0.003]\nface = {{ diameter = 0.0042, normal = [-1.0, 0.0, 0.0], reading = \"{reading}\" }}"
+            );
+            toml::from_str(&text).unwrap()
+        };
+        let anchor = Vector::new(0.01, 0.01, 0.01);
+        let dx = 0.02;
+        let check = |x: Real| off_lattice(&[probe("s1", x, "wall")], &anchor, dx);
+        let w = off_lattice(
+            &[probe("s1", 1.61, "wall"), probe("s2", 1.61, "wall")],
+            &anchor,
+            dx,
+        );
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].contains("probe 's1', 's2'")
+                && w[0].contains("1.00 spacings behind the face at x = 1.61 m")
+                && w[0].contains("at x = 1.6 or 1.62 m"),
+            "{w:?}"
+        );
+        assert!(check(1.62).is_empty());
+        // The first row behind at 1.63 m: 0.8 and 0.1 spacings are off, 0.7 is not.
+        assert_eq!(check(1.614).len(), 1);
+        assert_eq!(check(1.628).len(), 1);
+        assert!(check(1.616).is_empty());
+        // Facing +x (a left wall), the row behind lies below the face.
+        let mut left = probe("s1", 0.0, "wall");
+        left.face.as_mut().unwrap().normal = [1.0, 0.0, 0.0];
+        assert!(off_lattice(std::slice::from_ref(&left), &anchor, dx).is_empty());
+        left.position[0] = 0.01;
+        assert_eq!(off_lattice(&[left], &anchor, dx).len(), 1);
+        // A face that reads the water's pressure has no wall to be off.
+        assert!(off_lattice(&[probe("s1", 1.61, "fluid")], &anchor, dx).is_empty());
+    }
 
     fn boxed(min: [Real; 3], max: [Real; 3]) -> Polyhedron {
         Polyhedron::from_shape(&ShapeSpec::Box { min, max }).unwrap()

@@ -143,7 +143,8 @@ impl FluidSystem {
         let terrain = eq22.terrain(init);
         let lead = ranks.as_ref().is_none_or(|c| c.rank() == 0);
         let recorder = setup::recorder(ctx, init, lead)?;
-        let wall_loads = setup::wall_loads(scene, init, fixed.as_ref(), cell, ranks.is_none())?;
+        let wall_loads =
+            setup::wall_loads(scene, init, fixed.as_ref(), cell, (ranks.is_none(), lead))?;
         // The outer halo column holds the cells next to the fixed walls, or all of it when
         // blocks move (their particles move between sorts).
         let walls = match (&bodies, &fixed) {

@@ -11,7 +11,7 @@ use crate::core::fill::{Fill, fill_water_with, lattice_key};
 use crate::core::grid::CellGrid;
 use crate::core::particles::Carried;
 use crate::instruments::gauges::Recorder;
-use crate::instruments::wall_load::WallLoads;
+use crate::instruments::wall_load::{self, WallLoads};
 use shared::geometry::Polyhedron;
 use shared::math::{Real, Vector};
 use shared::protocol::BlockState;
@@ -278,14 +278,20 @@ fn fixed_blocks(scene: &Scene, init: &Initial) -> Vec<Polyhedron> {
 /// The probes whose face reads the wall ([`WallLoads`]) over the fixed blocks' boundary
 /// particles `walls`; `support` is the kernel's. One process (`whole`) holds every wall, so a
 /// face with no boundary particle behind it is an error there; a rank may hold none of a
-/// face's wall, which another rank holds.
+/// face's wall, which another rank holds. The leading process (`lead`) warns of a face off
+/// the water's lattice ([`wall_load::off_lattice`]).
 pub(super) fn wall_loads(
     scene: &Scene,
     init: &Initial,
     walls: Option<&WallParticles>,
     support: Real,
-    whole: bool,
+    (whole, lead): (bool, bool),
 ) -> Result<WallLoads, SolverError> {
+    if lead && walls.is_some() {
+        for w in wall_load::off_lattice(&scene.probes, &init.fill.anchor, init.fluid.dx) {
+            eprintln!("fluid-node: warning: {w}");
+        }
+    }
     let fixed = fixed_blocks(scene, init);
     WallLoads::new(&scene.probes, walls, &fixed, init.fluid.dx, support, whole)
         .map_err(SolverError::Failed)
