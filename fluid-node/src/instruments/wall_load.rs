@@ -354,8 +354,9 @@ fn column(q: &Vector, n: &Vector, fixed: &[Polyhedron], dx: Real) -> Option<Vect
 /// it holds the water off the face. A probe's normal is an axis (the scene check refuses
 /// others).
 pub fn off_lattice(probes: &[ProbeSpec], anchor: &Vector, dx: Real) -> Vec<String> {
-    // (axis, the face's coordinate, the normal's sign) → the probes on that plane.
-    let mut planes: Vec<((usize, Real, bool), Vec<&str>)> = Vec::new();
+    // The axis, the face's coordinate along it, whether the normal points down it.
+    type Plane = (usize, Real, bool);
+    let mut planes: Vec<(Plane, Vec<&str>)> = Vec::new();
     for p in probes {
         let Some(face) = p.face.filter(|f| f.reading == FaceReading::Wall) else {
             continue;
