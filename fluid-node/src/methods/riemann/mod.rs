@@ -113,7 +113,9 @@ impl SphMethod for Riemann {
     /// and grows (141.8 → 190.7 → 201.9 mbar from H/dx = 15 to 60; docs/VALIDATION.md, "Impact
     /// pressure: resolution study"). The wall's load behind the sensor is inside the band from
     /// H/dx = 30 (102.5, 119.6 mbar: +17 %, past the +10 % of the growth row) and 4 % above it
-    /// at 15 (136.0), and its impulse at H = 600 mm is within ±10 % of the median from 30 on
+    /// at 15 (136.0), each peak the highest crest of the load's ringing (at 15 a slam 81 ms
+    /// after the onset, at 60 a crest 22 ms after it; docs/journal/2026-11-29-impact-pressures.md,
+    /// "12:40, 30 Nov"), and its impulse at H = 600 mm is within ±10 % of the median from 30 on
     /// (−9.9, −9.6 %) but 26.5 % short at 15, where the wall's lowest cell is 40 mm ("What a
     /// sensor reads").
     fn known_limitation(check: &str, per_h: usize) -> Option<&'static str> {
@@ -128,7 +130,7 @@ impl SphMethod for Riemann {
             && (check == Check::WallPeak { per_h }.name()
                 || check == Check::WallImpulse { per_h }.name());
         (coarse || check == Check::WallPeakGrowth.name()).then_some(
-            "the wall's load at H/dx = 15 is the mean over a cell 5–10 times the sensor (peak 4 % above the band, impulse at H = 600 mm 27 % short), and from H/dx = 30 to 60 its peak grows by 17 % inside the band",
+            "the wall's load rings after the impact and its peak is the highest crest: at H/dx = 15 a slam 81 ms after the onset, 4 % above the band (the first crest 88 mbar), at 60 a crest 22 ms after it, 17 % above the peak at 30 inside the band; at H/dx = 15, H = 600 mm, its cells 40 mm across, the impulse is 27 % short",
         )
     }
 }
