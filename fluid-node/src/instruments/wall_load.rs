@@ -354,7 +354,8 @@ fn column(q: &Vector, n: &Vector, fixed: &[Polyhedron], dx: Real) -> Option<Vect
 /// it holds the water off the face. A probe's normal is an axis (the scene check refuses
 /// others).
 pub fn off_lattice(probes: &[ProbeSpec], anchor: &Vector, dx: Real) -> Vec<String> {
-    // The axis, the face's coordinate along it, whether the normal points down it.
+    // The axis, the face's coordinate along it, whether the wall lies up the axis from the
+    // face (its normal points down it).
     type Plane = (usize, Real, bool);
     let mut planes: Vec<(Plane, Vec<&str>)> = Vec::new();
     for p in probes {
@@ -373,28 +374,30 @@ pub fn off_lattice(probes: &[ProbeSpec], anchor: &Vector, dx: Real) -> Vec<Strin
     }
     planes
         .into_iter()
-        .filter_map(|((k, s, facing_down), names)| {
+        .filter_map(|((k, s, wall_up), names)| {
             let a = anchor[k];
             // Rows a + j·dx; the wall lies behind the face, against its normal.
             let t = (s - a) / dx;
             let frac = t - t.floor();
-            let behind = if frac.min(1.0 - frac) < 1e-6 {
-                1.0
-            } else if facing_down {
-                1.0 - frac
-            } else {
-                frac
-            };
-            if (behind - 0.5).abs() <= 0.25 {
+            let on_row = frac.min(1.0 - frac) < 1e-6;
+            let behind = if wall_up { 1.0 - frac } else { frac };
+            if !on_row && (behind - 0.5).abs() <= 0.25 {
                 return None;
             }
+            // A row on the face is the wall's or the water's by the last bit of a sum.
+            let stands = if on_row {
+                "stands on the face or a whole spacing behind it (a row lies on the face)".to_string()
+            } else {
+                format!("stands {behind:.2} spacings behind the face")
+            };
             let axis = ["x", "y", "z"][k];
             let below = a + ((t - 0.5).floor() + 0.5) * dx;
             // To a nanometre: a + (j + ½)·dx carries the float sums' last bits.
             let on = |v: Real| shared::math::readable((v * 1e9).round() / 1e9);
+            let probes = if names.len() == 1 { "probe" } else { "probes" };
             let names: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
             Some(format!(
-                "probe {} (face reading = \"wall\"): the wall's first row of boundary particles stands {behind:.2} spacings behind the face at {axis} = {} m (half a spacing on the water's lattice, whose rows lie every dx = {} m from {axis} = {} m): the wall that holds the water is not at the face, and from 0.75 spacings on the water's first row lies within Eq. 22's margin of the face, on its spring, whose load a peak then reads; fix: put the face (its block and the probes) at {axis} = {} or {} m, half a spacing from a row",
+                "{probes} {} (face reading = \"wall\") at {axis} = {} m: the wall's first row of boundary particles {stands} (on the water's lattice, rows every dx = {} m from {axis} = {} m, it stands half a spacing behind): the wall that holds the water is not at the face, and from 0.75 spacings on the water's first row lies within Eq. 22's margin of the face, on its spring, whose load a peak then reads; fix: put the face (its block and the probes) at {axis} = {} or {} m, half a spacing from a row",
                 names.join(", "),
                 on(s),
                 on(dx),
@@ -444,14 +447,18 @@ mod tests {
         );
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(
-            w[0].contains("probe 's1', 's2'")
-                && w[0].contains("1.00 spacings behind the face at x = 1.61 m")
+            w[0].contains("probes 's1', 's2'")
+                && w[0].contains("at x = 1.61 m: the wall's first row of boundary particles stands on the face or a whole spacing behind it")
                 && w[0].contains("at x = 1.6 or 1.62 m"),
             "{w:?}"
         );
         assert!(check(1.62).is_empty());
         // The first row behind at 1.63 m: 0.8 and 0.1 spacings are off, 0.7 is not.
-        assert_eq!(check(1.614).len(), 1);
+        let w = check(1.614);
+        assert!(
+            w.len() == 1 && w[0].contains("probe 's1' ") && w[0].contains("0.80 spacings behind"),
+            "{w:?}"
+        );
         assert_eq!(check(1.628).len(), 1);
         assert!(check(1.616).is_empty());
         // Facing +x (a left wall), the row behind lies below the face.
