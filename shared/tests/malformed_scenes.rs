@@ -738,6 +738,15 @@ fn cases() -> Vec<Case> {
             "window = -0.001",
         ),
         case(
+            "probe window longer than the run",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nwindow = 1000",
+            ),
+            "probe[0].window",
+            "window = 1000",
+        ),
+        case(
             "probe window not finite",
             edit(
                 "position = [4.95, 0.4, 0.05]",

@@ -380,6 +380,18 @@ const CASES: &[Case] = &[
         says: &["probe[0].window", "1e-300", "fix"],
     },
     Case {
+        name: "probe window longer than the run (milliseconds read as seconds)",
+        make: |dir| {
+            edited(
+                dir,
+                "sliding_wedge",
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nwindow = 1000",
+            )
+        },
+        says: &["probe[0].window", "longer than the run", "in seconds"],
+    },
+    Case {
         name: "slide blocks below a quarter of dx",
         make: |dir| edited(dir, "jointed_slide", "spacing = 0.12", "spacing = 0.005"),
         says: &["slide[0].joint_set[0].spacing", "quarter", "fix"],

@@ -253,6 +253,18 @@ fn probes(c: &mut Checker, s: &Scene) {
                             ),
                             fix,
                         );
+                    } else if s.time.end.is_finite() && w > s.time.end {
+                        // A window in milliseconds read as seconds (window = 1 for 1 ms) would
+                        // make every row the mean since the start, its peaks smeared unseen.
+                        c.fail(
+                            "window",
+                            w,
+                            &format!(
+                                "is longer than the run (time.end = {} s): every row would be the mean since the start, not over a window",
+                                crate::math::readable(s.time.end)
+                            ),
+                            fix,
+                        );
                     }
                 }
                 if let Some(f) = p.face {
