@@ -1,16 +1,18 @@
 //! The impact-pressure study of docs/VALIDATION.md ("Impact pressure"): one Lobovský et al.
-//! (2014) dam-break run, its sensors' pulses, and optionally the probe series as CSV.
+//! (2014) dam-break run, its sensors' pulses read three ways (the water's pressure over the
+//! face, the wall's load behind it, the wall's load along the middle half of the width), and
+//! optionally the probe series as CSV.
 //!
 //! `cargo run --release -p fluid-node --example impact_study -- H PER_H [--window W]
-//! [--solver NAME] [--param 'key = value']... [--end-star T] [--dt-max S] [--layers N] [--grid-shift M] [--csv FILE]`; with H = 0.6 also
+//! [--solver NAME] [--param 'key = value']... [--end-star T] [--dt-max S] [--layers N] [--grid-shift M] [--row-shift A] [--csv FILE]`; with H = 0.6 also
 //! sensor 1's impulse against the paper's median (the impulse row of `fluid-validate`), with
 //! H = 0.3 each sensor's impulse and highest 5–20 ms means against one run of the experiment
 //! (`LOBOVSKY_H300_EVENT5`).
 
 use fluid_node::validation::{
     Impact, ImpactCase, LOAD_BOXES, LOBOVSKY_H300, LOBOVSKY_H300_EVENT5,
-    LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, RINGING_SPAN, ROW_INTERVAL, WALL,
-    dry_as_zero, impact, integral,
+    LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, RINGING_SPAN, ROW_INTERVAL, STRIP,
+    WALL, dry_as_zero, impact, integral,
 };
 
 fn main() {
@@ -34,6 +36,7 @@ fn main() {
             "--dt-max" => case.dt_max = v.parse().expect("largest step [s]"),
             "--layers" => case.layers = v.parse().expect("particle layers across the slab"),
             "--grid-shift" => case.grid_shift = v.parse().expect("grid shift [m]"),
+            "--row-shift" => case.row_shift = v.parse().expect("row shift [dx]"),
             o => panic!("unknown option {o}"),
         }
         i += 2;
@@ -56,12 +59,15 @@ fn main() {
     for (at, reading) in [
         (0, "the water's pressure over the face"),
         (WALL, "the wall's load"),
+        (STRIP, "the wall's load along the middle half of the width"),
     ] {
         println!(" {reading}:");
         report(&r, &case, at);
     }
     if let Some(path) = csv {
-        let mut out = String::from("time,s1,s2,s3,s4,s1_wall,s2_wall,s3_wall,s4_wall\n");
+        let mut out = String::from(
+            "time,s1,s2,s3,s4,s1_wall,s2_wall,s3_wall,s4_wall,s1_strip,s2_strip,s3_strip,s4_strip\n",
+        );
         for (k, t) in r.times.iter().enumerate() {
             out.push_str(&format!("{t}"));
             for s in &r.series {

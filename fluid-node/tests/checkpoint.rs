@@ -60,12 +60,14 @@ fn scene_with_probes(solver: &str) -> Scene {
         diameter: 0.02,
         normal: [0.0, 0.0, 1.0],
         reading: Default::default(),
+        span: None,
     });
     // And a face reading the wall: the floor's load under the column.
     let wall = Some(shared::scene::ProbeFace {
         diameter: 0.02,
         normal: [0.0, 0.0, 1.0],
         reading: shared::scene::FaceReading::Wall,
+        span: None,
     });
     for (name, window, face, z) in [
         ("p_inst", None, None, 0.02),

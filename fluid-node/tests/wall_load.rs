@@ -7,7 +7,8 @@ use shared::scene::{FaceReading, ProbeFace, ProbeSpec};
 
 /// Still water 0.1 m deep at H/dx = 8 in a tank 0.2 m long: faces 1 cm across on the right
 /// wall at a quarter, half and three quarters of the depth (each across two rows of the wall's
-/// particles, whose mean is the load at the face's centre), and one on the floor. Their means
+/// particles, whose mean is the load at the face's centre), one on the floor, and a strip at
+/// half the depth along the middle half of the wall's width (`span`). Their means
 /// over the second half of the run are ρ0 g (η − z) within 2.5 % of ρ0 g H, η the gauge's
 /// surface (the interior probes' rows allow 5 %). Measured on 30 Nov 2026: WCSPH and Riemann
 /// within 0.6 % at every face, DFSPH within 1.2 %, Müller within 1.9 % (its floor).
@@ -21,8 +22,14 @@ fn a_wall_reading_is_hydrostatic_for_every_solver() {
                 diameter: 0.01,
                 normal,
                 reading: FaceReading::Wall,
+                span: None,
             })
         };
+        // And a strip: the face swept along the middle half of the wall's width.
+        let strip = Some(ProbeFace {
+            span: Some([0.0, 0.5 * depth, 0.0]),
+            ..face([-1.0, 0.0, 0.0]).unwrap()
+        });
         let zs = [0.25 * depth, 0.5 * depth, 0.75 * depth];
         for (k, z) in zs.iter().enumerate() {
             scene.probes.push(ProbeSpec {
@@ -37,6 +44,12 @@ fn a_wall_reading_is_hydrostatic_for_every_solver() {
             position: [depth, 0.5 * depth, 0.0],
             window: Some(end / PROBE_ROWS),
             face: face([0.0, 0.0, 1.0]),
+        });
+        scene.probes.push(ProbeSpec {
+            name: "strip".into(),
+            position: [2.0 * depth, 0.5 * depth, 0.5 * depth],
+            window: Some(end / PROBE_ROWS),
+            face: strip,
         });
         let dir = TempRunDir::new("wall-load").unwrap();
         let mut s = build(solver, &scene, dir.path()).unwrap();
@@ -55,8 +68,8 @@ fn a_wall_reading_is_hydrostatic_for_every_solver() {
         };
         let surface = late("gauges.csv", 1);
         let rho_g = 1000.0 * 9.81;
-        // probes.csv: the case's three interior probes, then the four faces.
-        let heights = zs.iter().copied().chain([0.0]);
+        // probes.csv: the case's three interior probes, then the five faces.
+        let heights = zs.iter().copied().chain([0.0, 0.5 * depth]);
         for (k, z) in heights.enumerate() {
             let read = late("probes.csv", 4 + k);
             let expected = rho_g * (surface - z);

@@ -774,6 +774,60 @@ fn cases() -> Vec<Case> {
             "normal = [0.0, 0.0, 0.0]",
         ),
         case(
+            "fluid rows shifted along two axes",
+            edit("\ndx = 0.04", "\ndx = 0.04\nrow_shift = [0.25, 0.25, 0.0]"),
+            "fluid.row_shift",
+            "row_shift = [0.25, 0.25, 0.0]",
+        ),
+        case(
+            "fluid rows shifted by more than half a spacing",
+            edit("\ndx = 0.04", "\ndx = 0.04\nrow_shift = [0.0, 0.75, 0.0]"),
+            "fluid.row_shift",
+            "row_shift = [0.0, 0.75, 0.0]",
+        ),
+        case(
+            "fluid rows shifted by nan",
+            edit("\ndx = 0.04", "\ndx = 0.04\nrow_shift = [nan, 0.0, 0.0]"),
+            "fluid.row_shift",
+            "row_shift = [nan, 0.0, 0.0]",
+        ),
+        case(
+            "probe face's span along its normal",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0], span = [0.1, 0.0, 0.0] }",
+            ),
+            "probe[0].face.span",
+            "span = [0.1, 0.0, 0.0]",
+        ),
+        case(
+            "probe face's span zero",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0], span = [0.0, 0.0, 0.0] }",
+            ),
+            "probe[0].face.span",
+            "span = [0.0, 0.0, 0.0]",
+        ),
+        case(
+            "probe face's span a million diameters long",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0], span = [0.0, 4200.0, 0.0] }",
+            ),
+            "probe[0].face.span",
+            "span = [0.0, 4200.0, 0.0]",
+        ),
+        case(
+            "probe face's span reaching into a wall",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0], span = [0.0, 0.0, 0.2] }",
+            ),
+            "probe[0].face.span",
+            "span = [0.0, 0.0, 0.2]",
+        ),
+        case(
             "probe inside a fixed block",
             edit(
                 "position = [4.95, 0.4, 0.05]",

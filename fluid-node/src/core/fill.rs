@@ -168,11 +168,33 @@ pub fn fill_water_with(
         .zip(&hydro)
         .map(|(p, &h)| if h { top[&column(p)] - p.z } else { 0.0 })
         .collect();
+    if let Some(shift) = fluid.row_shift {
+        shift_rows(&mut positions, shift, &anchor, dx);
+    }
     Ok(Fill {
         positions,
         depth,
         anchor,
     })
+}
+
+/// Moves each row of the lattice along the one axis `shift` names (`[fluid] row_shift`, checked
+/// to one non-zero fraction a ≤ 1/2) by a·dx·(2 frac(φ j + √2 k) − 1), j and k the row's
+/// indices along the other two axes (φ = (√5 − 1)/2): the rows keep their spacing and a row's
+/// neighbours are shifted by unrelated amounts (Weyl's sequence fills [−a, a] evenly), so the
+/// rows no longer reach a wall across the flow in step. The depth of each particle (the
+/// hydrostatic start) is the lattice column's, computed before.
+fn shift_rows(positions: &mut [Vector], shift: [Real; 3], anchor: &Vector, dx: Real) {
+    let Some(axis) = (0..3).find(|&k| shift[k] != 0.0) else {
+        return;
+    };
+    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+    let phi = 0.5 * (5.0f64.sqrt() - 1.0);
+    for p in positions.iter_mut() {
+        let index = |k: usize| ((p[k] - anchor[k]) / dx).round();
+        let f = (index(a) * phi + index(b) * std::f64::consts::SQRT_2).rem_euclid(1.0);
+        p[axis] += shift[axis] * dx * (2.0 * f - 1.0);
+    }
 }
 
 /// Lattice index of a lattice point.
@@ -229,6 +251,44 @@ mod tests {
             assert!((p.z + d - 0.3).abs() < 1e-12, "surface at {}", p.z + d);
         }
         assert!((fill.max_depth(0.1) - 0.3).abs() < 1e-12);
+    }
+
+    /// `row_shift = [0.25, 0, 0]`: every particle moves along x alone, by the same amount in a
+    /// row along x (its spacing kept) and within ±dx/4; rows differ (no two of the 15 rows of
+    /// this box by less than 1 % of dx); the depths stay the lattice's; the same fill twice.
+    #[test]
+    fn shifted_rows_keep_their_spacing_and_part_from_their_neighbours() {
+        let dx = 0.1;
+        let water = vec![ShapeSpec::Box {
+            min: [0.0; 3],
+            max: [1.0, 0.5, 0.3],
+        }];
+        let plain = fill_water(&spec(dx, water.clone()), &[]).unwrap();
+        let mut f = spec(dx, water);
+        f.row_shift = Some([0.25, 0.0, 0.0]);
+        let shifted = fill_water(&f, &[]).unwrap();
+        assert_eq!(shifted.positions.len(), plain.positions.len());
+        assert_eq!(shifted.depth, plain.depth);
+        let mut rows: HashMap<(i64, i64), Vec<Real>> = HashMap::new();
+        for (p, q) in shifted.positions.iter().zip(&plain.positions) {
+            assert!(p.y == q.y && p.z == q.z, "{p} from {q}");
+            let d = p.x - q.x;
+            assert!(d.abs() <= 0.25 * dx + 1e-12, "{d}");
+            let key = lattice_key(q, &plain.anchor, dx);
+            rows.entry((key[0], key[1])).or_default().push(d);
+        }
+        assert_eq!(rows.len(), 15);
+        let mut each: Vec<Real> = rows
+            .values()
+            .map(|d| {
+                assert!(d.iter().all(|x| (x - d[0]).abs() < 1e-12), "{d:?}");
+                d[0]
+            })
+            .collect();
+        each.sort_by(|a, b| a.total_cmp(b));
+        assert!(each.windows(2).all(|w| w[1] - w[0] > 0.01 * dx), "{each:?}");
+        let again = fill_water(&f, &[]).unwrap();
+        assert_eq!(again.positions, shifted.positions);
     }
 
     #[test]

@@ -204,7 +204,7 @@ fn probe_points(probes: &[ProbeSpec]) -> (Vec<ProbeSpec>, Vec<Vec<Real>>) {
                 weights.push(vec![1.0]);
             }
             Some(face) => {
-                let rule = face.points(p.position);
+                let rule = face.rule(p.position);
                 points.extend(rule.iter().map(|&(x, _)| point(x)));
                 weights.push(rule.iter().map(|&(_, w)| w).collect());
             }
@@ -637,6 +637,7 @@ mod tests {
             diameter: 0.02,
             normal: [-2.0, 0.0, 0.0],
             reading: Default::default(),
+            span: None,
         };
         let (c, r) = ([1.0, 0.5, 0.003], 0.01);
         let rule = face.points(c);
@@ -651,6 +652,41 @@ mod tests {
             assert_eq!(x[0], c[0], "off the wall's plane: {x:?}");
             assert!(r2(x) <= r * r, "outside the face: {x:?}");
         }
+    }
+
+    /// A face swept along a span is read at the seven points of disks centred along it, at
+    /// most half a diameter apart, the weights shared: the mean of a field linear along the
+    /// span is its value at the centre, and the centres' mean square distance from it is the
+    /// line's, (span/2)²/3, less the midpoint rule's (piece/2)²/3.
+    #[test]
+    fn a_strip_is_read_at_disks_along_its_span() {
+        let face = shared::scene::ProbeFace {
+            diameter: 0.004,
+            normal: [-1.0, 0.0, 0.0],
+            reading: Default::default(),
+            span: Some([0.0, 0.1, 0.0]),
+        };
+        let c = [1.0, 0.5, 0.003];
+        let centres = face.centres(c);
+        // 0.1 m in pieces of at most 2 mm: 50 disks, their centres 1 mm in from the ends.
+        assert_eq!(centres.len(), 50);
+        assert!((centres[0][1] - 0.451).abs() < 1e-12 && (centres[49][1] - 0.549).abs() < 1e-12);
+        let rule = face.rule(c);
+        assert_eq!(rule.len(), 7 * 50);
+        let mean = |f: &dyn Fn([f64; 3]) -> f64| rule.iter().map(|&(x, w)| w * f(x)).sum::<f64>();
+        assert!((mean(&|_| 1.0) - 1.0).abs() < 1e-12);
+        assert!(mean(&|x| x[1] - c[1]).abs() < 1e-15);
+        let (half, piece) = (0.05, 0.002);
+        let second = half * half / 3.0 - (piece / 2.0f64).powi(2) / 3.0;
+        // (The rule's points add each disk's own spread about its centre: the centres alone.)
+        let along: f64 = centres.iter().map(|x| (x[1] - c[1]).powi(2)).sum::<f64>() / 50.0;
+        assert!((along - second).abs() < 1e-12, "{along} vs {second}");
+        for (x, _) in &rule {
+            assert_eq!(x[0], c[0], "off the wall's plane: {x:?}");
+        }
+        // Without a span: the disk's seven points, weights as they are.
+        let disk = shared::scene::ProbeFace { span: None, ..face };
+        assert_eq!(disk.rule(c), disk.points(c).to_vec());
     }
 
     /// A face's points combine by their weights; a dry point counts as 0 Pa (atmospheric), and

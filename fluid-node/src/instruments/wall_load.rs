@@ -104,15 +104,9 @@ impl WallLoads {
             let normal = Vector::from(f.normal).normalize();
             let centre = Vector::from(p.position);
             let (members, columns) = match walls {
-                Some(w) => members(
-                    &w.position,
-                    fixed,
-                    &centre,
-                    &normal,
-                    f.diameter,
-                    dx,
-                    support,
-                ),
+                Some(w) => swept(&f.centres(p.position), dx, |c| {
+                    members(&w.position, fixed, c, &normal, f.diameter, dx, support)
+                }),
                 None => (Vec::new(), Vec::new()),
             };
             if members.is_empty() && whole {
@@ -315,6 +309,33 @@ fn members(
         }
     }
     (out, columns)
+}
+
+/// The members and columns of a face that is the mean of disks at `centres` (a face with a
+/// `span`; one disk without): each disk's ([`members`]) with its weights shared among the
+/// disks, a particle's or column's shares summed. Members stay sorted by particle, columns in
+/// the order first met (one disk: its own lists, weights × 1).
+fn swept(
+    centres: &[[Real; 3]],
+    dx: Real,
+    disk: impl Fn(&Vector) -> (Vec<(u32, Real)>, Vec<Column>),
+) -> (Vec<(u32, Real)>, Vec<Column>) {
+    let share = 1.0 / centres.len() as Real;
+    let mut members = std::collections::BTreeMap::<u32, Real>::new();
+    let mut columns: Vec<Column> = Vec::new();
+    for c in centres {
+        let (m, cols) = disk(&Vector::from(*c));
+        for (b, w) in m {
+            *members.entry(b).or_insert(0.0) += w * share;
+        }
+        for (q, w) in cols {
+            match columns.iter_mut().find(|(p, _)| (p - q).norm() < 1e-6 * dx) {
+                Some(col) => col.1 += w * share,
+                None => columns.push((q, w * share)),
+            }
+        }
+    }
+    (members.into_iter().collect(), columns)
 }
 
 /// Where on the face the column through face point `q` counts: `q` itself, or, when the
@@ -524,6 +545,47 @@ mod tests {
                 .sum();
             assert!((front - 1.0).abs() < 0.01, "z {z}, d {d}: {front}");
         }
+    }
+
+    /// A face swept along a span: its columns' shares add up to the whole face once, each
+    /// column along the span takes its length's share (a strip 0.1 m long over columns 20 mm
+    /// wide: a fifth each), and one disk (a span of a single piece) is the disk's own lists.
+    #[test]
+    fn a_strip_shares_its_length_among_the_columns_along_it() {
+        let dx = 0.02;
+        let (pts, blocks) = corner(dx);
+        let n = Vector::new(-1.0, 0.0, 0.0);
+        let face = |span: Option<[Real; 3]>| shared::scene::ProbeFace {
+            diameter: 0.0042,
+            normal: [-1.0, 0.0, 0.0],
+            reading: FaceReading::Wall,
+            span,
+        };
+        let centre = [1.0, 0.1, 0.15];
+        let read = |f: &shared::scene::ProbeFace| {
+            swept(&f.centres(centre), dx, |c| {
+                members(&pts, &blocks, c, &n, f.diameter, dx, 2.6 * dx)
+            })
+        };
+        let (m, columns) = read(&face(Some([0.0, 0.1, 0.0])));
+        let total: Real = columns.iter().map(|(_, w)| w * dx * dx).sum();
+        assert!((total - 1.0).abs() < 1e-9, "{total}");
+        // The strip runs from y = 0.05 to 0.15 over cells whose edges are at 0.04, 0.06, …:
+        // four whole cells (0.06–0.14) and two halves.
+        let mut shares: Vec<(Real, Real)> =
+            columns.iter().map(|(q, w)| (q.y, w * dx * dx)).collect();
+        shares.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let expected = [0.1, 0.2, 0.2, 0.2, 0.2, 0.1];
+        assert_eq!(shares.len(), expected.len(), "{shares:?}");
+        for ((_, got), want) in shares.iter().zip(expected) {
+            assert!((got - want).abs() < 0.01, "{shares:?}");
+        }
+        assert!(m.windows(2).all(|w| w[0].0 < w[1].0), "members sorted");
+        // Without a span: the disk's lists, bit for bit.
+        let disk = face(None);
+        let c = Vector::from(centre);
+        let alone = members(&pts, &blocks, &c, &n, disk.diameter, dx, 2.6 * dx);
+        assert_eq!(read(&disk), alone);
     }
 
     /// A sensor 3 mm above the floor at dx = 20 mm: its column is the lowest row of the wall

@@ -179,6 +179,10 @@ pub struct ImpactCase {
     /// the same case that parts from the others after a few steps, as the experiment's
     /// repeated runs part (docs/VALIDATION.md, "Impact pressure", "Run to run"). 0: none.
     pub grid_shift: f64,
+    /// The fill's rows along x shifted by up to this fraction of dx (`[fluid] row_shift`), so
+    /// that they do not reach the sensors' wall in step ("The wall's load along the width").
+    /// 0: the lattice.
+    pub row_shift: f64,
 }
 
 impl ImpactCase {
@@ -201,6 +205,7 @@ impl ImpactCase {
             params: String::new(),
             length: Self::lattice_length(dx),
             grid_shift: 0.0,
+            row_shift: 0.0,
         }
     }
 
@@ -230,6 +235,18 @@ impl ImpactCase {
 /// (`reading = "wall"`, `instruments::wall_load`) in series `WALL + k`.
 pub const WALL: usize = LOBOVSKY_H300.len();
 
+/// Where the strips start: sensor k's height read on the wall along the middle half of the
+/// tank's width (`<name>_strip`, the face swept along [`STRIP_SPAN`] of it) in series
+/// `STRIP + k`. The flow is a dam break across its tank, the same along the width but for
+/// the side walls' layers; the disk (4.2 mm) is smaller than a particle at every resolution
+/// of the study, and its load is one column of the wall's, whose particles strike it one by
+/// one (docs/VALIDATION.md, "The wall's load along the width").
+pub const STRIP: usize = 2 * LOBOVSKY_H300.len();
+
+/// The strips' length over the tank's width: the middle half, clear of the side walls by a
+/// quarter of the width (37.5 mm in the tank, three kernel supports at H/dx = 15).
+pub const STRIP_SPAN: f64 = 0.5;
+
 /// Time between probe rows [s] (`output.interval`/50): 5 kHz.
 pub const ROW_INTERVAL: f64 = 2e-4;
 
@@ -253,9 +270,14 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
         .window
         .map(|w| format!("window = {w}\n"))
         .unwrap_or_default();
-    // Each sensor twice: the water's pressure over its face, then the wall's load behind it
-    // (`<name>_wall`, [`WALL`] columns on).
-    let probes: String = [("", ""), ("_wall", ", reading = \"wall\"")]
+    // Each sensor three times: the water's pressure over its face, the wall's load behind it
+    // (`<name>_wall`, [`WALL`] columns on), and the wall's load along the middle of the width
+    // at its height (`<name>_strip`, [`STRIP`] on).
+    let strip = format!(
+        ", reading = \"wall\", span = [0.0, {}, 0.0]",
+        STRIP_SPAN * w
+    );
+    let probes: String = [("", ""), ("_wall", ", reading = \"wall\""), ("_strip", &strip)]
         .iter()
         .flat_map(|(suffix, reading)| {
             let window = &window;
@@ -285,7 +307,12 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
         domain_top = top + 0.1,
         dt_max = case.dt_max,
         interval = 50.0 * ROW_INTERVAL,
-        fluid = fluid_table(solver, dx, None),
+        fluid = fluid_table(solver, dx, None)
+            + &if case.row_shift == 0.0 {
+                String::new()
+            } else {
+                format!("row_shift = [{}, 0.0, 0.0]\n", case.row_shift)
+            },
         tank = tank(length, w, top, 0.1),
     );
     Scene::parse_checked(&text, "lobovsky_impact (generated)", &[&crate::check_scene])
@@ -507,7 +534,7 @@ pub fn impact(solver: &str, case: &ImpactCase) -> Result<Impact, SolverError> {
     drop(s);
     let rows = read_csv(&dir.path().join("probes.csv"))?;
     let times: Vec<f64> = rows.iter().map(|r| r[0]).collect();
-    let series: Vec<Vec<f64>> = (1..=2 * LOBOVSKY_H300.len())
+    let series: Vec<Vec<f64>> = (1..=3 * LOBOVSKY_H300.len())
         .map(|k| rows.iter().map(|r| r[k]).collect())
         .collect();
     let mut r = Impact {
@@ -648,8 +675,9 @@ mod tests {
     fn the_scene_has_the_tank_the_column_and_the_sensors() {
         let case = ImpactCase::new(0.3, 10, Some(1e-3));
         let s = impact_scene("wcsph", &case);
-        // Each sensor twice: its face's pressure, then (from WALL on) the wall's load.
-        assert_eq!(s.probes.len(), 2 * WALL);
+        // Each sensor three times: its face's pressure, then (from WALL on) the wall's load,
+        // then (from STRIP on) the wall's load along the middle half of the width.
+        assert_eq!(s.probes.len(), 3 * WALL);
         assert!(s.probes.iter().all(|p| p.position[0] == case.length));
         // The tank's length is a whole number of spacings, within half a spacing of the
         // experiment's: the sensors' wall lies between two rows of the lattice.
@@ -667,6 +695,16 @@ mod tests {
         assert_eq!(wall.reading, shared::scene::FaceReading::Wall);
         assert_eq!(s.probes[WALL].position, s.probes[0].position);
         assert_eq!(s.probes[WALL].name, "s1_wall");
+        let strip = s.probes[STRIP].face.expect("a sensing face");
+        assert_eq!(strip.reading, shared::scene::FaceReading::Wall);
+        assert_eq!(s.probes[STRIP].position, s.probes[0].position);
+        assert_eq!(s.probes[STRIP].name, "s1_strip");
+        // 150 mm wide at 30 mm (5 layers): the strip is its middle 75 mm.
+        let span = strip.span.expect("a span");
+        assert!(
+            span[0] == 0.0 && span[2] == 0.0 && (span[1] - 0.075).abs() < 1e-12,
+            "{span:?}"
+        );
         assert!((s.probes[3].position[2] - 0.08).abs() < 1e-12);
         // The step cap is the window's length and the slab the tank's width (150 mm: 5
         // layers of 30 mm), at least SLAB_LAYERS (8 of 37.5 mm at H = 600 mm, H/dx = 16,

@@ -115,7 +115,9 @@ impl SphMethod for Riemann {
     /// H/dx = 30 (102.5, 119.6 mbar: +17 %, past the +10 % of the growth row) and 4 % above it
     /// at 15 (136.0), each peak the highest crest of the load's ringing (at 15 a slam 81 ms
     /// after the onset, at 60 a crest 22 ms after it; docs/journal/2026-11-29-impact-pressures.md,
-    /// "12:40, 30 Nov"), and its impulse at H = 600 mm is within ±10 % of the median from 30 on
+    /// "12:40, 30 Nov"; the ringing is the lattice's rows striking the wall in step, its
+    /// period near dx/sqrt(gH) whatever c0: "The wall's load along the width"), and its
+    /// impulse at H = 600 mm is within ±10 % of the median from 30 on
     /// (−9.9, −9.6 %) but 26.5 % short at 15, where the wall's lowest cell is 40 mm ("What a
     /// sensor reads").
     fn known_limitation(check: &str, per_h: usize) -> Option<&'static str> {

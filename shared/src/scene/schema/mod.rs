@@ -153,6 +153,15 @@ pub struct FluidSpec {
     /// [`MAX_FLUID_RANKS`]. Not written when 1, so a scene without it reads back as written.
     #[serde(default = "one_rank", skip_serializing_if = "is_one_rank")]
     pub ranks: u32,
+    /// The fill's rows along one axis, each moved along it by a different fraction of dx up to
+    /// this one (`row_shift = [0.25, 0.0, 0.0]`: the rows along x by up to ±dx/4; the
+    /// fraction of a row is a low-discrepancy sequence of its other two lattice indices, so
+    /// the start is the same on every run). A lattice's rows reach a wall in step, every
+    /// column of the wall struck by its particle at once, and the wall's load rings at the
+    /// rows' pace (docs/VALIDATION.md, "The wall's load along the width"); shifted rows arrive
+    /// one by one. Absent, the lattice.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row_shift: Option<[f64; 3]>,
     /// `[fluid.<solver>]`: each solver's own parameter table, as written.
     #[serde(flatten)]
     pub solvers: SolverTables,
@@ -506,6 +515,11 @@ pub struct ProbeFace {
     /// default) or the wall's load behind it ([`FaceReading::Wall`]).
     #[serde(default, skip_serializing_if = "FaceReading::is_fluid")]
     pub reading: FaceReading,
+    /// A line in the face's plane, centred on `position`, along which the disk is swept: the
+    /// reading is the mean of the disk's reading over the line (a strip of sensors across a
+    /// flow that is the same along it, such as a dam break across its tank). Absent, the disk.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub span: Option<[f64; 3]>,
 }
 
 /// What a probe's face reads (`face = { …, reading = "wall" }`).
@@ -530,6 +544,34 @@ impl FaceReading {
 }
 
 impl ProbeFace {
+    /// The centres of the disks the face's reading is the mean of: `position` alone, or with a
+    /// [`Self::span`] the midpoints of equal pieces of the line, at most half a diameter long
+    /// (the line's mean to well within a particle spacing's resolution).
+    pub fn centres(&self, position: [f64; 3]) -> Vec<[f64; 3]> {
+        let Some(s) = self.span else {
+            return vec![position];
+        };
+        let length = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+        let n = ((length / (0.5 * self.diameter)).ceil() as usize).max(1);
+        (0..n)
+            .map(|k| {
+                let t = (k as f64 + 0.5) / n as f64 - 0.5;
+                std::array::from_fn(|q| position[q] + t * s[q])
+            })
+            .collect()
+    }
+
+    /// The points and weights of the face's mean: [`Self::points`] at each of
+    /// [`Self::centres`], the weights shared among the disks.
+    pub fn rule(&self, position: [f64; 3]) -> Vec<([f64; 3], f64)> {
+        let centres = self.centres(position);
+        let share = 1.0 / centres.len() as f64;
+        centres
+            .iter()
+            .flat_map(|&c| self.points(c).map(|(x, w)| (x, w * share)))
+            .collect()
+    }
+
     /// The points and weights of Stroud's (1971) seven-point rule for a disk (exact for
     /// polynomials up to degree 5): the centre with weight 1/4 and six points at radius
     /// sqrt(2/3)·R, 60° apart, with weight 1/8 each. `centre` is the probe's position.

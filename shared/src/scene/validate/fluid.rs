@@ -42,6 +42,25 @@ pub(super) fn check(c: &mut Checker, s: &Scene) {
                     "e.g. density_ratio_bound = 1.3",
                 );
             }
+            if let Some(shift) = f.row_shift {
+                let along = shift.iter().filter(|a| **a != 0.0).count();
+                let fix = "give one axis a fraction of dx in (0, 0.5], e.g. row_shift = [0.25, 0.0, 0.0] for the rows along x; or leave it out for the lattice";
+                if shift.iter().any(|a| !a.is_finite()) || along != 1 {
+                    c.fail(
+                        "row_shift",
+                        shift,
+                        "must shift the rows along exactly one axis, by a finite fraction of dx",
+                        fix,
+                    );
+                } else if shift.iter().any(|a| *a < 0.0 || *a > 0.5) {
+                    c.fail(
+                        "row_shift",
+                        shift,
+                        "must be between 0 and 0.5 spacings: past half a spacing rows would pass their neighbours' places and the walls' clearance",
+                        fix,
+                    );
+                }
+            }
             if let Some((problem, fix)) = fluid_ranks_problem(f.ranks) {
                 c.fail("ranks", f.ranks, &problem, &fix);
             }
@@ -57,7 +76,7 @@ pub(super) fn check(c: &mut Checker, s: &Scene) {
                         key,
                         value,
                         "is not a field of [fluid]",
-                        "fields are solver, density, dx, kinematic_viscosity, density_ratio_bound, walls, ranks, water; solver parameters go in their own table, e.g. [fluid.wcsph]",
+                        "fields are solver, density, dx, kinematic_viscosity, density_ratio_bound, walls, ranks, row_shift, water; solver parameters go in their own table, e.g. [fluid.wcsph]",
                     );
                 }
             }

@@ -117,7 +117,7 @@ fn probes_in_walls(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
     for (i, probe) in s.probes.iter().enumerate() {
         let points: Vec<[f64; 3]> = match probe.face {
             Some(f) if f.diameter > 0.0 && f.normal.iter().any(|&n| n != 0.0) => {
-                f.points(probe.position).iter().map(|(x, _)| *x).collect()
+                f.rule(probe.position).iter().map(|(x, _)| *x).collect()
             }
             _ => vec![probe.position],
         };
@@ -133,14 +133,29 @@ fn probes_in_walls(c: &mut Checker, s: &Scene, polys: &[Option<Polyhedron>]) {
             continue;
         };
         // A position inside the wall is the position's fault whatever the face; a face that
-        // leaves a position on the wall's face for the inside is its normal's.
+        // leaves a position on the wall's face for the inside is its normal's, unless its disk
+        // at the position is clear and only the span reaches in.
+        let disk_clear = |f: &crate::scene::ProbeFace| {
+            f.points(probe.position)
+                .iter()
+                .all(|(x, _)| walls.iter().all(|(_, p)| depth(p, *x) <= PROBE_IN_WALL))
+        };
+        let total = points.len();
         c.key("probe", |c| {
             c.at(Seg::Index(i), |c| match probe.face {
+                Some(f) if f.span.is_some() && !centre_in && disk_clear(&f) => c.key("face", |c| c.fail(
+                    "span",
+                    f.span.unwrap_or_default(),
+                    &format!(
+                        "puts {inside} of the strip's {total} points inside fixed block '{name}' (up to {deepest:.2e} m deep), where no water reaches: they read 0 Pa for ever and the strip's mean with them"
+                    ),
+                    "shorten the span or move it along the wall, so that the strip (the span plus half a diameter at each end) stays on the wall's face",
+                )),
                 Some(f) if points.len() > 1 && !centre_in => c.key("face", |c| c.fail(
                     "normal",
                     f.normal,
                     &format!(
-                        "puts {inside} of the face's 7 points inside fixed block '{name}' (up to {deepest:.2e} m deep), where no water reaches: they read 0 Pa for ever and the face's mean with them"
+                        "puts {inside} of the face's {total} points inside fixed block '{name}' (up to {deepest:.2e} m deep), where no water reaches: they read 0 Pa for ever and the face's mean with them"
                     ),
                     "give the face the wall's normal at the sensor (e.g. normal = [-1.0, 0.0, 0.0] on a wall facing −x), with the probe's position on the wall's face",
                 )),
@@ -282,6 +297,34 @@ fn probes(c: &mut Checker, s: &Scene) {
                                 "must be a finite, non-zero vector",
                                 "give the wall's normal at the sensor, e.g. normal = [-1.0, 0.0, 0.0]",
                             );
+                        }
+                        if let Some(span) = f.span {
+                            let s2: f64 = span.iter().map(|x| x * x).sum();
+                            let along: f64 = (0..3).map(|k| span[k] * f.normal[k]).sum();
+                            let fix = "give the line across the flow in metres, in the face's plane, e.g. span = [0.0, 0.075, 0.0] for a face with normal = [-1.0, 0.0, 0.0]; or leave it out for the disk";
+                            if !(s2.is_finite() && s2 > 0.0) {
+                                c.fail("span", span, "must be a finite, non-zero vector", fix);
+                            } else if n2.is_finite()
+                                && n2 > 0.0
+                                && along.abs() > 1e-9 * (s2 * n2).sqrt()
+                            {
+                                c.fail(
+                                    "span",
+                                    span,
+                                    "does not lie in the face's plane (it has a part along `normal`)",
+                                    fix,
+                                );
+                            } else if f.diameter > 0.0 && s2.sqrt() / f.diameter > 1e5 {
+                                c.fail(
+                                    "span",
+                                    span,
+                                    &format!(
+                                        "is more than 10⁵ diameters long ({} m): the line is read as that many disks",
+                                        crate::math::readable(s2.sqrt())
+                                    ),
+                                    fix,
+                                );
+                            }
                         }
                     });
                 }
