@@ -104,9 +104,13 @@ impl WallLoads {
             let normal = Vector::from(f.normal).normalize();
             let centre = Vector::from(p.position);
             let (members, columns) = match walls {
-                Some(w) => swept(&f.centres(p.position), dx, |c| {
-                    members(&w.position, fixed, c, &normal, f.diameter, dx, support)
-                }),
+                Some(w) => {
+                    // [`members`]' own reach along the face, and a support of depth behind it.
+                    let reach = 0.5 * f.diameter + 2.0 * support + 2.0 * dx;
+                    swept(&w.position, &f.centres(p.position), reach, dx, |near, c| {
+                        members(near, fixed, c, &normal, f.diameter, dx, support)
+                    })
+                }
                 None => (Vec::new(), Vec::new()),
             };
             if members.is_empty() && whole {
@@ -312,21 +316,41 @@ fn members(
 }
 
 /// The members and columns of a face that is the mean of disks at `centres` (a face with a
-/// `span`; one disk without): each disk's ([`members`]) with its weights shared among the
-/// disks, a particle's or column's shares summed. Members stay sorted by particle, columns in
-/// the order first met (one disk: its own lists, weights × 1).
+/// `span`; one disk without): each disk's (`disk`, [`members`] over the boundary particles
+/// within `reach` of the line through the centres, found once) with its weights shared among
+/// the disks, a particle's or column's shares summed. Members stay sorted by particle,
+/// columns in the order first met (one disk: its own lists, weights × 1).
 fn swept(
+    walls: &[Vector],
     centres: &[[Real; 3]],
+    reach: Real,
     dx: Real,
-    disk: impl Fn(&Vector) -> (Vec<(u32, Real)>, Vec<Column>),
+    disk: impl Fn(&[Vector], &Vector) -> (Vec<(u32, Real)>, Vec<Column>),
 ) -> (Vec<(u32, Real)>, Vec<Column>) {
+    let (Some(first), Some(last)) = (centres.first(), centres.last()) else {
+        return (Vec::new(), Vec::new());
+    };
+    let (a, b) = (Vector::from(*first), Vector::from(*last));
+    let along = b - a;
+    let near_line = |x: &Vector| {
+        let t = if along.norm_squared() > 0.0 {
+            ((x - a).dot(&along) / along.norm_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (x - (a + along * t)).norm() <= reach
+    };
+    let index: Vec<u32> = (0..walls.len() as u32)
+        .filter(|&k| near_line(&walls[k as usize]))
+        .collect();
+    let near: Vec<Vector> = index.iter().map(|&k| walls[k as usize]).collect();
     let share = 1.0 / centres.len() as Real;
     let mut members = std::collections::BTreeMap::<u32, Real>::new();
     let mut columns: Vec<Column> = Vec::new();
     for c in centres {
-        let (m, cols) = disk(&Vector::from(*c));
-        for (b, w) in m {
-            *members.entry(b).or_insert(0.0) += w * share;
+        let (m, cols) = disk(&near, &Vector::from(*c));
+        for (k, w) in m {
+            *members.entry(index[k as usize]).or_insert(0.0) += w * share;
         }
         for (q, w) in cols {
             match columns.iter_mut().find(|(p, _)| (p - q).norm() < 1e-6 * dx) {
@@ -549,7 +573,8 @@ mod tests {
 
     /// A face swept along a span: its columns' shares add up to the whole face once, each
     /// column along the span takes its length's share (a strip 0.1 m long over columns 20 mm
-    /// wide: a fifth each), and one disk (a span of a single piece) is the disk's own lists.
+    /// wide: a fifth each, a tenth at its two half-covered ends), and one disk (no span) is
+    /// the disk's own lists, bit for bit.
     #[test]
     fn a_strip_shares_its_length_among_the_columns_along_it() {
         let dx = 0.02;
@@ -562,9 +587,10 @@ mod tests {
             span,
         };
         let centre = [1.0, 0.1, 0.15];
+        let reach = 0.5 * 0.0042 + 2.0 * 2.6 * dx + 2.0 * dx;
         let read = |f: &shared::scene::ProbeFace| {
-            swept(&f.centres(centre), dx, |c| {
-                members(&pts, &blocks, c, &n, f.diameter, dx, 2.6 * dx)
+            swept(&pts, &f.centres(centre), reach, dx, |near, c| {
+                members(near, &blocks, c, &n, f.diameter, dx, 2.6 * dx)
             })
         };
         let (m, columns) = read(&face(Some([0.0, 0.1, 0.0])));

@@ -244,7 +244,8 @@ pub const WALL: usize = LOBOVSKY_H300.len();
 pub const STRIP: usize = 2 * LOBOVSKY_H300.len();
 
 /// The strips' length over the tank's width: the middle half, clear of the side walls by a
-/// quarter of the width (37.5 mm in the tank, three kernel supports at H/dx = 15).
+/// quarter of the width (37.5 mm in the tank: three kernel supports at H/dx = 60, three
+/// quarters of one at 15).
 pub const STRIP_SPAN: f64 = 0.5;
 
 /// Time between probe rows [s] (`output.interval`/50): 5 kHz.
