@@ -819,6 +819,24 @@ fn cases() -> Vec<Case> {
             "span = [0.0, 4200.0, 0.0]",
         ),
         case(
+            "probe face's span infinite",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0], span = [0.0, inf, 0.0] }",
+            ),
+            "probe[0].face.span",
+            "span = [0.0, inf, 0.0]",
+        ),
+        case(
+            "probe face's span of 1e300 m",
+            edit(
+                "position = [4.95, 0.4, 0.05]",
+                "position = [4.95, 0.4, 0.05]\nface = { diameter = 0.0042, normal = [-1.0, 0.0, 0.0], span = [0.0, 1e300, 0.0] }",
+            ),
+            "probe[0].face.span",
+            "span = [0.0, 1e300, 0.0]",
+        ),
+        case(
             "probe face's span reaching into a wall",
             edit(
                 "position = [4.95, 0.4, 0.05]",

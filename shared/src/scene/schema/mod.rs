@@ -543,16 +543,31 @@ impl FaceReading {
     }
 }
 
+/// The longest `span` a probe face may have, in diameters: the line is read as two disks per
+/// diameter, and the wall reading's setup grows with their square.
+pub const MAX_SPAN_DIAMETERS: f64 = 1e4;
+
 impl ProbeFace {
     /// The centres of the disks the face's reading is the mean of: `position` alone, or with a
     /// [`Self::span`] the midpoints of equal pieces of the line, at most half a diameter long
-    /// (the line's mean to well within a particle spacing's resolution).
+    /// (the line's mean to well within a particle spacing's resolution). Total on any input,
+    /// since the scene's check reads faces before it refuses their spans: a span that is not
+    /// finite gives the position alone, and the pieces are at most 2 × [`MAX_SPAN_DIAMETERS`]
+    /// (a longer span is refused).
     pub fn centres(&self, position: [f64; 3]) -> Vec<[f64; 3]> {
         let Some(s) = self.span else {
             return vec![position];
         };
         let length = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
-        let n = ((length / (0.5 * self.diameter)).ceil() as usize).max(1);
+        if !length.is_finite() {
+            return vec![position];
+        }
+        let pieces = (length / (0.5 * self.diameter)).ceil();
+        let n = if pieces.is_finite() {
+            (pieces.min(2.0 * MAX_SPAN_DIAMETERS) as usize).max(1)
+        } else {
+            1
+        };
         (0..n)
             .map(|k| {
                 let t = (k as f64 + 0.5) / n as f64 - 0.5;

@@ -314,12 +314,15 @@ fn probes(c: &mut Checker, s: &Scene) {
                                     "does not lie in the face's plane (it has a part along `normal`)",
                                     fix,
                                 );
-                            } else if f.diameter > 0.0 && s2.sqrt() / f.diameter > 1e4 {
+                            } else if f.diameter > 0.0
+                                && s2.sqrt() / f.diameter > crate::scene::MAX_SPAN_DIAMETERS
+                            {
                                 c.fail(
                                     "span",
                                     span,
                                     &format!(
-                                        "is more than 10⁴ diameters long ({} m): the line is read as two disks per diameter, and setting up the wall's reading grows with their square",
+                                        "is more than {} diameters long ({} m): the line is read as two disks per diameter, and setting up the wall's reading grows with their square",
+                                        crate::math::readable(crate::scene::MAX_SPAN_DIAMETERS),
                                         crate::math::readable(s2.sqrt())
                                     ),
                                     fix,
