@@ -4,16 +4,19 @@
 //! optionally the probe series as CSV.
 //!
 //! `cargo run --release -p fluid-node --example impact_study -- H PER_H [--window W]
-//! [--solver NAME] [--param 'key = value']... [--end-star T] [--dt-max S] [--layers N] [--grid-shift M] [--row-shift A] [--csv FILE]`; with H = 0.6 also
+//! [--solver NAME] [--param 'key = value']... [--end-star T] [--dt-max S] [--layers N] [--grid-shift M] [--row-shift A] [--row-draw D] [--draws K] [--csv FILE]`; with H = 0.6 also
 //! sensor 1's impulse against the paper's median (the impulse row of `fluid-validate`), with
 //! H = 0.3 each sensor's impulse and highest 5–20 ms means against one run of the experiment
-//! (`LOBOVSKY_H300_EVENT5`).
+//! (`LOBOVSKY_H300_EVENT5`). `--draws K` (with `--row-shift`) runs draws 0 … K−1 of the
+//! shifted rows instead and prints sensor 1's peak and impulse per draw and their median and
+//! range: an ensemble of starts, against the experiment's repeated runs.
 
 use fluid_node::validation::{
     Impact, ImpactCase, LOAD_BOXES, LOBOVSKY_H300, LOBOVSKY_H300_EVENT5,
     LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, RINGING_SPAN, ROW_INTERVAL, STRIP,
     WALL, dry_as_zero, impact, integral,
 };
+use shared::report::median_range;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -22,7 +25,7 @@ fn main() {
     }
     let num = |i: usize| -> f64 { args.get(i).and_then(|a| a.parse().ok()).expect("H PER_H") };
     let mut case = ImpactCase::new(num(0), num(1) as usize, None);
-    let (mut solver, mut csv) = ("wcsph".to_string(), None);
+    let (mut solver, mut csv, mut draws) = ("wcsph".to_string(), None, None);
     let mut params = Vec::new();
     let mut i = 2;
     while i < args.len() {
@@ -37,11 +40,17 @@ fn main() {
             "--layers" => case.layers = v.parse().expect("particle layers across the slab"),
             "--grid-shift" => case.grid_shift = v.parse().expect("grid shift [m]"),
             "--row-shift" => case.row_shift = v.parse().expect("row shift [dx]"),
+            "--row-draw" => case.row_draw = v.parse().expect("draw of the shifted rows"),
+            "--draws" => draws = Some(v.parse::<u32>().expect("number of draws")),
             o => panic!("unknown option {o}"),
         }
         i += 2;
     }
     case.params = params.join("\n");
+    if let Some(k) = draws {
+        assert!(case.row_shift > 0.0, "--draws needs --row-shift");
+        return ensemble(&solver, &mut case, k);
+    }
     let r = impact(&solver, &case).expect("run");
     println!(
         "H = {} m, H/dx = {}, window {:?}, {solver} {:?}: {} particles, {} steps, {:.1} s (tank {:.4} m)",
@@ -169,6 +178,55 @@ fn report(r: &Impact, case: &ImpactCase, at: usize) {
             1e3 * LOBOVSKY_H600_S1_IMPACT_TIME,
             onset * star,
             100.0 * (impulse / LOBOVSKY_H600_S1_IMPULSE - 1.0)
+        );
+    }
+}
+
+/// Sensor 1's peak [Pa] (the first pulse's, over the impact time) and impulse over the impact
+/// time from the onset [Pa·s], in each reading (the water's pressure, the wall's load, the
+/// strip), of draws 0 … k−1; then each one's median and range over the draws.
+fn ensemble(solver: &str, case: &mut ImpactCase, k: u32) {
+    let readings = [(0, "pressure"), (WALL, "wall"), (STRIP, "strip")];
+    let mut peaks = vec![Vec::new(); readings.len()];
+    let mut impulses = vec![Vec::new(); readings.len()];
+    for draw in 0..k {
+        case.row_draw = draw;
+        let r = impact(solver, case).expect("run");
+        let mut line = format!("draw {draw} ({} steps, {:.0} s):", r.steps, r.seconds);
+        for (n, &(at, name)) in readings.iter().enumerate() {
+            let peak = r.first_pulse(at).map_or(f64::NAN, |p| p.peak);
+            let impulse = r
+                .impulse(at, LOBOVSKY_H600_S1_IMPACT_TIME)
+                .map_or(f64::NAN, |(i, _)| i);
+            line += &format!(" {name} {:.1} mbar, {impulse:.1} Pa·s;", peak / 100.0);
+            peaks[n].push(peak);
+            impulses[n].push(impulse);
+        }
+        println!("{line}");
+    }
+    let h300 = (case.height - 0.3).abs() < 1e-9;
+    for (n, &(_, name)) in readings.iter().enumerate() {
+        let (pm, plo, phi) = median_range(&peaks[n]);
+        let (im, ilo, ihi) = median_range(&impulses[n]);
+        let against = if h300 {
+            format!(
+                "peak band {:.1}–{:.1} mbar",
+                LOBOVSKY_H300[0].p025 / 100.0,
+                LOBOVSKY_H300[0].p975 / 100.0
+            )
+        } else {
+            format!(
+                "impulse {:+.1} % of the median ({:+.1} … {:+.1} %)",
+                100.0 * (im / LOBOVSKY_H600_S1_IMPULSE - 1.0),
+                100.0 * (ilo / LOBOVSKY_H600_S1_IMPULSE - 1.0),
+                100.0 * (ihi / LOBOVSKY_H600_S1_IMPULSE - 1.0)
+            )
+        };
+        println!(
+            " s1 {name} over {k} draws: peak median {:.1} mbar ({:.1} … {:.1}), impulse median {im:.1} Pa·s ({ilo:.1} … {ihi:.1}); {against}",
+            pm / 100.0,
+            plo / 100.0,
+            phi / 100.0
         );
     }
 }

@@ -170,9 +170,30 @@ pub fn outcome(rows: &[Row]) -> String {
     )
 }
 
+/// The median (the mean of the middle two for an even count), lowest and highest of `values`
+/// (at least one): how a set of runs of one case is summed up against an experiment's
+/// repeated runs.
+pub fn median_range(values: &[Real]) -> (Real, Real, Real) {
+    let mut v = values.to_vec();
+    v.sort_by(Real::total_cmp);
+    let n = v.len();
+    let median = if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    };
+    (median, v[0], v[n - 1])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_set_of_runs_gives_its_median_and_range() {
+        assert_eq!(median_range(&[3.0, 1.0, 2.0]), (2.0, 1.0, 3.0));
+        assert_eq!(median_range(&[4.0, 1.0, 2.0, 3.0]), (2.5, 1.0, 4.0));
+    }
 
     #[test]
     fn rows_pass_and_fail_by_their_tolerance() {

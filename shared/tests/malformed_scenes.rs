@@ -792,6 +792,30 @@ fn cases() -> Vec<Case> {
             "row_shift = [nan, 0.0, 0.0]",
         ),
         case(
+            "fluid row draw without shifted rows",
+            edit("\ndx = 0.04", "\ndx = 0.04\nrow_draw = 3"),
+            "fluid.row_draw",
+            "row_draw = 3",
+        ),
+        case(
+            "fluid row draw past the largest",
+            edit(
+                "\ndx = 0.04",
+                "\ndx = 0.04\nrow_shift = [0.25, 0.0, 0.0]\nrow_draw = 4000000000",
+            ),
+            "fluid.row_draw",
+            "row_draw = 4000000000",
+        ),
+        case(
+            "fluid row draw negative",
+            edit(
+                "\ndx = 0.04",
+                "\ndx = 0.04\nrow_shift = [0.25, 0.0, 0.0]\nrow_draw = -1",
+            ),
+            "row_draw",
+            "-1",
+        ),
+        case(
             "probe face's span along its normal",
             edit(
                 "position = [4.95, 0.4, 0.05]",

@@ -21,6 +21,7 @@
 
 use crate::studies::runner::{self, RunOutcome, Table};
 use clap::Args;
+use shared::report::median_range;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -242,19 +243,6 @@ fn crests(
     Ok(out)
 }
 
-/// Median, lowest and highest of values (at least one).
-fn stats(values: &[f64]) -> (f64, f64, f64) {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    let median = if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    };
-    (median, v[0], v[n - 1])
-}
-
 /// Where `x` falls among `values`: "lowest of 11", "3rd of 11 from the top", "highest of 11".
 fn place(x: f64, values: &[f64]) -> String {
     let n = values.len();
@@ -374,7 +362,7 @@ fn table(rows: &[Row], windows: &[(String, f64, f64)], against: Option<&[Row]>) 
             .unwrap();
             continue;
         }
-        let (median, lo, hi) = stats(&values);
+        let (median, lo, hi) = median_range(&values);
         let spread = if median > 0.0 {
             format!("{:.1} %", 100.0 * (hi - lo) / median)
         } else {
@@ -394,7 +382,7 @@ fn table(rows: &[Row], windows: &[(String, f64, f64)], against: Option<&[Row]>) 
             if theirs.is_empty() {
                 write!(s, " – | – |").unwrap();
             } else {
-                let (m, l, h) = stats(&theirs);
+                let (m, l, h) = median_range(&theirs);
                 let rel = if m > 0.0 {
                     format!("{:+.1} %", 100.0 * (median - m) / m)
                 } else {
@@ -705,8 +693,6 @@ mod tests {
 
     #[test]
     fn the_table_gives_median_range_and_the_base_runs_place() {
-        assert_eq!(stats(&[3.0, 1.0, 2.0]), (2.0, 1.0, 3.0));
-        assert_eq!(stats(&[4.0, 1.0, 2.0, 3.0]), (2.5, 1.0, 4.0));
         assert_eq!(place(1.0, &[1.0, 2.0, 3.0]), "lowest of 3");
         assert_eq!(place(2.0, &[1.0, 2.0, 3.0]), "2 of 3 from the top");
         assert_eq!(place(3.0, &[1.0, 2.0, 3.0]), "highest of 3");

@@ -169,7 +169,7 @@ pub fn fill_water_with(
         .map(|(p, &h)| if h { top[&column(p)] - p.z } else { 0.0 })
         .collect();
     if let Some(shift) = fluid.row_shift {
-        shift_rows(&mut positions, shift, &anchor, dx);
+        shift_rows(&mut positions, shift, fluid.row_draw, &anchor, dx);
     }
     Ok(Fill {
         positions,
@@ -179,20 +179,26 @@ pub fn fill_water_with(
 }
 
 /// Moves each row of the lattice along the one axis `shift` names (`[fluid] row_shift`, checked
-/// to one non-zero fraction a ≤ 1/2) by a·dx·(2 frac(φ j + √2 k) − 1), j and k the row's
-/// indices along the other two axes (φ = (√5 − 1)/2): the rows keep their spacing and a row's
-/// neighbours are shifted by unrelated amounts (Weyl's sequence fills [−a, a] evenly), so the
-/// rows no longer reach a wall across the flow in step. The depth of each particle (the
-/// hydrostatic start) is the lattice column's, computed before.
-fn shift_rows(positions: &mut [Vector], shift: [Real; 3], anchor: &Vector, dx: Real) {
+/// to one non-zero fraction a ≤ 1/2) by a·dx·(2 frac((φ + √7 d) j + (√2 + π d) k) − 1), j and
+/// k the row's indices along the other two axes (φ = (√5 − 1)/2), d the draw (`[fluid]
+/// row_draw`): the rows keep their spacing and a row's neighbours are shifted by unrelated
+/// amounts (Weyl's sequence fills [−a, a] evenly for any multipliers independent of each other
+/// and of 1 over the rationals), so the rows no longer reach a wall across the flow in step;
+/// each draw's multipliers order the rows anew (an offset would only rotate draw 0's order).
+/// The depth of each particle (the hydrostatic start) is the lattice column's, computed
+/// before.
+fn shift_rows(positions: &mut [Vector], shift: [Real; 3], draw: u32, anchor: &Vector, dx: Real) {
     let Some(axis) = (0..3).find(|&k| shift[k] != 0.0) else {
         return;
     };
     let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-    let phi = 0.5 * (5.0f64.sqrt() - 1.0);
+    let d = Real::from(draw);
+    // d = 0 adds exact zeros: draw 0 is the sequence of before draws existed, bit for bit.
+    let alpha = 0.5 * (5.0f64.sqrt() - 1.0) + d * 7.0f64.sqrt();
+    let beta = std::f64::consts::SQRT_2 + d * std::f64::consts::PI;
     for p in positions.iter_mut() {
         let index = |k: usize| ((p[k] - anchor[k]) / dx).round();
-        let f = (index(a) * phi + index(b) * std::f64::consts::SQRT_2).rem_euclid(1.0);
+        let f = (index(a) * alpha + index(b) * beta).rem_euclid(1.0);
         p[axis] += shift[axis] * dx * (2.0 * f - 1.0);
     }
 }
@@ -289,6 +295,67 @@ mod tests {
         assert!(each.windows(2).all(|w| w[1] - w[0] > 0.01 * dx), "{each:?}");
         let again = fill_water(&f, &[]).unwrap();
         assert_eq!(again.positions, shifted.positions);
+    }
+
+    /// `row_draw = 1`: another start with the same bound (±dx/4) and spread (the 15 rows'
+    /// shifts apart by more than 1 % of dx), most rows moved from draw 0's place, and most
+    /// rows' neighbours in draw 0's order of shifts no longer their neighbours in draw 1's.
+    #[test]
+    fn another_draw_is_another_start_with_the_same_spread() {
+        let dx = 0.1;
+        let water = vec![ShapeSpec::Box {
+            min: [0.0; 3],
+            max: [1.0, 0.5, 0.3],
+        }];
+        let plain = fill_water(&spec(dx, water.clone()), &[]).unwrap();
+        let shifts = |draw: u32| -> Vec<(Real, [i64; 3])> {
+            let mut f = spec(dx, water.clone());
+            f.row_shift = Some([0.25, 0.0, 0.0]);
+            f.row_draw = draw;
+            let fill = fill_water(&f, &[]).unwrap();
+            let mut rows: Vec<(Real, [i64; 3])> = fill
+                .positions
+                .iter()
+                .zip(&plain.positions)
+                .map(|(p, q)| {
+                    let mut key = lattice_key(q, &plain.anchor, dx);
+                    key[2] = 0;
+                    (p.x - q.x, key)
+                })
+                .collect();
+            rows.sort_by_key(|a| a.1);
+            rows.dedup_by(|a, b| a.1 == b.1);
+            rows
+        };
+        let (zero, one) = (shifts(0), shifts(1));
+        assert_eq!(one.len(), 15);
+        assert!(one.iter().all(|(d, _)| d.abs() <= 0.25 * dx + 1e-12));
+        let mut spread: Vec<Real> = one.iter().map(|r| r.0).collect();
+        spread.sort_by(|a, b| a.total_cmp(b));
+        assert!(
+            spread.windows(2).all(|w| w[1] - w[0] > 0.01 * dx),
+            "{spread:?}"
+        );
+        let moved = zero
+            .iter()
+            .zip(&one)
+            .filter(|(a, b)| (a.0 - b.0).abs() > 0.01 * dx)
+            .count();
+        assert!(moved >= 12, "{moved} of 15 rows moved");
+        let order = |rows: &[(Real, [i64; 3])]| -> Vec<[i64; 3]> {
+            let mut r = rows.to_vec();
+            r.sort_by(|a, b| a.0.total_cmp(&b.0));
+            r.into_iter().map(|r| r.1).collect()
+        };
+        let (o0, o1) = (order(&zero), order(&one));
+        let kept = o0
+            .windows(2)
+            .filter(|w| {
+                o1.windows(2)
+                    .any(|v| v == *w || (v[0] == w[1] && v[1] == w[0]))
+            })
+            .count();
+        assert!(kept <= 7, "{kept} of 14 neighbour pairs kept");
     }
 
     #[test]

@@ -183,6 +183,8 @@ pub struct ImpactCase {
     /// that they do not reach the sensors' wall in step ("The wall's load along the width").
     /// 0: the lattice.
     pub row_shift: f64,
+    /// Which draw of the shifted rows (`[fluid] row_draw`): the ensemble's member.
+    pub row_draw: u32,
 }
 
 impl ImpactCase {
@@ -206,6 +208,7 @@ impl ImpactCase {
             length: Self::lattice_length(dx),
             grid_shift: 0.0,
             row_shift: 0.0,
+            row_draw: 0,
         }
     }
 
@@ -312,7 +315,10 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
             + &if case.row_shift == 0.0 {
                 String::new()
             } else {
-                format!("row_shift = [{}, 0.0, 0.0]\n", case.row_shift)
+                format!(
+                    "row_shift = [{}, 0.0, 0.0]\nrow_draw = {}\n",
+                    case.row_shift, case.row_draw
+                )
             },
         tank = tank(length, w, top, 0.1),
     );

@@ -735,9 +735,9 @@ impl SphMethod for Wcsph {
         }
     }
 
-    /// The weakly compressible impact peak is the first crest of an acoustic ringing at the
-    /// wall that does not converge with resolution and depends on c0 (docs/VALIDATION.md
-    /// "Impact pressure"): above the experiment's band at every resolution of the study in
+    /// The weakly compressible impact peak is a crest of the wall's ringing, which does not
+    /// converge with resolution and whose height depends on c0 though its period does not
+    /// (the lattice's rows striking the wall in step; docs/VALIDATION.md "Impact pressure"): above the experiment's band at every resolution of the study in
     /// the tank's width (only a slab 4 layers wide smears it into the band at H/dx = 15).
     /// The wall's load behind the sensor is above the band too (253.5 → 177.3 → 208.7
     /// mbar), while its impulse at H = 600 mm is within ±10 % of the median from H/dx = 30 on
@@ -750,7 +750,7 @@ impl SphMethod for Wcsph {
             check == Check::ImpactPeakGrowth.name() || check == Check::WallPeakGrowth.name();
         if peak || growth {
             return Some(
-                "WCSPH impact peak is an acoustic crest that does not converge with resolution; the impulse is the check",
+                "WCSPH impact peak is a crest of the wall's ringing, which does not converge with resolution; the impulse is the check",
             );
         }
         (per_h == 15 && check == Check::WallImpulse { per_h }.name()).then_some(

@@ -2,7 +2,7 @@
 
 use super::checker::{Checker, Reach};
 use crate::scene::error::Seg;
-use crate::scene::schema::{MAX_FLUID_RANKS, Scene};
+use crate::scene::schema::{MAX_FLUID_RANKS, MAX_ROW_DRAW, Scene};
 
 /// `[fluid]`, when the scene has one.
 pub(super) fn check(c: &mut Checker, s: &Scene) {
@@ -61,6 +61,21 @@ pub(super) fn check(c: &mut Checker, s: &Scene) {
                     );
                 }
             }
+            if f.row_draw != 0 && f.row_shift.is_none() {
+                c.fail(
+                    "row_draw",
+                    f.row_draw,
+                    "draws among shifted rows, and row_shift is absent: the fill is the lattice, the same for every draw",
+                    "give row_shift too, e.g. row_shift = [0.25, 0.0, 0.0], or leave row_draw out",
+                );
+            } else if f.row_draw > MAX_ROW_DRAW {
+                c.fail(
+                    "row_draw",
+                    f.row_draw,
+                    &format!("must be at most {MAX_ROW_DRAW}: past it the sequence's multipliers grow so large that a row's fraction keeps too few digits"),
+                    "number the draws of an ensemble 0, 1, 2, …",
+                );
+            }
             if let Some((problem, fix)) = fluid_ranks_problem(f.ranks) {
                 c.fail("ranks", f.ranks, &problem, &fix);
             }
@@ -76,7 +91,7 @@ pub(super) fn check(c: &mut Checker, s: &Scene) {
                         key,
                         value,
                         "is not a field of [fluid]",
-                        "fields are solver, density, dx, kinematic_viscosity, density_ratio_bound, walls, ranks, row_shift, water; solver parameters go in their own table, e.g. [fluid.wcsph]",
+                        "fields are solver, density, dx, kinematic_viscosity, density_ratio_bound, walls, ranks, row_shift, row_draw, water; solver parameters go in their own table, e.g. [fluid.wcsph]",
                     );
                 }
             }
