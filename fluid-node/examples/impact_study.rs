@@ -4,17 +4,19 @@
 //! optionally the probe series as CSV.
 //!
 //! `cargo run --release -p fluid-node --example impact_study -- H PER_H [--window W]
-//! [--solver NAME] [--param 'key = value']... [--end-star T] [--dt-max S] [--layers N] [--grid-shift M] [--row-shift A] [--row-draw D] [--draws K] [--csv FILE]`; with H = 0.6 also
+//! [--solver NAME] [--param 'key = value']... [--end-star T] [--dt-max S] [--layers N] [--grid-shift M] [--row-shift A] [--row-draw D] [--draws K] [--profile] [--csv FILE]`; with H = 0.6 also
 //! sensor 1's impulse against the paper's median (the impulse row of `fluid-validate`), with
 //! H = 0.3 each sensor's impulse and highest 5–20 ms means against one run of the experiment
 //! (`LOBOVSKY_H300_EVENT5`). `--draws K` (with `--row-shift`) runs draws 0 … K−1 of the
 //! shifted rows instead and prints sensor 1's peak and impulse per draw and their median and
-//! range: an ensemble of starts, against the experiment's repeated runs.
+//! range: an ensemble of starts, against the experiment's repeated runs. `--profile` also
+//! reads the wall at every cell's height up to H, in both readings, and prints where along
+//! the height the impulse falls and its sum (the wall's load per metre of its width).
 
 use fluid_node::validation::{
     Impact, ImpactCase, LOAD_BOXES, LOBOVSKY_H300, LOBOVSKY_H300_EVENT5,
-    LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, RINGING_SPAN, ROW_INTERVAL, STRIP,
-    WALL, dry_as_zero, impact, integral,
+    LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, Profile, RINGING_SPAN, ROW_INTERVAL,
+    STRIP, WALL, dry_as_zero, impact, integral,
 };
 use shared::report::median_range;
 
@@ -29,6 +31,11 @@ fn main() {
     let mut params = Vec::new();
     let mut i = 2;
     while i < args.len() {
+        if args[i] == "--profile" {
+            case.profile = true;
+            i += 1;
+            continue;
+        }
         let v = args.get(i + 1).cloned().expect("a value after the option");
         match args[i].as_str() {
             "--window" => case.window = Some(v.parse().expect("window [s]")),
@@ -73,10 +80,21 @@ fn main() {
         println!(" {reading}:");
         report(&r, &case, at);
     }
+    if let Some(p) = r.profile(LOBOVSKY_H600_S1_IMPACT_TIME) {
+        profile(&p, &case);
+    }
     if let Some(path) = csv {
         let mut out = String::from(
-            "time,s1,s2,s3,s4,s1_wall,s2_wall,s3_wall,s4_wall,s1_strip,s2_strip,s3_strip,s4_strip\n",
+            "time,s1,s2,s3,s4,s1_wall,s2_wall,s3_wall,s4_wall,s1_strip,s2_strip,s3_strip,s4_strip",
         );
+        if case.profile {
+            for suffix in ["", "_wall"] {
+                for k in 0..case.per_h {
+                    out.push_str(&format!(",z{k}{suffix}"));
+                }
+            }
+        }
+        out.push('\n');
         for (k, t) in r.times.iter().enumerate() {
             out.push_str(&format!("{t}"));
             for s in &r.series {
@@ -86,6 +104,31 @@ fn main() {
         }
         std::fs::write(path, out).expect("write csv");
     }
+}
+
+/// Where along the wall's height the impulse falls in each reading, and its sum.
+fn profile(p: &Profile, case: &ImpactCase) {
+    println!(
+        " the wall's height, impulse over the impact time ({:.0} ms) from the first onset at t* {:.3}, each cell's strip:",
+        1e3 * LOBOVSKY_H600_S1_IMPACT_TIME,
+        p.start * (9.81 / case.height).sqrt()
+    );
+    println!("  z [mm]  pressure  wall [mbar·s]  wall/pressure");
+    for (z, ip, iw) in &p.cells {
+        println!(
+            "  {:6.1} {:9.3} {:9.3}  {:6.3}",
+            1e3 * z,
+            ip / 100.0,
+            iw / 100.0,
+            iw / ip
+        );
+    }
+    println!(
+        "  below H, per metre of the wall's width: pressure {:.2} N·s, wall {:.2} N·s ({:+.1} %)",
+        p.pressure,
+        p.wall,
+        100.0 * (p.wall / p.pressure - 1.0)
+    );
 }
 
 /// The pulses, the spread and ringing of sensor 1, and the comparison with the experiment, of

@@ -185,6 +185,9 @@ pub struct ImpactCase {
     pub row_shift: f64,
     /// Which draw of the shifted rows (`[fluid] row_draw`): the ensemble's member.
     pub row_draw: u32,
+    /// Read the wall's height too: a strip at every cell's height up to H, in both readings
+    /// ([`PROFILE`], [`Impact::profile`]).
+    pub profile: bool,
 }
 
 impl ImpactCase {
@@ -209,6 +212,7 @@ impl ImpactCase {
             grid_shift: 0.0,
             row_shift: 0.0,
             row_draw: 0,
+            profile: false,
         }
     }
 
@@ -250,6 +254,12 @@ pub const STRIP: usize = 2 * LOBOVSKY_H300.len();
 /// quarter of the width (37.5 mm in the tank: three kernel supports at H/dx = 60, three
 /// quarters of one at 15).
 pub const STRIP_SPAN: f64 = 0.5;
+
+/// Where the wall's height profile starts among the series, with [`ImpactCase::profile`]: a
+/// strip like the sensors' ([`STRIP_SPAN`]) at the middle of each cell of the wall's lattice
+/// up to H, z = (k + ½) dx, reading the water's pressure (`z<k>`, series `PROFILE + k`), then
+/// the same cells reading the wall's load (`z<k>_wall`, series `PROFILE + per_h + k`).
+pub const PROFILE: usize = 3 * LOBOVSKY_H300.len();
 
 /// Time between probe rows [s] (`output.interval`/50): 5 kHz.
 pub const ROW_INTERVAL: f64 = 2e-4;
@@ -294,7 +304,8 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
                 )
             })
         })
-        .collect();
+        .collect::<String>()
+        + &profile_probes(case, w);
     let params = if case.params.is_empty() {
         String::new()
     } else {
@@ -324,6 +335,47 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
     );
     Scene::parse_checked(&text, "lobovsky_impact (generated)", &[&crate::check_scene])
         .expect("generated impact scene is valid")
+}
+
+/// With [`ImpactCase::profile`], the strips of [`PROFILE`] (none without), `w` the slab's width.
+fn profile_probes(case: &ImpactCase, w: f64) -> String {
+    if !case.profile {
+        return String::new();
+    }
+    let dx = case.dx();
+    let window = case
+        .window
+        .map(|w| format!("window = {w}\n"))
+        .unwrap_or_default();
+    [("", ""), ("_wall", ", reading = \"wall\"")]
+        .iter()
+        .flat_map(|(suffix, reading)| {
+            let window = &window;
+            (0..case.per_h).map(move |k| {
+                format!(
+                    "[[probe]]\nname = \"z{k}{suffix}\"\nposition = [{}, {}, {}]\n{window}face = {{ diameter = {SENSOR_DIAMETER}, normal = [-1.0, 0.0, 0.0], span = [0.0, {}, 0.0]{reading} }}\n\n",
+                    case.length,
+                    0.5 * w,
+                    (k as f64 + 0.5) * dx,
+                    STRIP_SPAN * w
+                )
+            })
+        })
+        .collect()
+}
+
+/// The wall's height profile of one run ([`Impact::profile`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Profile {
+    /// The window's start [s]: the earlier of sensor 1's onsets in the pressure and the strip.
+    pub start: f64,
+    /// Per cell of the wall up to H: its height z [m], the impulse [Pa·s] of the water's
+    /// pressure and of the wall's load over the window.
+    pub cells: Vec<(f64, f64, f64)>,
+    /// Σ impulse · dx over the cells [N·s per metre of the wall's width]: the horizontal
+    /// impulse the wall below H takes, in each reading.
+    pub pressure: f64,
+    pub wall: f64,
 }
 
 /// A pressure pulse measured as Lobovský et al. (2014) §5.1.2–5.1.3 do.
@@ -518,6 +570,41 @@ impl Impact {
         ringing_period(&self.times, &dry_as_zero(&self.series[k]), peak.t_peak)
     }
 
+    /// The wall's height profile over `duration` from the impact's first onset at sensor 1 (a
+    /// window common to every cell and both readings, so that the sums are the wall's
+    /// impulse over one span of time); None without [`ImpactCase::profile`] or an onset.
+    pub fn profile(&self, duration: f64) -> Option<Profile> {
+        let n = self.case.per_h;
+        if !self.case.profile || self.series.len() < PROFILE + 2 * n {
+            return None;
+        }
+        let start = [0, STRIP]
+            .iter()
+            .filter_map(|&k| self.onset(k).map(|(_, i)| self.times[i]))
+            .reduce(f64::min)?;
+        let dx = self.case.dx();
+        let impulse = |k: usize| {
+            integral(
+                &self.times,
+                &dry_as_zero(&self.series[k]),
+                start,
+                start + duration,
+            )
+        };
+        let cells: Vec<(f64, f64, f64)> = (0..n)
+            .map(|k| {
+                let z = (k as f64 + 0.5) * dx;
+                (z, impulse(PROFILE + k), impulse(PROFILE + n + k))
+            })
+            .collect();
+        Some(Profile {
+            start,
+            pressure: cells.iter().map(|c| c.1 * dx).sum(),
+            wall: cells.iter().map(|c| c.2 * dx).sum(),
+            cells,
+        })
+    }
+
     /// The first impact's [`pulse`] at sensor `k`: over the experiment's impact time
     /// ([`LOBOVSKY_H600_S1_IMPACT_TIME`]) from the onset, so a later splash or reflection is not
     /// taken for the peak.
@@ -541,7 +628,8 @@ pub fn impact(solver: &str, case: &ImpactCase) -> Result<Impact, SolverError> {
     drop(s);
     let rows = read_csv(&dir.path().join("probes.csv"))?;
     let times: Vec<f64> = rows.iter().map(|r| r[0]).collect();
-    let series: Vec<Vec<f64>> = (1..=3 * LOBOVSKY_H300.len())
+    let columns = PROFILE + if case.profile { 2 * case.per_h } else { 0 };
+    let series: Vec<Vec<f64>> = (1..=columns)
         .map(|k| rows.iter().map(|r| r[k]).collect())
         .collect();
     let mut r = Impact {
@@ -676,6 +764,73 @@ mod tests {
         assert!((sd - (8.0f64 / 9.0).sqrt() * 1000.0).abs() < 1e-9, "{sd}");
         let (mean, sd) = r.spread(0, 10.0).unwrap();
         assert!((mean - 2000.0).abs() < 1e-9 && (sd - 1000.0).abs() < 1e-9);
+    }
+
+    /// With the profile the scene has a strip at every cell's height up to H in both readings
+    /// (H/dx = 10: ten each, z = 15, 45, … 285 mm), and the profile integrates each over one
+    /// window from sensor 1's first onset: a cell that reads 2000 Pa from t = 1 s on and a wall
+    /// cell that reads 1000 Pa take 2000 and 1000 Pa·s over 1 s, and the sums are those times
+    /// dx per cell.
+    #[test]
+    fn the_profile_reads_every_cell_over_one_window() {
+        let case = ImpactCase {
+            profile: true,
+            ..ImpactCase::new(0.3, 10, None)
+        };
+        let s = impact_scene("wcsph", &case);
+        assert_eq!(s.probes.len(), PROFILE + 20);
+        let (low, wall) = (&s.probes[PROFILE], &s.probes[PROFILE + 19]);
+        assert_eq!((low.name.as_str(), wall.name.as_str()), ("z0", "z9_wall"));
+        assert!(
+            (low.position[2] - 0.015).abs() < 1e-12 && (wall.position[2] - 0.285).abs() < 1e-12
+        );
+        assert_eq!(low.face.unwrap().reading, shared::scene::FaceReading::Fluid);
+        assert_eq!(wall.face.unwrap().reading, shared::scene::FaceReading::Wall);
+        assert_eq!(wall.face.unwrap().span, s.probes[STRIP].face.unwrap().span);
+        let times: Vec<f64> = (0..6).map(|k| k as f64).collect();
+        // Sensor 1 (series 0) rises past ONSET·ρ0 g H = 294 Pa at t = 1 s; the strip later.
+        let onset = |from: usize| -> Vec<f64> {
+            (0..6)
+                .map(|k| if k >= from { 500.0 } else { 0.0 })
+                .collect()
+        };
+        let mut series = vec![vec![0.0; 6]; PROFILE + 20];
+        series[0] = onset(1);
+        series[STRIP] = onset(2);
+        for k in 0..10 {
+            series[PROFILE + k] = (0..6)
+                .map(|j| if j >= 1 { 2000.0 } else { f64::NAN })
+                .collect();
+            series[PROFILE + 10 + k] = vec![1000.0; 6];
+        }
+        let r = Impact {
+            case: case.clone(),
+            times,
+            series,
+            pulses: Vec::new(),
+            particles: 0,
+            steps: 0,
+            seconds: 0.0,
+        };
+        let p = r.profile(1.0).expect("a profile");
+        assert_eq!(p.start, 1.0);
+        assert_eq!(p.cells.len(), 10);
+        assert!(
+            p.cells
+                .iter()
+                .all(|&(_, ip, iw)| ip == 2000.0 && iw == 1000.0),
+            "{p:?}"
+        );
+        assert!(
+            (p.pressure - 10.0 * 2000.0 * 0.03).abs() < 1e-9
+                && (p.wall - 10.0 * 1000.0 * 0.03).abs() < 1e-9
+        );
+        // Without the profile's probes there is none.
+        let plain = Impact {
+            case: ImpactCase::new(0.3, 10, None),
+            ..r
+        };
+        assert!(plain.profile(1.0).is_none());
     }
 
     #[test]
