@@ -280,10 +280,6 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
         top + 0.1
     );
     let end = case.end();
-    let window = case
-        .window
-        .map(|w| format!("window = {w}\n"))
-        .unwrap_or_default();
     // Each sensor three times: the water's pressure over its face, the wall's load behind it
     // (`<name>_wall`, [`WALL`] columns on), and the wall's load along the middle of the width
     // at its height (`<name>_strip`, [`STRIP`] on).
@@ -291,20 +287,18 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
         ", reading = \"wall\", span = [0.0, {}, 0.0]",
         STRIP_SPAN * w
     );
-    let probes: String = [("", ""), ("_wall", ", reading = \"wall\""), ("_strip", &strip)]
-        .iter()
-        .flat_map(|(suffix, reading)| {
-            let window = &window;
-            LOBOVSKY_H300.iter().map(move |s| {
-                format!(
-                    "[[probe]]\nname = \"{}{suffix}\"\nposition = [{length}, {}, {}]\n{window}face = {{ diameter = {SENSOR_DIAMETER}, normal = [-1.0, 0.0, 0.0]{reading} }}\n\n",
-                    s.name,
-                    0.5 * w,
-                    s.z
-                )
-            })
-        })
-        .collect::<String>()
+    let probes: String = [
+        ("", ""),
+        ("_wall", ", reading = \"wall\""),
+        ("_strip", &strip),
+    ]
+    .iter()
+    .flat_map(|(suffix, reading)| {
+        LOBOVSKY_H300
+            .iter()
+            .map(move |s| wall_probe(case, w, &format!("{}{suffix}", s.name), s.z, reading))
+    })
+    .collect::<String>()
         + &profile_probes(case, w);
     let params = if case.params.is_empty() {
         String::new()
@@ -337,28 +331,33 @@ pub fn impact_scene(solver: &str, case: &ImpactCase) -> Scene {
         .expect("generated impact scene is valid")
 }
 
+/// A `[[probe]]` on the right wall at mid-width (`w` the slab's width) and height `z`, with
+/// the sensors' face, the case's window and `face_keys` added to the face (a reading, a span).
+fn wall_probe(case: &ImpactCase, w: f64, name: &str, z: f64, face_keys: &str) -> String {
+    let window = case
+        .window
+        .map(|w| format!("window = {w}\n"))
+        .unwrap_or_default();
+    format!(
+        "[[probe]]\nname = \"{name}\"\nposition = [{}, {}, {z}]\n{window}face = {{ diameter = {SENSOR_DIAMETER}, normal = [-1.0, 0.0, 0.0]{face_keys} }}\n\n",
+        case.length,
+        0.5 * w
+    )
+}
+
 /// With [`ImpactCase::profile`], the strips of [`PROFILE`] (none without), `w` the slab's width.
 fn profile_probes(case: &ImpactCase, w: f64) -> String {
     if !case.profile {
         return String::new();
     }
-    let dx = case.dx();
-    let window = case
-        .window
-        .map(|w| format!("window = {w}\n"))
-        .unwrap_or_default();
+    let span = format!(", span = [0.0, {}, 0.0]", STRIP_SPAN * w);
     [("", ""), ("_wall", ", reading = \"wall\"")]
         .iter()
         .flat_map(|(suffix, reading)| {
-            let window = &window;
+            let keys = format!("{span}{reading}");
             (0..case.per_h).map(move |k| {
-                format!(
-                    "[[probe]]\nname = \"z{k}{suffix}\"\nposition = [{}, {}, {}]\n{window}face = {{ diameter = {SENSOR_DIAMETER}, normal = [-1.0, 0.0, 0.0], span = [0.0, {}, 0.0]{reading} }}\n\n",
-                    case.length,
-                    0.5 * w,
-                    (k as f64 + 0.5) * dx,
-                    STRIP_SPAN * w
-                )
+                let z = (k as f64 + 0.5) * case.dx();
+                wall_probe(case, w, &format!("z{k}{suffix}"), z, &keys)
             })
         })
         .collect()
