@@ -7,16 +7,20 @@
 //! [--solver NAME] [--param 'key = value']... [--end-star T] [--dt-max S] [--layers N] [--grid-shift M] [--row-shift A] [--row-draw D] [--draws K] [--profile] [--csv FILE]`; with H = 0.6 also
 //! sensor 1's impulse against the paper's median (the impulse row of `fluid-validate`), with
 //! H = 0.3 each sensor's impulse and highest 5–20 ms means against one run of the experiment
-//! (`LOBOVSKY_H300_EVENT5`). `--draws K` (with `--row-shift`) runs draws 0 … K−1 of the
-//! shifted rows instead and prints sensor 1's peak and impulse per draw and their median and
-//! range: an ensemble of starts, against the experiment's repeated runs. `--profile` also
+//! (`LOBOVSKY_H300_EVENT5`). `--draws K` (with `--row-shift`) runs draws D … D+K−1 of the
+//! shifted rows instead (D from `--row-draw`, 0 by default) and prints sensor 1's peak and
+//! impulse per draw and their median and range: an ensemble of starts, against the
+//! experiment's repeated runs. `--profile` also
 //! reads the wall at every cell's height up to H, in both readings, and prints where along
 //! the height the impulse falls and its sum (the wall's load per metre of its width).
+//! Several resolutions, `PER_H` = `15,30,60` (one ratio apart), make a resolution study: the
+//! runs (or `--draws K` of each) at every one, then where each reading's medians converge,
+//! Richardson's extrapolate to zero spacing and its grid convergence index.
 
 use fluid_node::validation::{
     Impact, ImpactCase, LOAD_BOXES, LOBOVSKY_H300, LOBOVSKY_H300_EVENT5,
     LOBOVSKY_H600_S1_IMPACT_TIME, LOBOVSKY_H600_S1_IMPULSE, Profile, RINGING_SPAN, ROW_INTERVAL,
-    STRIP, WALL, dry_as_zero, impact, integral,
+    STRIP, WALL, dry_as_zero, impact, integral, observed_order, richardson,
 };
 use shared::report::median_range;
 
@@ -25,38 +29,58 @@ fn main() {
     if args.first().map(String::as_str) == Some("--experiment") {
         return experiment(&args[1..]);
     }
-    let num = |i: usize| -> f64 { args.get(i).and_then(|a| a.parse().ok()).expect("H PER_H") };
-    let mut case = ImpactCase::new(num(0), num(1) as usize, None);
+    let height: f64 = args.first().and_then(|a| a.parse().ok()).expect("H PER_H");
+    // PER_H, or several (coarse to fine, one ratio apart) for a resolution study.
+    let resolutions: Vec<usize> = args
+        .get(1)
+        .map(|a| a.split(',').map(|n| n.parse().expect("PER_H")).collect())
+        .expect("H PER_H");
     let (mut solver, mut csv, mut draws) = ("wcsph".to_string(), None, None);
-    let mut params = Vec::new();
+    let (mut options, mut params, mut cells) = (Vec::new(), Vec::new(), false);
     let mut i = 2;
     while i < args.len() {
         if args[i] == "--profile" {
-            case.profile = true;
+            cells = true;
             i += 1;
             continue;
         }
         let v = args.get(i + 1).cloned().expect("a value after the option");
         match args[i].as_str() {
-            "--window" => case.window = Some(v.parse().expect("window [s]")),
             "--solver" => solver = v,
             "--param" => params.push(v),
             "--csv" => csv = Some(v),
-            "--end-star" => case.end_star = v.parse().expect("t·sqrt(g/H)"),
-            "--dt-max" => case.dt_max = v.parse().expect("largest step [s]"),
-            "--layers" => case.layers = v.parse().expect("particle layers across the slab"),
-            "--grid-shift" => case.grid_shift = v.parse().expect("grid shift [m]"),
-            "--row-shift" => case.row_shift = v.parse().expect("row shift [dx]"),
-            "--row-draw" => case.row_draw = v.parse().expect("draw of the shifted rows"),
             "--draws" => draws = Some(v.parse::<u32>().expect("number of draws")),
-            o => panic!("unknown option {o}"),
+            o => options.push((o.to_string(), v)),
         }
         i += 2;
     }
-    case.params = params.join("\n");
+    // The case at one resolution, with the options.
+    let case_at = |per_h: usize| {
+        let mut case = ImpactCase::new(height, per_h, None);
+        for (o, v) in &options {
+            match o.as_str() {
+                "--window" => case.window = Some(v.parse().expect("window [s]")),
+                "--end-star" => case.end_star = v.parse().expect("t·sqrt(g/H)"),
+                "--dt-max" => case.dt_max = v.parse().expect("largest step [s]"),
+                "--layers" => case.layers = v.parse().expect("particle layers across the slab"),
+                "--grid-shift" => case.grid_shift = v.parse().expect("grid shift [m]"),
+                "--row-shift" => case.row_shift = v.parse().expect("row shift [dx]"),
+                "--row-draw" => case.row_draw = v.parse().expect("draw of the shifted rows"),
+                o => panic!("unknown option {o}"),
+            }
+        }
+        case.params = params.join("\n");
+        case.profile = cells;
+        case
+    };
+    if resolutions.len() > 1 {
+        return study(&solver, &resolutions, draws.unwrap_or(1), case_at);
+    }
+    let mut case = case_at(resolutions[0]);
     if let Some(k) = draws {
         assert!(case.row_shift > 0.0, "--draws needs --row-shift");
-        return ensemble(&solver, &mut case, k);
+        ensemble(&solver, &mut case, k);
+        return;
     }
     let r = impact(&solver, &case).expect("run");
     println!(
@@ -225,14 +249,21 @@ fn report(r: &Impact, case: &ImpactCase, at: usize) {
     }
 }
 
+/// The three readings of sensor 1: the water's pressure, the wall's load behind the disk, and
+/// along the strip.
+const READINGS: [(usize, &str); 3] = [(0, "pressure"), (WALL, "wall"), (STRIP, "strip")];
+
 /// Sensor 1's peak [Pa] (the first pulse's, over the impact time) and impulse over the impact
-/// time from the onset [Pa·s], in each reading (the water's pressure, the wall's load, the
-/// strip), of draws 0 … k−1; then each one's median and range over the draws.
-fn ensemble(solver: &str, case: &mut ImpactCase, k: u32) {
-    let readings = [(0, "pressure"), (WALL, "wall"), (STRIP, "strip")];
+/// time from the onset [Pa·s], in each reading ([`READINGS`]), of draws D … D+k−1 (D the
+/// case's `row_draw`, `--row-draw`, 0 by default); then each one's median and range over the
+/// draws, which it returns: (peak, impulse) per reading.
+fn ensemble(solver: &str, case: &mut ImpactCase, k: u32) -> Vec<(f64, f64)> {
+    let readings = READINGS;
     let mut peaks = vec![Vec::new(); readings.len()];
     let mut impulses = vec![Vec::new(); readings.len()];
-    for draw in 0..k {
+    let mut medians = Vec::new();
+    let first = case.row_draw;
+    for draw in first..first + k {
         case.row_draw = draw;
         let r = impact(solver, case).expect("run");
         let mut line = format!("draw {draw} ({} steps, {:.0} s):", r.steps, r.seconds);
@@ -271,6 +302,78 @@ fn ensemble(solver: &str, case: &mut ImpactCase, k: u32) {
             plo / 100.0,
             phi / 100.0
         );
+        medians.push((pm, im));
+    }
+    medians
+}
+
+/// A resolution study: [`ensemble`] of `k` draws (one without `--draws`) at each
+/// of `resolutions` (coarse to fine, one ratio apart), then where each reading's medians of
+/// sensor 1's peak and impulse converge: Richardson's extrapolate to zero spacing and the
+/// finest run's grid convergence index (`fluid_node::validation::richardson`), for a
+/// first-order error (the wall's load at the bed is the water's stress averaged over the
+/// kernel's reach, its impulse short in proportion to h: docs/VALIDATION.md, "Where the wall's
+/// impulse goes").
+fn study(solver: &str, resolutions: &[usize], k: u32, case_at: impl Fn(usize) -> ImpactCase) {
+    let ratio = resolutions[1] as f64 / resolutions[0] as f64;
+    assert!(
+        resolutions
+            .windows(2)
+            .all(|w| (w[1] as f64 / w[0] as f64 - ratio).abs() < 1e-9 && ratio > 1.0),
+        "the resolutions of a study grow by one ratio: {resolutions:?}"
+    );
+    let mut medians = Vec::new();
+    for &per_h in resolutions {
+        let mut case = case_at(per_h);
+        println!(
+            "H = {} m, H/dx = {per_h}, {solver} {:?}:",
+            case.height, case.params
+        );
+        medians.push(ensemble(solver, &mut case, k));
+    }
+    let h300 = (case_at(resolutions[0]).height - 0.3).abs() < 1e-9;
+    println!("where the medians converge, H/dx {resolutions:?} (first-order error):");
+    for (n, &(_, name)) in READINGS.iter().enumerate() {
+        for (quantity, unit, scale, of) in
+            [("peak", "mbar", 100.0, 0), ("impulse", "mbar·s", 100.0, 1)]
+        {
+            let values: Vec<f64> = medians
+                .iter()
+                .map(|m| if of == 0 { m[n].0 } else { m[n].1 } / scale)
+                .collect();
+            let shown: Vec<String> = values.iter().map(|v| format!("{v:.2}")).collect();
+            let observed = match observed_order(&values, ratio) {
+                Some(p) => format!("{p:.2}"),
+                None if values.len() < 3 => "none (two runs)".into(),
+                None => "none (not monotone)".into(),
+            };
+            let Some(e) = richardson(&values, ratio, 1.0) else {
+                println!(
+                    " s1 {name} {quantity}: {} {unit}; observed order {observed}: not in the asymptotic range, no extrapolate",
+                    shown.join(" → ")
+                );
+                continue;
+            };
+            let against = match (of, h300) {
+                (0, true) => format!(
+                    " (band {:.1}–{:.1})",
+                    LOBOVSKY_H300[0].p025 / 100.0,
+                    LOBOVSKY_H300[0].p975 / 100.0
+                ),
+                (1, false) => format!(
+                    " ({:+.1} % of the median)",
+                    100.0 * (e.value * scale / LOBOVSKY_H600_S1_IMPULSE - 1.0)
+                ),
+                _ => String::new(),
+            };
+            println!(
+                " s1 {name} {quantity}: {} {unit}; observed order {observed}; at dx → 0 (order {:.2}) {:.2} {unit}{against}, GCI {:.1} %",
+                shown.join(" → "),
+                e.order,
+                e.value,
+                100.0 * e.gci
+            );
+        }
     }
 }
 

@@ -24,12 +24,14 @@ use std::path::Path;
 
 mod dam_break;
 mod impact;
+mod richardson;
 mod still_water;
 mod table;
 mod terrain_basin;
 
 pub use dam_break::*;
 pub use impact::*;
+pub use richardson::*;
 pub use still_water::*;
 pub use table::*;
 pub use terrain_basin::*;
