@@ -37,10 +37,10 @@ pub struct Extrapolated {
 /// The order of convergence three runs show (`values` coarse to fine, the last three used,
 /// each finer spacing `ratio` times smaller): ln(ε_cm / ε_mf) / ln r when both changes have one
 /// sign (negative when the changes grow: divergence); None when they change sign (oscillatory
-/// convergence), for fewer than three runs, or a change of zero.
+/// convergence), for fewer than three runs, a change of zero, or a ratio that does not refine.
 pub fn observed_order(values: &[f64], ratio: f64) -> Option<f64> {
     let n = values.len();
-    if n < 3 {
+    if n < 3 || ratio.is_nan() || ratio <= 1.0 {
         return None;
     }
     let (e_coarse, e_fine) = (values[n - 2] - values[n - 3], values[n - 1] - values[n - 2]);
@@ -134,5 +134,6 @@ mod tests {
         assert_eq!(richardson(&series(0.1), 2.0, 1.0), None);
         // A change of zero says nothing of the order.
         assert_eq!(observed_order(&[10.0, 11.0, 11.0], 2.0), None);
+        assert_eq!(observed_order(&[10.0, 11.0, 11.5], 1.0), None);
     }
 }
