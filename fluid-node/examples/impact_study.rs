@@ -322,24 +322,24 @@ fn study(solver: &str, resolutions: &[usize], k: u32, case_at: impl Fn(usize) ->
             .all(|w| (w[1] as f64 / w[0] as f64 - ratio).abs() < 1e-9 && ratio > 1.0),
         "the resolutions of a study grow by one ratio: {resolutions:?}"
     );
-    let mut medians = Vec::new();
+    let (mut medians, mut height) = (Vec::new(), 0.0);
     for &per_h in resolutions {
         let mut case = case_at(per_h);
+        height = case.height;
         println!(
-            "H = {} m, H/dx = {per_h}, {solver} {:?}:",
-            case.height, case.params
+            "H = {height} m, H/dx = {per_h}, {solver} {:?}:",
+            case.params
         );
         medians.push(ensemble(solver, &mut case, k));
     }
-    let h300 = (case_at(resolutions[0]).height - 0.3).abs() < 1e-9;
+    let h300 = (height - 0.3).abs() < 1e-9;
     println!("where the medians converge, H/dx {resolutions:?} (first-order error):");
     for (n, &(_, name)) in READINGS.iter().enumerate() {
-        for (quantity, unit, scale, of) in
-            [("peak", "mbar", 100.0, 0), ("impulse", "mbar·s", 100.0, 1)]
-        {
+        for (quantity, unit, of) in [("peak", "mbar", 0), ("impulse", "mbar·s", 1)] {
+            // [Pa] and [Pa·s] to mbar and mbar·s.
             let values: Vec<f64> = medians
                 .iter()
-                .map(|m| if of == 0 { m[n].0 } else { m[n].1 } / scale)
+                .map(|m| if of == 0 { m[n].0 } else { m[n].1 } / 100.0)
                 .collect();
             let shown: Vec<String> = values.iter().map(|v| format!("{v:.2}")).collect();
             let observed = match observed_order(&values, ratio) {
@@ -349,7 +349,7 @@ fn study(solver: &str, resolutions: &[usize], k: u32, case_at: impl Fn(usize) ->
             };
             let Some(e) = richardson(&values, ratio, 1.0) else {
                 println!(
-                    " s1 {name} {quantity}: {} {unit}; observed order {observed}: not in the asymptotic range, no extrapolate",
+                    " s1 {name} {quantity}: {} {unit}; observed order {observed}: no extrapolate (not in the asymptotic range, or a run without a pulse)",
                     shown.join(" → ")
                 );
                 continue;
@@ -362,7 +362,7 @@ fn study(solver: &str, resolutions: &[usize], k: u32, case_at: impl Fn(usize) ->
                 ),
                 (1, false) => format!(
                     " ({:+.1} % of the median)",
-                    100.0 * (e.value * scale / LOBOVSKY_H600_S1_IMPULSE - 1.0)
+                    100.0 * (100.0 * e.value / LOBOVSKY_H600_S1_IMPULSE - 1.0)
                 ),
                 _ => String::new(),
             };
