@@ -258,16 +258,15 @@ const READINGS: [(usize, &str); 3] = [(0, "pressure"), (WALL, "wall"), (STRIP, "
 /// case's `row_draw`, `--row-draw`, 0 by default); then each one's median and range over the
 /// draws, which it returns: (peak, impulse) per reading.
 fn ensemble(solver: &str, case: &mut ImpactCase, k: u32) -> Vec<(f64, f64)> {
-    let readings = READINGS;
-    let mut peaks = vec![Vec::new(); readings.len()];
-    let mut impulses = vec![Vec::new(); readings.len()];
+    let mut peaks = vec![Vec::new(); READINGS.len()];
+    let mut impulses = vec![Vec::new(); READINGS.len()];
     let mut medians = Vec::new();
     let first = case.row_draw;
     for draw in first..first + k {
         case.row_draw = draw;
         let r = impact(solver, case).expect("run");
         let mut line = format!("draw {draw} ({} steps, {:.0} s):", r.steps, r.seconds);
-        for (n, &(at, name)) in readings.iter().enumerate() {
+        for (n, &(at, name)) in READINGS.iter().enumerate() {
             let peak = r.first_pulse(at).map_or(f64::NAN, |p| p.peak);
             let impulse = r
                 .impulse(at, LOBOVSKY_H600_S1_IMPACT_TIME)
@@ -279,7 +278,7 @@ fn ensemble(solver: &str, case: &mut ImpactCase, k: u32) -> Vec<(f64, f64)> {
         println!("{line}");
     }
     let h300 = (case.height - 0.3).abs() < 1e-9;
-    for (n, &(_, name)) in readings.iter().enumerate() {
+    for (n, &(_, name)) in READINGS.iter().enumerate() {
         let (pm, plo, phi) = median_range(&peaks[n]);
         let (im, ilo, ihi) = median_range(&impulses[n]);
         let against = if h300 {
