@@ -12,7 +12,9 @@
 //! impulse per draw and their median and range: an ensemble of starts, against the
 //! experiment's repeated runs. `--profile` also
 //! reads the wall at every cell's height up to H, in both readings, and prints where along
-//! the height the impulse falls and its sum (the wall's load per metre of its width).
+//! the height the impulse falls and its sum (the wall's load per metre of its width), and at
+//! H = 0.6 the mean over its lowest 1, 2, 4 and 8 cells (what a coarser run's lowest cell
+//! could read at best).
 //! Several resolutions, `PER_H` = `15,30,60` (one ratio apart), make a resolution study: the
 //! runs (or `--draws K` of each) at every one, then where each reading's medians converge,
 //! Richardson's extrapolate to zero spacing and its grid convergence index.
@@ -153,6 +155,24 @@ fn profile(p: &Profile, case: &ImpactCase) {
         p.wall,
         100.0 * (p.wall / p.pressure - 1.0)
     );
+    // What a reading averaged over a coarser run's lowest cell could take at best, from this
+    // run's profile (docs/VALIDATION.md, "What a cell can read"); the median is H = 600 mm's.
+    if (case.height - 0.6).abs() > 1e-9 {
+        return;
+    }
+    let median = LOBOVSKY_H600_S1_IMPULSE / 100.0;
+    for cells in [1, 2, 4, 8] {
+        if let Some((ip, iw)) = p.lowest(cells) {
+            println!(
+                "  mean over the lowest {:.0} mm: pressure {:.3} ({:+.1} % of the median), wall {:.3} mbar·s ({:+.1} %)",
+                1e3 * cells as f64 * case.dx(),
+                ip / 100.0,
+                100.0 * (ip / 100.0 / median - 1.0),
+                iw / 100.0,
+                100.0 * (iw / 100.0 / median - 1.0)
+            );
+        }
+    }
 }
 
 /// The pulses, the spread and ringing of sensor 1, and the comparison with the experiment, of

@@ -377,6 +377,21 @@ pub struct Profile {
     pub wall: f64,
 }
 
+impl Profile {
+    /// The mean impulse [Pa·s] over the lowest `cells` cells of the wall, in each reading
+    /// (pressure, wall), or None past the profile's height. Read off a fine run, it is what a
+    /// reading averaged over a layer that thick (the wall's lowest cell at a coarser dx) takes
+    /// at best: the floor of a cell's reading at a corner sensor.
+    pub fn lowest(&self, cells: usize) -> Option<(f64, f64)> {
+        let layer = self.cells.get(..cells).filter(|l| !l.is_empty())?;
+        let n = layer.len() as f64;
+        Some((
+            layer.iter().map(|c| c.1).sum::<f64>() / n,
+            layer.iter().map(|c| c.2).sum::<f64>() / n,
+        ))
+    }
+}
+
 /// A pressure pulse measured as Lobovský et al. (2014) §5.1.2–5.1.3 do.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pulse {
@@ -824,6 +839,17 @@ mod tests {
             (p.pressure - 10.0 * 2000.0 * 0.03).abs() < 1e-9
                 && (p.wall - 10.0 * 1000.0 * 0.03).abs() < 1e-9
         );
+        // The lowest layer's mean, of a profile that falls with height.
+        let falling = Profile {
+            cells: (0..4)
+                .map(|k| (k as f64, 10.0 - k as f64, 5.0 - k as f64))
+                .collect(),
+            ..p.clone()
+        };
+        assert_eq!(falling.lowest(1), Some((10.0, 5.0)));
+        assert_eq!(falling.lowest(2), Some((9.5, 4.5)));
+        assert_eq!(falling.lowest(4), Some((8.5, 3.5)));
+        assert_eq!((falling.lowest(0), falling.lowest(5)), (None, None));
         // Without the profile's probes there is none.
         let plain = Impact {
             case: ImpactCase::new(0.3, 10, None),
